@@ -1,0 +1,44 @@
+# Every target sets up its own virtual environment from pyproject.toml,
+# pinned by constraints.txt, so a fresh machine needs only Python 3.11 and make.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+OUT    := out
+
+.PHONY: demo test lint typecheck bench lock clean
+
+$(STAMP): pyproject.toml constraints.txt
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade "pip>=24"
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test]'
+	@touch $(STAMP)
+
+## demo: the main job on bundled data (predicted order table and plot of the 7K98MC)
+demo: $(STAMP)
+	@mkdir -p $(OUT)
+	$(BIN)/engine-monitor orders recordings/engines/man-b-w-7k98mc.toml --rpm 104 --load 1.0 \
+		--plot $(OUT)/7k98mc-orders.png --json-out $(OUT)/7k98mc-orders.json
+
+## test: lint, type check and the whole test suite
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+	$(BIN)/pytest -n 2
+
+## bench: accuracy-against-time benchmarks; rewrites the tables in docs/
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks.accuracy_vs_time
+
+## lock: re-pin constraints.txt to the newest versions that satisfy pyproject.toml
+lock:
+	rm -rf .lock-venv
+	$(PYTHON) -m venv .lock-venv
+	.lock-venv/bin/python -m pip install --quiet --upgrade "pip>=24"
+	.lock-venv/bin/python -m pip install --quiet -e '.[test]'
+	.lock-venv/bin/python -m pip freeze --exclude-editable --exclude pip > constraints.txt
+	rm -rf .lock-venv
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .mypy_cache .ruff_cache .hypothesis
