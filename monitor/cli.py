@@ -1,0 +1,129 @@
+"""The ``engine-monitor`` command line.
+
+Subcommands:
+
+- ``orders``: the predicted order table of an engine at an operating point.
+- ``engines``: the bundled engine descriptions.
+
+Errors the product raises on purpose (bad engine file, out-of-range input)
+print one clear message and exit with status 2; the table goes to standard
+output, messages to standard error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+from monitor import __version__
+from monitor.errors import MonitorError
+
+__all__ = ["main"]
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a positive, finite number")
+    return value
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="engine-monitor",
+        description="Condition monitoring of large reciprocating engines: predicted and measured orders.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    orders = sub.add_parser(
+        "orders",
+        help="predicted orders of forces and torque at an operating point",
+        description=(
+            "Predicted order coefficients of the inertia force of each cylinder, the engine's "
+            "torque and the force at each main bearing, with free forces and moments. "
+            "Amplitudes are peak values in kN and kN m; phases in degrees relative to TDC of "
+            "cylinder 1."
+        ),
+    )
+    orders.add_argument("engine", metavar="ENGINE", help="engine description (TOML file) or a bundled engine id")
+    orders.add_argument("--rpm", type=_positive_float, required=True, help="crank speed [rpm]")
+    orders.add_argument(
+        "--load", type=float, default=1.0,
+        help="fraction of rated IMEP, 0..1.1 (default 1.0); sets the gas pressure of the parametric cycle",
+    )
+    orders.add_argument("--max-order", type=float, default=24.0, help="highest order reported (default 24)")
+    orders.add_argument(
+        "--kinematics", choices=("exact", "approx"), default="exact",
+        help="exact slider-crank kinematics (default) or the two-term approximation",
+    )
+    orders.add_argument(
+        "--rod-model", choices=("rigid", "two-mass"), default=None,
+        help="connecting rod as a rigid body (default with exact kinematics) or the two-mass split "
+        "(default and required with --kinematics approx)",
+    )
+    orders.add_argument(
+        "--gas", choices=("auto", "parametric", "measured", "none"), default="auto",
+        help="cylinder pressure: measured trace if the engine has one, else parametric (auto); "
+        "none for inertia only",
+    )
+    orders.add_argument("--grid", type=int, default=1024, help="samples per revolution (default 1024)")
+    orders.add_argument("--json", action="store_true", help="print the JSON document (docs/orders-json.md) instead of tables")
+    orders.add_argument("--plot", metavar="FILE.png", help="also write a figure of the orders")
+
+    sub.add_parser("engines", help="list the bundled engine descriptions")
+    return parser
+
+
+def _run_orders(args: argparse.Namespace) -> int:
+    import math
+
+    from monitor.crankshaft import EngineModel
+    from monitor.engine import load_engine
+    from monitor.model_orders import predict_orders
+    from monitor.report import model_orders_document, model_orders_table
+
+    engine = load_engine(args.engine)
+    rod_model = args.rod_model or ("rigid" if args.kinematics == "exact" else "two-mass")
+    model = EngineModel(engine, grid_size=args.grid, rod_model=rod_model,
+                        kinematics=args.kinematics, gas=args.gas)
+    result = predict_orders(model, crank_speed=args.rpm * math.pi / 30, load=args.load,
+                            max_order=args.max_order)
+    if args.json:
+        json.dump(model_orders_document(result, engine), sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        print(model_orders_table(result, engine))
+    if args.plot:
+        from monitor.plots import plot_model_orders
+
+        path = plot_model_orders(result, model, args.plot)
+        print(f"plot written to {path}", file=sys.stderr)
+    return 0
+
+
+def _run_engines(_: argparse.Namespace) -> int:
+    from monitor.engine import bundled_engines, load_engine
+
+    for engine_id, path in bundled_engines().items():
+        engine = load_engine(path)
+        print(f"{engine_id:24s} {engine.cycle:11s} {engine.cylinders:2d} cyl  "
+              f"{engine.operation.rated_speed_rpm:7.1f} rpm  {engine.name}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    parser = _build_parser()
+    args = parser.parse_args(argv)
+    handlers = {"orders": _run_orders, "engines": _run_engines}
+    try:
+        return handlers[args.command](args)
+    except MonitorError as error:
+        print(f"engine-monitor: error: {error}", file=sys.stderr)
+        return 2

@@ -1,0 +1,91 @@
+"""Figures of model results (matplotlib, imported only here, with the Agg backend).
+
+Plots are for people: a figure says at a glance which orders the engine's
+physics puts where. Each function writes one PNG and returns its path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from monitor.crankshaft import EngineModel
+from monitor.model_orders import ModelOrders
+
+__all__ = ["plot_model_orders"]
+
+
+def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path) -> Path:
+    """Four panels: one cylinder's torque over the cycle, engine torque orders,
+    inertia-force orders of one cylinder (log scale), and main-bearing force orders.
+
+    Parameters
+    ----------
+    result : ModelOrders
+        The predicted orders.
+    model : EngineModel
+        The model they came from (for the torque waveform).
+    path : str or Path
+        Output PNG file; its folder is created if needed.
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    engine = model.engine
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    orders = result.orders[1:]
+    width = 0.35 / engine.cycle_revolutions
+
+    fig, axes = plt.subplots(2, 2, figsize=(13, 8.5), constrained_layout=True)
+    fig.suptitle(
+        f"{engine.name}\n{result.speed_rpm:.1f} rpm, load {result.load:.2f}: predicted orders "
+        f"({result.kinematics} kinematics, {result.rod_model} rod)"
+    )
+
+    ax = axes[0, 0]
+    forces = model.cylinder_forces(result.crank_speed, result.load)
+    degrees = np.degrees(model.crank_angle)
+    kin = model.kinematics
+    gas_torque = forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
+    ax.plot(degrees, forces.torque / 1e3, label="cylinder 1, total")
+    ax.plot(degrees, gas_torque / 1e3, "--", label="cylinder 1, gas")
+    ax.plot(degrees, (forces.torque - gas_torque) / 1e3, ":", label="cylinder 1, inertia and weight")
+    ax.set(xlabel="crank angle from firing TDC [deg]", ylabel="torque [kN m]", title="Torque of one cylinder")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+
+    ax = axes[0, 1]
+    ax.bar(orders, np.abs(result.engine_torque[1:]) / 1e3, width=2 * width, color="tab:blue")
+    ax.set(xlabel="order", ylabel="amplitude [kN m]", title="Engine torque orders (all cylinders)")
+    ax.grid(alpha=0.3, axis="y")
+
+    ax = axes[1, 0]
+    floor = 1e-9
+    for axis, label, shift in ((1, "vertical", -width / 2), (0, "horizontal", width / 2)):
+        amp = np.maximum(np.abs(result.cylinder_inertia_force[0, axis, 1:]), floor)
+        ax.bar(orders + shift, amp / 1e3, width=width, label=label)
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=max(floor, 1e-6 * np.abs(result.cylinder_inertia_force[0]).max()) / 1e3)
+    ax.set(xlabel="order", ylabel="amplitude [kN]", title="Inertia force of one cylinder's moving parts")
+    ax.grid(alpha=0.3, axis="y", which="both")
+    ax.legend(fontsize=8)
+
+    ax = axes[1, 1]
+    amp = np.abs(result.bearing_force[:, 1, 1:]) / 1e3
+    image = ax.imshow(amp, aspect="auto", origin="lower", cmap="viridis",
+                      extent=(orders[0] - width, orders[-1] + width, 0.5, engine.bearing_count + 0.5))
+    fig.colorbar(image, ax=ax, label="vertical force amplitude [kN]")
+    ax.set(xlabel="order", ylabel="main bearing", title="Main-bearing force orders (vertical)")
+    ax.set_yticks(range(1, engine.bearing_count + 1))
+
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
