@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	@mkdir -p $(OUT)
 	$(BIN)/engine-monitor orders recordings/engines/man-b-w-7k98mc.toml --rpm 104 --load 1.0 \
-		--plot $(OUT)/7k98mc-orders.png --json-out $(OUT)/7k98mc-orders.json
+		--plot $(OUT)/7k98mc-orders.png
 
 ## test: lint, type check and the whole test suite
 test: $(STAMP)

@@ -51,29 +51,41 @@ def _build_parser() -> argparse.ArgumentParser:
             "cylinder 1."
         ),
     )
-    orders.add_argument("engine", metavar="ENGINE", help="engine description (TOML file) or a bundled engine id")
+    orders.add_argument(
+        "engine", metavar="ENGINE", help="engine description (TOML file) or a bundled engine id"
+    )
     orders.add_argument("--rpm", type=_positive_float, required=True, help="crank speed [rpm]")
     orders.add_argument(
-        "--load", type=float, default=1.0,
+        "--load",
+        type=float,
+        default=1.0,
         help="fraction of rated IMEP, 0..1.1 (default 1.0); sets the gas pressure of the parametric cycle",
     )
     orders.add_argument("--max-order", type=float, default=24.0, help="highest order reported (default 24)")
     orders.add_argument(
-        "--kinematics", choices=("exact", "approx"), default="exact",
+        "--kinematics",
+        choices=("exact", "approx"),
+        default="exact",
         help="exact slider-crank kinematics (default) or the two-term approximation",
     )
     orders.add_argument(
-        "--rod-model", choices=("rigid", "two-mass"), default=None,
+        "--rod-model",
+        choices=("rigid", "two-mass"),
+        default=None,
         help="connecting rod as a rigid body (default with exact kinematics) or the two-mass split "
         "(default and required with --kinematics approx)",
     )
     orders.add_argument(
-        "--gas", choices=("auto", "parametric", "measured", "none"), default="auto",
+        "--gas",
+        choices=("auto", "parametric", "measured", "none"),
+        default="auto",
         help="cylinder pressure: measured trace if the engine has one, else parametric (auto); "
         "none for inertia only",
     )
     orders.add_argument("--grid", type=int, default=1024, help="samples per revolution (default 1024)")
-    orders.add_argument("--json", action="store_true", help="print the JSON document (docs/orders-json.md) instead of tables")
+    orders.add_argument(
+        "--json", action="store_true", help="print the JSON document (docs/orders-json.md) instead of tables"
+    )
     orders.add_argument("--plot", metavar="FILE.png", help="also write a figure of the orders")
 
     sub.add_parser("engines", help="list the bundled engine descriptions")
@@ -85,15 +97,18 @@ def _run_orders(args: argparse.Namespace) -> int:
 
     from monitor.crankshaft import EngineModel
     from monitor.engine import load_engine
+    from monitor.forces import RodModel
     from monitor.model_orders import predict_orders
     from monitor.report import model_orders_document, model_orders_table
 
     engine = load_engine(args.engine)
-    rod_model = args.rod_model or ("rigid" if args.kinematics == "exact" else "two-mass")
-    model = EngineModel(engine, grid_size=args.grid, rod_model=rod_model,
-                        kinematics=args.kinematics, gas=args.gas)
-    result = predict_orders(model, crank_speed=args.rpm * math.pi / 30, load=args.load,
-                            max_order=args.max_order)
+    rod_model: RodModel = args.rod_model or ("rigid" if args.kinematics == "exact" else "two-mass")
+    model = EngineModel(
+        engine, grid_size=args.grid, rod_model=rod_model, kinematics=args.kinematics, gas=args.gas
+    )
+    result = predict_orders(
+        model, crank_speed=args.rpm * math.pi / 30, load=args.load, max_order=args.max_order
+    )
     if args.json:
         json.dump(model_orders_document(result, engine), sys.stdout, indent=1)
         sys.stdout.write("\n")
@@ -112,8 +127,10 @@ def _run_engines(_: argparse.Namespace) -> int:
 
     for engine_id, path in bundled_engines().items():
         engine = load_engine(path)
-        print(f"{engine_id:24s} {engine.cycle:11s} {engine.cylinders:2d} cyl  "
-              f"{engine.operation.rated_speed_rpm:7.1f} rpm  {engine.name}")
+        print(
+            f"{engine_id:24s} {engine.cycle:11s} {engine.cylinders:2d} cyl  "
+            f"{engine.operation.rated_speed_rpm:7.1f} rpm  {engine.name}"
+        )
     return 0
 
 

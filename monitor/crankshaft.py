@@ -122,7 +122,9 @@ class EngineModel:
         gravity: float = STANDARD_GRAVITY,
     ) -> None:
         if grid_size < 16 or grid_size % 2:
-            raise ModelError(f"grid_size = {grid_size!r}: expected an even number >= 16 samples per revolution")
+            raise ModelError(
+                f"grid_size = {grid_size!r}: expected an even number >= 16 samples per revolution"
+            )
         self.engine = engine
         self.train = CrankTrain.of(engine)
         self.rod_model: RodModel = rod_model
@@ -198,8 +200,12 @@ class EngineModel:
             raise ModelError(f"load = {load!r}: expected 0 <= load <= 1.1 (fraction of rated IMEP)")
         f_gas = gas_force(self.cylinder_pressure(load), self.engine.piston_area, self._ambient)
         return crank_train_forces(
-            self.kinematics, self.train, crank_speed=crank_speed, gas_force=f_gas,
-            rod_model=self.rod_model, gravity=self.gravity,
+            self.kinematics,
+            self.train,
+            crank_speed=crank_speed,
+            gas_force=f_gas,
+            rod_model=self.rod_model,
+            gravity=self.gravity,
         )
 
     def unbalance_force(self, crank_speed: float) -> tuple[FloatArray, FloatArray]:

@@ -256,7 +256,9 @@ class ShaftElement(_Strict):
 class ShaftLine(_Strict):
     """Torsional data of the crankshaft and the shafting (used by the torsion model)."""
 
-    throw_inertia_kgm2: Inertia = Field(description="rotating inertia of one throw, without the reciprocating parts")
+    throw_inertia_kgm2: Inertia = Field(
+        description="rotating inertia of one throw, without the reciprocating parts"
+    )
     throw_stiffness_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))]
     free_end: list[ShaftElement] = Field(default_factory=list)
     driven_end: list[ShaftElement] = Field(default_factory=list)
@@ -293,7 +295,9 @@ class Engine(_Strict):
             angles = self.firing.angles_deg
             span = 360.0 * self.cycle_revolutions
             if len(angles) != n:
-                raise ValueError(f"firing.angles_deg has {len(angles)} values: expected {n}, one per cylinder")
+                raise ValueError(
+                    f"firing.angles_deg has {len(angles)} values: expected {n}, one per cylinder"
+                )
             if angles[0] != 0.0 or not all(0.0 <= a < span for a in angles):
                 raise ValueError(
                     f"firing.angles_deg = {angles}: expected cylinder 1 at 0 and every angle in [0, {span:g})"
@@ -322,7 +326,9 @@ class Engine(_Strict):
         if self.bearings.throws is not None and len(self.bearings.throws) != n:
             raise ValueError(f"bearings.throws has {len(self.bearings.throws)} pairs: expected {n}")
         if self.bearings.positions_m is not None and len(self.bearings.positions_m) != nb:
-            raise ValueError(f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}")
+            raise ValueError(
+                f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}"
+            )
         if self.combustion is None and self.pressure_trace is None:
             raise ValueError(
                 "no gas-force model: add a [combustion] table (parametric cylinder pressure) or a "
@@ -460,9 +466,7 @@ def _known_fields(model: type[BaseModel], loc: tuple[int | str, ...]) -> list[st
             return []
         annotation = field.annotation
         candidates = [annotation, *getattr(annotation, "__args__", ())]
-        current = next(
-            (c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)), None
-        )
+        current = next((c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)), None)
         if current is None:
             return []
     return [name for name in current.model_fields if name != "source_dir"]
@@ -539,9 +543,7 @@ def load_engine(path: str | Path) -> Engine:
         text = file.read_text(encoding="utf-8")
     except FileNotFoundError:
         known = ", ".join(sorted(bundled_engines()))
-        raise EngineDescriptionError(
-            f"{path}: no such engine file (bundled engines: {known})"
-        ) from None
+        raise EngineDescriptionError(f"{path}: no such engine file (bundled engines: {known})") from None
     except (OSError, UnicodeDecodeError) as error:
         raise EngineDescriptionError(f"{path}: cannot read engine file: {error}") from None
     try:

@@ -78,6 +78,8 @@ KinematicsModel = Literal["exact", "approx"]
 
 #: Standard acceleration of gravity [m/s^2].
 STANDARD_GRAVITY = 9.80665
+#: Smallest rod ratio of a crank train with a connecting rod [-].
+MIN_ROD_RATIO = 1e-3
 
 
 @dataclass(frozen=True)
@@ -107,12 +109,32 @@ class CrankTrain:
     rod_cg_fraction: float
     rod_inertia: float
 
+    def __post_init__(self) -> None:
+        check_rod_ratio(self.rod_ratio)
+        if self.rod_ratio < MIN_ROD_RATIO:
+            raise ModelError(
+                f"rod_ratio = {self.rod_ratio!r}: expected >= {MIN_ROD_RATIO:g} for a crank train "
+                "with a connecting rod (a rod over 1000 crank radii long is not one)"
+            )
+        for name in ("crank_radius", "piston_mass", "rod_mass", "rod_inertia"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ModelError(f"{name} = {value!r}: expected a positive, finite value")
+        if not 0.0 <= self.rod_cg_fraction <= 1.0:
+            raise ModelError(f"rod_cg_fraction = {self.rod_cg_fraction!r}: expected 0..1")
+
     @classmethod
     def of(cls, engine: Engine) -> CrankTrain:
         """The crank train of an engine description (all cylinders alike)."""
         m = engine.masses
-        return cls(engine.crank_radius, engine.rod_ratio, m.piston_assembly_kg, m.conrod_kg,
-                   engine.conrod_cg_fraction, m.conrod_inertia_kgm2)
+        return cls(
+            engine.crank_radius,
+            engine.rod_ratio,
+            m.piston_assembly_kg,
+            m.conrod_kg,
+            engine.conrod_cg_fraction,
+            m.conrod_inertia_kgm2,
+        )
 
     @property
     def rod_length(self) -> float:
@@ -162,8 +184,11 @@ class CrankKinematics:
 
 
 def crank_kinematics(
-    crank_angle: npt.ArrayLike, crank_radius: float, rod_ratio: float,
-    *, model: KinematicsModel = "exact",
+    crank_angle: npt.ArrayLike,
+    crank_radius: float,
+    rod_ratio: float,
+    *,
+    model: KinematicsModel = "exact",
 ) -> CrankKinematics:
     """Evaluate the angle-only kinematics once, for reuse at any speed.
 
@@ -277,6 +302,8 @@ def crank_train_forces(
     omega = np.asarray(crank_speed, dtype=np.float64)
     omega_dot = np.asarray(crank_acceleration, dtype=np.float64)
     f_gas = np.broadcast_to(np.asarray(gas_force, dtype=np.float64), kinematics.crank_angle.shape)
+    if f_gas.size and not np.all(np.isfinite(f_gas)):
+        raise ModelError("gas_force contains NaN or Inf: expected finite forces [N]")
     alpha = kinematics.crank_angle
     radius = train.crank_radius
     w2 = omega * omega

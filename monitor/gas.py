@@ -64,7 +64,11 @@ _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(48)
 
 
 def cylinder_volume(
-    crank_angle: npt.ArrayLike, *, bore: float, crank_radius: float, rod_ratio: float,
+    crank_angle: npt.ArrayLike,
+    *,
+    bore: float,
+    crank_radius: float,
+    rod_ratio: float,
     compression_ratio: float,
 ) -> FloatArray:
     """Cylinder volume above the piston.
@@ -114,9 +118,7 @@ def gas_force(pressure: npt.ArrayLike, piston_area: float, ambient_pressure: flo
     return (np.asarray(pressure, dtype=np.float64) - ambient_pressure) * piston_area
 
 
-def indicated_mean_effective_pressure(
-    pressure: npt.ArrayLike, volume: npt.ArrayLike
-) -> float:
+def indicated_mean_effective_pressure(pressure: npt.ArrayLike, volume: npt.ArrayLike) -> float:
     """IMEP from one cycle sampled on a uniform periodic crank-angle grid.
 
     Parameters
@@ -139,8 +141,12 @@ def indicated_mean_effective_pressure(
 
 
 def resample_trace(
-    trace_angle: npt.ArrayLike, trace_pressure: npt.ArrayLike, crank_angle: npt.ArrayLike,
-    *, cycle_revolutions: int, max_gap: float = math.radians(30.0),
+    trace_angle: npt.ArrayLike,
+    trace_pressure: npt.ArrayLike,
+    crank_angle: npt.ArrayLike,
+    *,
+    cycle_revolutions: int,
+    max_gap: float = math.radians(30.0),
 ) -> FloatArray:
     """Resample a measured pressure trace to other crank angles.
 
@@ -220,14 +226,23 @@ class ParametricCycle:
         """The cycle of an engine that has a ``[combustion]`` description."""
         if engine.combustion is None:
             raise ModelError(f"engine {engine.id!r} has no [combustion] parameters for a parametric cycle")
-        return cls(engine.combustion, engine.geometry.bore_m, engine.crank_radius,
-                   engine.rod_ratio, engine.cycle_revolutions)
+        return cls(
+            engine.combustion,
+            engine.geometry.bore_m,
+            engine.crank_radius,
+            engine.rod_ratio,
+            engine.cycle_revolutions,
+        )
 
     def volume(self, crank_angle: npt.ArrayLike) -> FloatArray:
         """Cylinder volume [m^3] at crank angles from firing TDC [rad]."""
-        return cylinder_volume(crank_angle, bore=self.bore, crank_radius=self.crank_radius,
-                               rod_ratio=self.rod_ratio,
-                               compression_ratio=self.combustion.compression_ratio)
+        return cylinder_volume(
+            crank_angle,
+            bore=self.bore,
+            crank_radius=self.crank_radius,
+            rod_ratio=self.rod_ratio,
+            compression_ratio=self.combustion.compression_ratio,
+        )
 
     def _burn_rate(self, theta: FloatArray) -> FloatArray:
         """Wiebe d x_b / d theta [1/rad], normalised to a total of 1."""
@@ -294,8 +309,9 @@ class ParametricCycle:
 
     @cached_property
     def _imep_basis(self) -> tuple[float, float]:
-        grid = np.linspace(0, 2 * np.pi * self.cycle_revolutions, 2880 * self.cycle_revolutions,
-                           endpoint=False)
+        grid = np.linspace(
+            0, 2 * np.pi * self.cycle_revolutions, 2880 * self.cycle_revolutions, endpoint=False
+        )
         a, b = self.basis(grid)
         v = self.volume(grid)
         return indicated_mean_effective_pressure(a, v), indicated_mean_effective_pressure(b, v)

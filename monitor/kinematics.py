@@ -211,9 +211,7 @@ def piston_x_derivatives_approx(
     return x, dx, d2x
 
 
-def piston_displacement(
-    crank_angle: ArrayLike, crank_radius: float, rod_ratio: float
-) -> FloatArray:
+def piston_displacement(crank_angle: ArrayLike, crank_radius: float, rod_ratio: float) -> FloatArray:
     """Exact piston displacement from TDC towards the crank (paper 000 eq. 6).
 
     Parameters
@@ -237,9 +235,7 @@ def piston_displacement(
     return piston_x_derivatives(crank_angle, crank_radius, rod_ratio)[0]
 
 
-def piston_displacement_approx(
-    crank_angle: ArrayLike, crank_radius: float, rod_ratio: float
-) -> FloatArray:
+def piston_displacement_approx(crank_angle: ArrayLike, crank_radius: float, rod_ratio: float) -> FloatArray:
     """Two-term approximate piston displacement (paper 000 eq. 5).
 
     Parameters
@@ -259,9 +255,7 @@ def piston_displacement_approx(
     return piston_x_derivatives_approx(crank_angle, crank_radius, rod_ratio)[0]
 
 
-def _speed_pair(
-    crank_speed: ArrayLike, crank_acceleration: ArrayLike
-) -> tuple[FloatArray, FloatArray]:
+def _speed_pair(crank_speed: ArrayLike, crank_acceleration: ArrayLike) -> tuple[FloatArray, FloatArray]:
     omega = np.asarray(crank_speed, dtype=np.float64)
     omega_dot = np.asarray(crank_acceleration, dtype=np.float64)
     checks = (
@@ -449,9 +443,7 @@ def rod_angle_derivatives(
     return beta, lam * co / c, -lam * ((1.0 - lam) * (1.0 + lam)) * s / (c * c * c)
 
 
-def rod_angular_velocity(
-    crank_angle: ArrayLike, crank_speed: ArrayLike, rod_ratio: float
-) -> FloatArray:
+def rod_angular_velocity(crank_angle: ArrayLike, crank_speed: ArrayLike, rod_ratio: float) -> FloatArray:
     """Angular velocity of the connecting rod, ``dbeta/dt`` [rad/s].
 
     Parameters

@@ -129,15 +129,19 @@ def predict_orders(
     forces = model.cylinder_forces(crank_speed, load)
     unb_x, unb_y = model.unbalance_force(crank_speed)
     kin = model.kinematics
-    gas_torque = forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
-    rows = np.stack([
-        forces.inertia_force_x + unb_x,
-        forces.inertia_force_y + unb_y,
-        forces.torque,
-        gas_torque,
-        forces.pin_force_x + unb_x,
-        forces.pin_force_y + unb_y,
-    ])
+    gas_torque = (
+        forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
+    )
+    rows = np.stack(
+        [
+            forces.inertia_force_x + unb_x,
+            forces.inertia_force_y + unb_y,
+            forces.torque,
+            gas_torque,
+            forces.pin_force_x + unb_x,
+            forces.pin_force_y + unb_y,
+        ]
+    )
     oc = order_coefficients(rows, cycle_revolutions=model.cycle_revolutions, max_order=max_order)
     per_cylinder = phase_shift(oc.coefficients, oc.orders, engine.firing_angles)  # (n_cyl, 6, n_orders)
     inertia = per_cylinder[:, 0:2, :]
@@ -146,10 +150,12 @@ def predict_orders(
     bearing = np.einsum("bc,cko->bko", engine.bearing_share, throw)
     lever = engine.cylinder_positions - engine.cylinder_positions.mean()
     free_force = inertia.sum(axis=0)
-    free_moment = np.stack([
-        np.einsum("c,co->o", lever, inertia[:, 1, :]),
-        np.einsum("c,co->o", lever, inertia[:, 0, :]),
-    ])
+    free_moment = np.stack(
+        [
+            np.einsum("c,co->o", lever, inertia[:, 1, :]),
+            np.einsum("c,co->o", lever, inertia[:, 0, :]),
+        ]
+    )
     alias = {name: float(oc.aliasing_error[i].max()) for i, name in enumerate(_ROWS)}
     trunc = {name: float(oc.truncation_error[i]) for i, name in enumerate(_ROWS)}
     return ModelOrders(

@@ -246,9 +246,7 @@ def order_coefficients_of(
         n *= 2
 
 
-def synthesize(
-    coefficients: OrderCoefficients, crank_angle: npt.ArrayLike
-) -> npt.NDArray[np.float64]:
+def synthesize(coefficients: OrderCoefficients, crank_angle: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Evaluate the truncated order series at the given crank angles.
 
     Parameters

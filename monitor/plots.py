@@ -54,7 +54,9 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
     forces = model.cylinder_forces(result.crank_speed, result.load)
     degrees = np.degrees(model.crank_angle)
     kin = model.kinematics
-    gas_torque = forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
+    gas_torque = (
+        forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
+    )
     ax.plot(degrees, forces.torque / 1e3, label="cylinder 1, total")
     ax.plot(degrees, gas_torque / 1e3, "--", label="cylinder 1, gas")
     ax.plot(degrees, (forces.torque - gas_torque) / 1e3, ":", label="cylinder 1, inertia and weight")
@@ -80,8 +82,13 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
 
     ax = axes[1, 1]
     amp = np.abs(result.bearing_force[:, 1, 1:]) / 1e3
-    image = ax.imshow(amp, aspect="auto", origin="lower", cmap="viridis",
-                      extent=(orders[0] - width, orders[-1] + width, 0.5, engine.bearing_count + 0.5))
+    image = ax.imshow(
+        amp,
+        aspect="auto",
+        origin="lower",
+        cmap="viridis",
+        extent=(orders[0] - width, orders[-1] + width, 0.5, engine.bearing_count + 0.5),
+    )
     fig.colorbar(image, ax=ax, label="vertical force amplitude [kN]")
     ax.set(xlabel="order", ylabel="main bearing", title="Main-bearing force orders (vertical)")
     ax.set_yticks(range(1, engine.bearing_count + 1))

@@ -161,7 +161,8 @@ def model_orders_table(result: ModelOrders, engine: Engine) -> str:
     mean = result.engine_torque[0].real
     lines.append("")
     lines.append(
-        f"Engine torque [kN m]: mean {mean / 1e3:.3f}, indicated power {mean * result.crank_speed / 1e3:.1f} kW"
+        f"Engine torque [kN m]: mean {mean / 1e3:.3f}, "
+        f"indicated power {mean * result.crank_speed / 1e3:.1f} kW"
     )
     lines.append(f"{'order':>6} {'amplitude':>10} {'phase':>8}")
     scale = float(np.abs(result.engine_torque[1:]).max(initial=0.0))
@@ -170,11 +171,11 @@ def model_orders_table(result: ModelOrders, engine: Engine) -> str:
         lines.append(f"{orders[i]:6.1f} {_amp(q, scale, 1e3, 10)} {_phase(q, scale, 8)}")
 
     lines.append("")
-    lines.append(
-        "Inertia force of each cylinder's moving parts [kN] (same amplitude in every cylinder);"
-    )
+    lines.append("Inertia force of each cylinder's moving parts [kN] (same amplitude in every cylinder);")
     lines.append("phase of the vertical component per cylinder [deg] (k x firing angle behind cylinder 1):")
-    head = f"{'order':>6} {'vertical':>9} {'horiz.':>9} " + " ".join(f"{'c' + str(c + 1):>6}" for c in range(engine.cylinders))
+    head = f"{'order':>6} {'vertical':>9} {'horiz.':>9} " + " ".join(
+        f"{'c' + str(c + 1):>6}" for c in range(engine.cylinders)
+    )
     lines.append(head)
     scale = float(np.abs(result.cylinder_inertia_force[0, :, 1:]).max(initial=0.0))
     for i in range(1, orders.size):
@@ -185,10 +186,14 @@ def model_orders_table(result: ModelOrders, engine: Engine) -> str:
     for axis, label in ((1, "vertical"), (0, "horizontal")):
         lines.append("")
         lines.append(f"Main-bearing force, {label} [kN amplitude]:")
-        lines.append(f"{'order':>6} " + " ".join(f"{'MB' + str(b + 1):>9}" for b in range(engine.bearing_count)))
+        lines.append(
+            f"{'order':>6} " + " ".join(f"{'MB' + str(b + 1):>9}" for b in range(engine.bearing_count))
+        )
         scale = float(np.abs(result.bearing_force[:, axis, 1:]).max(initial=0.0))
         for i in range(1, orders.size):
-            row = " ".join(_amp(result.bearing_force[b, axis, i], scale, 1e3) for b in range(engine.bearing_count))
+            row = " ".join(
+                _amp(result.bearing_force[b, axis, i], scale, 1e3) for b in range(engine.bearing_count)
+            )
             lines.append(f"{orders[i]:6.1f} {row}")
 
     lines.append("")
@@ -197,9 +202,19 @@ def model_orders_table(result: ModelOrders, engine: Engine) -> str:
     for i in range(1, orders.size):
         if orders[i] > 4:
             break
-        cells = [result.free_force[1, i], result.free_force[0, i], result.free_moment[0, i], result.free_moment[1, i]]
+        cells = [
+            result.free_force[1, i],
+            result.free_force[0, i],
+            result.free_moment[0, i],
+            result.free_moment[1, i],
+        ]
         scales = [float(np.abs(result.cylinder_inertia_force[0]).max())] * 2 + [
-            float(np.abs(result.cylinder_inertia_force[0]).max() * max(1.0, float(np.ptp(engine.cylinder_positions))))
+            float(
+                np.abs(result.cylinder_inertia_force[0]).max()
+                * max(1.0, float(np.ptp(engine.cylinder_positions)))
+            )
         ] * 2
-        lines.append(f"{orders[i]:6.1f} " + " ".join(_amp(v, sc, 1e3) for v, sc in zip(cells, scales, strict=True)))
+        lines.append(
+            f"{orders[i]:6.1f} " + " ".join(_amp(v, sc, 1e3) for v, sc in zip(cells, scales, strict=True))
+        )
     return "\n".join(lines)

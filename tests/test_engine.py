@@ -81,21 +81,36 @@ def _refused(mutate: Any, *fragments: str) -> None:
 
 
 def test_rod_ratio_at_or_above_one_is_refused() -> None:
-    _refused(lambda d: d["geometry"].update(rod_ratio=1.0), "geometry", "rod_ratio = 1.0", "expected 0 < crank radius / rod length < 1")
+    _refused(
+        lambda d: d["geometry"].update(rod_ratio=1.0),
+        "geometry",
+        "rod_ratio = 1.0",
+        "expected 0 < crank radius / rod length < 1",
+    )
+
     def short_rod(d: dict[str, Any]) -> None:
         del d["geometry"]["rod_ratio"]
         d["geometry"]["rod_length_m"] = 1.0
+
     _refused(short_rod, "rod_length_m = 1.0 gives rod ratio 1.33")
 
 
 @pytest.mark.parametrize("value", [0.0, -6000.0, float("nan")])
 def test_non_positive_mass_is_refused(value: float) -> None:
-    _refused(lambda d: d["masses"].update(piston_assembly_kg=value), "masses.piston_assembly_kg", "expected a positive, finite value [kg]")
+    _refused(
+        lambda d: d["masses"].update(piston_assembly_kg=value),
+        "masses.piston_assembly_kg",
+        "expected a positive, finite value [kg]",
+    )
 
 
 @pytest.mark.parametrize("order", [[1, 7, 2, 5, 4, 3, 3], [1, 2, 3, 4, 5, 6], [0, 1, 2, 3, 4, 5, 6]])
 def test_firing_order_not_a_permutation_is_refused(order: list[int]) -> None:
-    _refused(lambda d: d["firing"].update(order=order), f"firing.order = {order}", "permutation of the cylinders 1..7")
+    _refused(
+        lambda d: d["firing"].update(order=order),
+        f"firing.order = {order}",
+        "permutation of the cylinders 1..7",
+    )
 
 
 def test_missing_field_is_refused() -> None:
@@ -105,11 +120,20 @@ def test_missing_field_is_refused() -> None:
 def test_unit_typo_in_a_field_name_is_refused_with_a_suggestion() -> None:
     def typo(d: dict[str, Any]) -> None:
         d["geometry"]["bore_mm"] = d["geometry"].pop("bore_m")
-    _refused(typo, "geometry.bore_mm: unknown field; did you mean 'bore_m'?", "geometry.bore_m: required field is missing")
+
+    _refused(
+        typo,
+        "geometry.bore_mm: unknown field; did you mean 'bore_m'?",
+        "geometry.bore_m: required field is missing",
+    )
 
 
 def test_unit_typo_in_a_value_is_refused_with_a_hint() -> None:
-    _refused(lambda d: d["geometry"].update(bore_m=980.0), "geometry.bore_m = 980.0", "expected 0.01 <= value <= 1.5 m; was it given in mm?")
+    _refused(
+        lambda d: d["geometry"].update(bore_m=980.0),
+        "geometry.bore_m = 980.0",
+        "expected 0.01 <= value <= 1.5 m; was it given in mm?",
+    )
     _refused(lambda d: d["combustion"].update(intake_pressure_bar=3.6e5), "was it given in Pa?")
 
 
@@ -118,7 +142,10 @@ def test_gas_model_is_required() -> None:
 
 
 def test_combustion_timing_must_be_ordered() -> None:
-    _refused(lambda d: d["combustion"].update(combustion_start_deg=120.0), "combustion_start_deg (120) < exhaust_opening_deg (110)")
+    _refused(
+        lambda d: d["combustion"].update(combustion_start_deg=120.0),
+        "combustion_start_deg (120) < exhaust_opening_deg (110)",
+    )
 
 
 def test_unreadable_files_are_refused(tmp_path: Path) -> None:

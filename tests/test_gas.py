@@ -32,7 +32,9 @@ def test_closed_cycle_matches_first_law_ode(cycle: ParametricCycle) -> None:
     load = 0.8
     q_tot = cycle.heat_release(load)
     p_ic = cycle.charge_pressure(load)
-    ic, soc, eo = (math.radians(v) for v in (c.inlet_closing_deg, c.combustion_start_deg, c.exhaust_opening_deg))
+    ic, soc, eo = (
+        math.radians(v) for v in (c.inlet_closing_deg, c.combustion_start_deg, c.exhaust_opening_deg)
+    )
 
     def rhs(theta: float, p: np.ndarray) -> np.ndarray:
         h = 1e-6
@@ -44,8 +46,16 @@ def test_closed_cycle_matches_first_law_ode(cycle: ParametricCycle) -> None:
 
     checkpoints = np.linspace(ic + 0.01, eo - 0.01, 25)
     first = solve_ivp(rhs, (ic, soc), [p_ic], method="DOP853", rtol=1e-11, atol=1e-3, dense_output=True)
-    second = solve_ivp(rhs, (soc, eo), [first.y[0, -1]], method="DOP853", rtol=1e-11, atol=1e-3,
-                       dense_output=True, max_step=0.01)
+    second = solve_ivp(
+        rhs,
+        (soc, eo),
+        [first.y[0, -1]],
+        method="DOP853",
+        rtol=1e-11,
+        atol=1e-3,
+        dense_output=True,
+        max_step=0.01,
+    )
     reference = np.where(checkpoints < soc, first.sol(checkpoints)[0], second.sol(checkpoints)[0])
     ours = cycle.pressure(checkpoints, load)
     np.testing.assert_allclose(ours, reference, rtol=2e-7)
@@ -81,7 +91,7 @@ def test_peak_pressure_rises_with_load() -> None:
 def test_load_out_of_range_is_refused() -> None:
     cycle = ParametricCycle.of(load_engine("man-b-w-7k98mc"))
     for load in (-0.1, 1.5, float("nan")):
-        with pytest.raises(ModelError, match="expected 0 <= load <= 1.1"):
+        with pytest.raises(ModelError, match=r"expected 0 <= load <= 1\.1"):
             cycle.pressure(np.zeros(3), load)
 
 
@@ -127,8 +137,9 @@ def test_real_digitised_trace_of_a_six_cylinder_diesel() -> None:
     fine = np.radians(np.arange(-360.0, 360.0, 0.1))
     out = resample_trace(np.radians(angle_deg), value, fine, cycle_revolutions=2, max_gap=math.radians(130))
     assert value.max() * (1 - 1e-4) <= out.max() <= value.max()  # no overshoot at the peak
-    own = resample_trace(np.radians(angle_deg), value, np.radians(angle_deg), cycle_revolutions=2,
-                         max_gap=math.radians(130))
+    own = resample_trace(
+        np.radians(angle_deg), value, np.radians(angle_deg), cycle_revolutions=2, max_gap=math.radians(130)
+    )
     np.testing.assert_allclose(own[1:-1], value[1:-1], rtol=1e-12)
     # its first and last points are the same angle (0 and 720 deg) with different values: averaged
     assert own[0] == own[-1] == pytest.approx(0.5 * (value[0] + value[-1]), rel=1e-12)

@@ -43,7 +43,9 @@ def _mp_order(k: int, lam: float) -> complex:
     mpmath.mp.dps = 40
 
     def d2x(t: mpmath.mpf) -> mpmath.mpf:
-        return mpmath.diff(lambda u: (1 - mpmath.cos(u)) + (1 - mpmath.sqrt(1 - (lam * mpmath.sin(u)) ** 2)) / lam, t, 2)
+        return mpmath.diff(
+            lambda u: (1 - mpmath.cos(u)) + (1 - mpmath.sqrt(1 - (lam * mpmath.sin(u)) ** 2)) / lam, t, 2
+        )
 
     # Even function of alpha: the coefficient is real. Use the closed-form
     # second derivative inside quad for speed, but cross-check it once against diff.
@@ -116,7 +118,7 @@ def test_bad_samples_are_refused(samples: np.ndarray, message: str) -> None:
 def test_max_order_beyond_grid_is_refused() -> None:
     with pytest.raises(ModelError, match="resolves orders up to 3"):
         order_coefficients(np.ones(16), max_order=5)
-    with pytest.raises(ModelError, match="multiple of 0.5"):
+    with pytest.raises(ModelError, match=r"multiple of 0\.5"):
         order_coefficients(np.ones(16), cycle_revolutions=2, max_order=1.25)
 
 

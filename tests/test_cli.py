@@ -1,0 +1,107 @@
+"""The command line, end to end: tables, JSON, plots, help and errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from monitor.cli import main
+from monitor.crankshaft import EngineModel
+from monitor.engine import load_engine
+from monitor.model_orders import predict_orders
+
+from .conftest import ENGINES
+
+
+def test_orders_json_matches_the_library(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["orders", str(ENGINES / "man-b-w-7k98mc.toml"), "--rpm", "104", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["format"] == "engine-monitor/model-orders"
+    e = load_engine("man-b-w-7k98mc")
+    lib = predict_orders(EngineModel(e), crank_speed=104 * math.pi / 30, load=1.0)
+    assert doc["orders"] == [float(k) for k in lib.orders]
+    np.testing.assert_allclose(
+        doc["engine_torque_knm"]["amplitude"], np.abs(lib.engine_torque) / 1e3, atol=1e-8
+    )
+    assert len(doc["cylinders"]) == 7 and len(doc["main_bearings"]) == 8
+    c4 = doc["cylinders"][3]["inertia_force_kn"]["vertical"]
+    np.testing.assert_allclose(
+        c4["phase_deg"][2], np.degrees(np.angle(lib.cylinder_inertia_force[3, 1, 2])), atol=1e-5
+    )
+    assert doc["operating_point"]["speed_rpm"] == pytest.approx(104)
+
+
+def test_orders_table_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    plot = tmp_path / "sub" / "orders.png"
+    assert (
+        main(
+            [
+                "orders",
+                "medium-speed-6l32",
+                "--rpm",
+                "750",
+                "--load",
+                "0.5",
+                "--max-order",
+                "6",
+                "--plot",
+                str(plot),
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr()
+    assert "Engine torque [kN m]" in out.out and "Main-bearing force, vertical" in out.out
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_approximate_kinematics_selects_the_two_mass_rod(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["orders", "man-b-w-7k98mc", "--rpm", "104", "--kinematics", "approx", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["model"]["rod_model"] == "two-mass" and doc["model"]["kinematics"] == "approx"
+    amp = doc["cylinders"][0]["inertia_force_kn"]["vertical"]["amplitude"]
+    assert max(amp[3:]) < 1e-9 * amp[1]  # the approximation has orders 1 and 2 only
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["orders", "no-such-engine", "--rpm", "100"], "no such engine file"),
+        (["orders", "man-b-w-7k98mc", "--rpm", "104", "--load", "3"], "expected 0 <= load <= 1.1"),
+        (
+            ["orders", "man-b-w-7k98mc", "--rpm", "104", "--kinematics", "approx", "--rod-model", "rigid"],
+            "two-mass",
+        ),
+    ],
+)
+def test_errors_exit_2_with_a_message(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bad_arguments_and_help() -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["orders", "man-b-w-7k98mc", "--rpm", "-5"])
+    assert info.value.code == 2
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+
+
+def test_module_entry_point_and_engine_list() -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "monitor", "engines"], capture_output=True, text=True, check=True
+    )
+    assert "man-b-w-7k98mc" in run.stdout and "four-stroke" in run.stdout
+    version = subprocess.run(
+        [sys.executable, "-m", "monitor", "--version"], capture_output=True, text=True, check=True
+    )
+    assert version.stdout.startswith("engine-monitor ")
