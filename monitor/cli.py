@@ -135,7 +135,18 @@ def _run_engines(_: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name; default: ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success, 2 on a usage or input error.
+    """
     parser = _build_parser()
     args = parser.parse_args(argv)
     handlers = {"orders": _run_orders, "engines": _run_engines}

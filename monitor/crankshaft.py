@@ -31,6 +31,7 @@ References
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Literal
 
@@ -170,8 +171,6 @@ class EngineModel:
             assert setup.measured_pressure is not None
             trace = self.engine.pressure_trace
             if trace is not None and trace.load is not None and abs(trace.load - load) > 0.05:
-                import warnings
-
                 warnings.warn(
                     f"the measured pressure trace was taken at load {trace.load:g}, used as is for "
                     f"load {load:g}; give a trace at this load or use gas='parametric'",

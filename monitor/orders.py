@@ -130,12 +130,12 @@ def order_coefficients(
     ----------
     samples : array_like, shape (..., N)
         Values at ``cycle_grid(N, cycle_revolutions)``; samples on the last axis.
-        N should be even (the error estimate uses every second point).
+        N should be even (the error estimate uses every second point) [the quantity's unit].
     cycle_revolutions : int, optional
         1 for a two-stroke cycle (integer orders), 2 for four-stroke (half orders).
     max_order : float, optional
         Highest order to return; default: everything the grid resolves
-        (``N / 4 / cycle_revolutions``, the highest order the half grid also resolves).
+        (``N / 4 / cycle_revolutions``, the highest order the half grid also resolves) [-].
 
     Returns
     -------
