@@ -244,24 +244,39 @@ class PressureTrace(_Strict):
 
 
 class ShaftElement(_Strict):
-    """One lumped element of the shaft line beyond the crank throws."""
+    """One lumped element of the shaft line beyond the crank throws.
+
+    Elements are listed from the engine outwards; each is joined to the one
+    before it (the first to the nearest crank throw) by a shaft of the given
+    stiffness and relative damping.
+    """
 
     name: str
     kind: Literal["damper", "flywheel", "shaft", "gear", "propeller", "generator", "other"]
     inertia_kgm2: Annotated[float, AfterValidator(_non_negative("kg m^2"))]
     stiffness_to_previous_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))]
-    damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = 0.0
+    relative_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
+        default=0.0, description="damping in the connection to the previous element (e.g. a damper's)"
+    )
+    absolute_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
+        default=0.0, description="damping of this element to ground (e.g. propeller, generator)"
+    )
 
 
 class ShaftLine(_Strict):
     """Torsional data of the crankshaft and the shafting (used by the torsion model)."""
 
     throw_inertia_kgm2: Inertia = Field(
-        description="rotating inertia of one throw, without the reciprocating parts"
+        description="rotating inertia of one throw, without rod and reciprocating parts"
     )
-    throw_stiffness_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))]
+    throw_stiffness_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))] = Field(
+        description="torsional stiffness between adjacent throws"
+    )
     free_end: list[ShaftElement] = Field(default_factory=list)
     driven_end: list[ShaftElement] = Field(default_factory=list)
+    tooth_wheel: str | None = Field(
+        default=None, description="name of the element that carries the crank-speed tooth wheel"
+    )
 
 
 class Engine(_Strict):
