@@ -1,0 +1,359 @@
+"""Coupled torsional and axial vibration of a crankshaft (paper 001).
+
+A crank throw twisted by a torque also shortens or lengthens axially: its
+webs bend out of the crank plane, and neighbouring throws at different
+angles turn that bending into an axial displacement.  Paper 001 puts the
+effect into the crank's flexibility as a torsional-axial coupling term
+``C14`` and, for two cranks ``2 delta`` apart, gives it in open form (eq. 1)::
+
+    C14 = C21 C34 cos(delta) sin(delta) / (C33 sin^2(delta) + C22 cos^2(delta))
+
+from the single crank's flexibilities: ``C21`` (displacement along 2 per unit
+axial force), ``C34`` (displacement along 3 per unit torque) and the lateral
+flexibilities ``C22``, ``C33``.
+
+The model here keeps, at every node of the crankshaft, the two degrees of
+freedom the coupling joins: the axial displacement ``u`` [m] and the twist
+``phi`` [rad].  Each throw is a subsystem of three nodes: the two main
+journals (outer nodes, shared with the neighbouring throws) and the crank
+pin (inner node, carrying the throw's mass, inertia and excitation), joined
+by two half-cranks each of flexibility ``C / 2`` with
+``C = [[C11, C14], [C14, C44]]``.
+
+Dynamic stiffness (001 eq. 3): ``B(w) = K + j w C_d - w^2 M``.  A throw is
+condensed to its journals (eq. 3, 4)::
+
+    B_AA' = B_AA - B_AB B_BB^-1 B_BA,    h_A' = h_A - B_AB B_BB^-1 h_B
+
+with ``B_BB^-1`` applied by an LU solve (never an explicit inverse), its
+condition number reported.  Where ``B_BB`` is singular or ill-conditioned (the
+pin resonating on fixed journals) the condensation is skipped and the
+uncondensed system is solved instead: the physical problem is well posed
+there, only the condensation is not.  The assembled system (eq. 5-7) is
+solved for the generalised displacements; a singular assembled ``B`` (an
+undamped resonance of the whole crankshaft) is refused with a clear error.
+
+References
+----------
+001: Kucharski, Wittbrodt, Wojcik, A superelement for analyzing the coupling
+     between crankshaft torsional and axial vibration, eq. 1-7, Fig. 1.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg
+
+from monitor.errors import ModelError
+
+__all__ = [
+    "AxialTorsionalCrankshaft",
+    "CrankFlexibility",
+    "HarmonicSolution",
+    "condense",
+    "pair_coupling",
+]
+
+FloatArray = npt.NDArray[np.float64]
+ComplexArray = npt.NDArray[np.complex128]
+
+#: Condition number of B_BB above which the condensation is skipped.
+CONDENSATION_LIMIT = 1e10
+#: Condition number of the assembled B above which the problem is refused as ill-posed.
+SOLVE_LIMIT = 1e14
+
+
+def pair_coupling(c21: float, c34: float, c22: float, c33: float, half_angle: float) -> float:
+    """Torsional-axial coupling coefficient of a crank pair (paper 001 eq. 1).
+
+    Parameters
+    ----------
+    c21 : float
+        Single crank: displacement along 2 per unit axial force [m/N].
+    c34 : float
+        Single crank: displacement along 3 per unit torque [m/(N m)].
+    c22, c33 : float
+        Single crank: lateral flexibilities along 2 and 3, > 0 [m/N].
+    half_angle : float
+        delta, half the angle between the two cranks [rad].
+
+    Returns
+    -------
+    float
+        C14: axial displacement per unit torque (= twist per unit axial force) [m/(N m)].
+    """
+    if not (c22 > 0 and c33 > 0):
+        raise ModelError(f"c22 = {c22!r}, c33 = {c33!r}: expected positive lateral flexibilities [m/N]")
+    s, c = math.sin(half_angle), math.cos(half_angle)
+    return c21 * c34 * c * s / (c33 * s * s + c22 * c * c)
+
+
+@dataclass(frozen=True)
+class CrankFlexibility:
+    """Axial-torsional flexibility of one crank throw, journal to journal.
+
+    Attributes
+    ----------
+    axial : float
+        C11 [m/N].
+    torsional : float
+        C44 [rad/(N m)].
+    coupling : float
+        C14 [m/(N m)]; ``C11 C44 > C14^2`` (positive definite).
+    """
+
+    axial: float
+    torsional: float
+    coupling: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (self.axial > 0 and self.torsional > 0):
+            raise ModelError(
+                f"axial = {self.axial!r}, torsional = {self.torsional!r}: expected positive flexibilities"
+            )
+        if not self.coupling**2 < self.axial * self.torsional:
+            raise ModelError(
+                f"coupling = {self.coupling!r}: expected C14^2 < C11 C44 = {self.axial * self.torsional:.4g} "
+                "(a flexibility matrix must be positive definite)"
+            )
+
+    @property
+    def matrix(self) -> FloatArray:
+        """[[C11, C14], [C14, C44]]."""
+        return np.array([[self.axial, self.coupling], [self.coupling, self.torsional]])
+
+
+def condense(
+    b: ComplexArray, h: ComplexArray, outer: Sequence[int]
+) -> tuple[ComplexArray, ComplexArray, float]:
+    """Condense a dynamic stiffness and its load to the outer degrees of freedom (001 eq. 3, 4).
+
+    Parameters
+    ----------
+    b : ndarray, shape (n, n)
+        Dynamic stiffness of the subsystem [N/m, N, N m/rad mixed].
+    h : ndarray, shape (n,) or (n, m)
+        Generalised loads [N, N m].
+    outer : sequence of int
+        Indices of the outer degrees of freedom (A); the rest are inner (B).
+
+    Returns
+    -------
+    b_aa, h_a : ndarray
+        ``B_AA - B_AB B_BB^-1 B_BA`` and ``h_A - B_AB B_BB^-1 h_B``.
+    condition : float
+        Condition number of ``B_BB``.
+
+    Raises
+    ------
+    ModelError
+        If ``B_BB`` is singular or its condition number exceeds ``CONDENSATION_LIMIT``.
+    """
+    n = b.shape[0]
+    a_idx = np.asarray(outer)
+    b_idx = np.setdiff1d(np.arange(n), a_idx)
+    b_aa = b[np.ix_(a_idx, a_idx)]
+    if b_idx.size == 0:
+        return b_aa, h[a_idx], 1.0
+    b_bb = b[np.ix_(b_idx, b_idx)]
+    condition = float(np.linalg.cond(b_bb))
+    if not math.isfinite(condition) or condition > CONDENSATION_LIMIT:
+        raise ModelError(f"B_BB is ill-conditioned (condition {condition:.3g}): cannot condense here")
+    lu = scipy.linalg.lu_factor(b_bb)
+    b_ab = b[np.ix_(a_idx, b_idx)]
+    solved = scipy.linalg.lu_solve(
+        lu, np.column_stack([b[np.ix_(b_idx, a_idx)], h[b_idx].reshape(b_idx.size, -1)])
+    )
+    b_red = b_aa - b_ab @ solved[:, : a_idx.size]
+    h_red = h[a_idx].reshape(a_idx.size, -1) - b_ab @ solved[:, a_idx.size :]
+    return b_red, h_red.reshape(h[a_idx].shape), condition
+
+
+@dataclass(frozen=True)
+class HarmonicSolution:
+    """Steady response at one frequency.
+
+    Attributes
+    ----------
+    axial : ndarray, shape (n_nodes,)
+        Complex axial displacement amplitudes [m].
+    twist : ndarray, shape (n_nodes,)
+        Complex twist amplitudes [rad].
+    condition : float
+        Condition number of the solved system.
+    condensed : bool
+        True if the throws were condensed to the journals (eq. 3-7), False if the
+        uncondensed system was solved because some ``B_BB`` was ill-conditioned.
+    inner_condition : float
+        Largest condition number of the throws' ``B_BB``.
+    """
+
+    axial: ComplexArray
+    twist: ComplexArray
+    condition: float
+    condensed: bool
+    inner_condition: float
+
+
+class AxialTorsionalCrankshaft:
+    """Crankshaft with coupled axial and torsional degrees of freedom.
+
+    Node order: journal 1, pin 1, journal 2, pin 2, ..., pin n, journal n+1, then
+    any extra nodes; two degrees of freedom per node, ``(u, phi)``.
+
+    Parameters
+    ----------
+    cranks : sequence of CrankFlexibility
+        One per throw, journal to journal.
+    pin_mass : sequence of float
+        Axially moving mass at each crank pin node [kg].
+    pin_inertia : sequence of float
+        Polar inertia at each crank pin node [kg m^2].
+    journal_mass, journal_inertia : float or sequence of float
+        At each journal node [kg], [kg m^2].
+    axial_support : dict of int to float, optional
+        Axial springs to ground at journal nodes (the thrust bearing), by journal
+        index from 0 [N/m].
+    axial_damping, torsional_damping : float, optional
+        Damping proportional to stiffness, ``C_d = beta K``, one factor each for the
+        axial and the torsional parts [s].
+    """
+
+    def __init__(
+        self,
+        cranks: Sequence[CrankFlexibility],
+        *,
+        pin_mass: Sequence[float],
+        pin_inertia: Sequence[float],
+        journal_mass: float | Sequence[float],
+        journal_inertia: float | Sequence[float],
+        axial_support: dict[int, float] | None = None,
+        stiffness_damping: float = 0.0,
+    ) -> None:
+        n = len(cranks)
+        if n == 0:
+            raise ModelError("a crankshaft needs at least one crank")
+        if len(pin_mass) != n or len(pin_inertia) != n:
+            raise ModelError(f"pin_mass and pin_inertia need one value per crank ({n})")
+        jm = np.broadcast_to(np.asarray(journal_mass, dtype=np.float64), (n + 1,))
+        ji = np.broadcast_to(np.asarray(journal_inertia, dtype=np.float64), (n + 1,))
+        masses = np.empty(2 * n + 1)
+        inertias = np.empty(2 * n + 1)
+        masses[0::2], inertias[0::2] = jm, ji
+        masses[1::2], inertias[1::2] = pin_mass, pin_inertia
+        if np.any(masses <= 0) or np.any(inertias <= 0) or not np.all(np.isfinite(masses + inertias)):
+            raise ModelError("every node needs a positive mass and inertia")
+        dof = 2 * (2 * n + 1)
+        k = np.zeros((dof, dof))
+        for i, crank in enumerate(cranks):
+            half = np.linalg.inv(crank.matrix / 2.0)  # 2 x 2, positive definite by construction
+            for a, b in ((2 * i, 2 * i + 1), (2 * i + 1, 2 * i + 2)):
+                idx = [2 * a, 2 * a + 1, 2 * b, 2 * b + 1]
+                k[np.ix_(idx, idx)] += np.block([[half, -half], [-half, half]])
+        for journal, stiffness in (axial_support or {}).items():
+            if not 0 <= journal <= n or stiffness < 0:
+                raise ModelError(f"axial_support: journal {journal} with {stiffness!r} N/m is not valid")
+            k[4 * journal, 4 * journal] += stiffness
+        self.cranks = tuple(cranks)
+        self.stiffness = k
+        self.mass = np.diag(np.column_stack([masses, inertias]).ravel())
+        self.damping = stiffness_damping * k
+        self.n_nodes = 2 * n + 1
+
+    def dynamic_stiffness(self, frequency: float) -> ComplexArray:
+        """``B(w) = K + j w C - w^2 M`` (001 eq. 3) of the whole crankshaft.
+
+        Parameters
+        ----------
+        frequency : float
+            w [rad/s].
+
+        Returns
+        -------
+        ndarray
+        """
+        return np.asarray(
+            self.stiffness + 1j * frequency * self.damping - frequency**2 * self.mass, dtype=np.complex128
+        )
+
+    def harmonic_response(
+        self, frequency: float, *, torque: npt.ArrayLike = 0.0, axial_force: npt.ArrayLike = 0.0
+    ) -> HarmonicSolution:
+        """Steady response to harmonic torques and axial forces at the nodes (001 eq. 7).
+
+        Parameters
+        ----------
+        frequency : float
+            w [rad/s].
+        torque : array_like, shape (n_nodes,)
+            Complex torque amplitudes [N m].
+        axial_force : array_like, shape (n_nodes,)
+            Complex axial force amplitudes [N].
+
+        Returns
+        -------
+        HarmonicSolution
+
+        Raises
+        ------
+        ModelError
+            If the assembled system is singular (undamped resonance) or its
+            condition number exceeds ``SOLVE_LIMIT``.
+        """
+        h = np.zeros(2 * self.n_nodes, dtype=np.complex128)
+        h[0::2] = np.broadcast_to(np.asarray(axial_force, dtype=np.complex128), (self.n_nodes,))
+        h[1::2] = np.broadcast_to(np.asarray(torque, dtype=np.complex128), (self.n_nodes,))
+        b = self.dynamic_stiffness(frequency)
+        journals = np.concatenate([[2 * j, 2 * j + 1] for j in range(0, self.n_nodes, 2)])
+        pins = np.setdiff1d(np.arange(2 * self.n_nodes), journals)
+        inner = [
+            float(np.linalg.cond(b[np.ix_(pins[2 * i : 2 * i + 2], pins[2 * i : 2 * i + 2])]))
+            for i in range(len(self.cranks))
+        ]
+        inner_condition = max(inner)
+        if inner_condition <= CONDENSATION_LIMIT:
+            # eq. 3-6: condense every pin to the journals, then solve (eq. 7) and recover the pins
+            b_red, h_red, _ = condense(b, h, journals.tolist())
+            q = np.zeros(2 * self.n_nodes, dtype=np.complex128)
+            q[journals] = self._solve(b_red, h_red)
+            rhs = h[pins] - b[np.ix_(pins, journals)] @ q[journals]
+            q[pins] = scipy.linalg.solve(b[np.ix_(pins, pins)], rhs)
+            condition = float(np.linalg.cond(b_red))
+            condensed = True
+        else:
+            q = self._solve(b, h)
+            condition = float(np.linalg.cond(b))
+            condensed = False
+        return HarmonicSolution(q[0::2], q[1::2], condition, condensed, inner_condition)
+
+    @staticmethod
+    def _solve(b: ComplexArray, h: ComplexArray) -> ComplexArray:
+        condition = float(np.linalg.cond(b))
+        if not math.isfinite(condition) or condition > SOLVE_LIMIT:
+            raise ModelError(
+                f"the crankshaft's dynamic stiffness is singular (condition {condition:.3g}): an undamped "
+                "resonance of the whole system; add damping or move off the natural frequency"
+            )
+        return np.asarray(scipy.linalg.solve(b, h), dtype=np.complex128)
+
+    def modes(self) -> tuple[FloatArray, FloatArray]:
+        """Coupled natural frequencies and the axial share of each mode's kinetic energy.
+
+        Returns
+        -------
+        frequencies : ndarray
+            Undamped natural frequencies, rigid-body modes excluded [rad/s].
+        axial_share : ndarray
+            Fraction of each mode's kinetic energy in axial motion, 0..1 [-].
+        """
+        values, vectors = scipy.linalg.eigh(self.stiffness, self.mass)
+        keep = values > 1e-9 * values.max()
+        shapes = vectors[:, keep]
+        kinetic = np.diag(self.mass)[:, None] * shapes**2
+        axial = kinetic[0::2].sum(axis=0) / kinetic.sum(axis=0)
+        return np.sqrt(values[keep]), axial

@@ -1,0 +1,149 @@
+"""Torsional-axial coupling (paper 001): independence without C14, reciprocity, condensation, hard cases."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from monitor.errors import ModelError
+from monitor.torsion.axial_coupling import (
+    AxialTorsionalCrankshaft,
+    CrankFlexibility,
+    condense,
+    pair_coupling,
+)
+
+C14 = pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, math.radians(360 / 7 / 2))
+
+
+def _shaft(coupling: float, damping: float = 1e-4) -> AxialTorsionalCrankshaft:
+    cranks = [CrankFlexibility(5e-10, 1e-10, coupling)] * 7
+    return AxialTorsionalCrankshaft(
+        cranks,
+        pin_mass=[30000.0] * 7,
+        pin_inertia=[50000.0] * 7,
+        journal_mass=8000.0,
+        journal_inertia=2000.0,
+        axial_support={7: 5e9},
+        stiffness_damping=damping,
+    )
+
+
+def _torques(model: AxialTorsionalCrankshaft, amplitude: float = 1e6) -> np.ndarray:
+    t = np.zeros(model.n_nodes, dtype=complex)
+    t[1::2] = amplitude * np.exp(1j * 2 * np.pi * np.arange(7) / 7 * 3)
+    return t
+
+
+def test_without_coupling_axial_and_torsional_motion_are_independent() -> None:
+    model = _shaft(0.0)
+    for w in (2 * np.pi * 5, 2 * np.pi * 23.0, 2 * np.pi * 61.0):
+        torsion_only = model.harmonic_response(w, torque=_torques(model))
+        assert np.abs(torsion_only.axial).max() == 0.0
+        axial_only = model.harmonic_response(w, axial_force=np.full(model.n_nodes, 1e5))
+        assert np.abs(axial_only.twist).max() == 0.0
+    _, share = model.modes()
+    assert np.all((share < 1e-12) | (share > 1 - 1e-12))
+
+
+def test_coupling_makes_torsion_move_the_shaft_axially() -> None:
+    model = _shaft(C14)
+    response = model.harmonic_response(2 * np.pi * 20, torque=_torques(model))
+    assert np.abs(response.axial).max() > 1e-6  # micrometres and more under MN m torques
+    _, share = model.modes()
+    assert np.any((share > 0.01) & (share < 0.99))  # some modes mix the two motions
+
+
+def test_reciprocity_of_the_cross_receptances() -> None:
+    """Maxwell-Betti: the axial displacement at i per unit torque at j equals the twist at j
+    per unit axial force at i."""
+    model = _shaft(C14)
+    w = 2 * np.pi * 17.0
+    for i, j in ((0, 5), (3, 9), (14, 1)):
+        torque = np.zeros(model.n_nodes, dtype=complex)
+        torque[j] = 1.0
+        force = np.zeros(model.n_nodes, dtype=complex)
+        force[i] = 1.0
+        a = model.harmonic_response(w, torque=torque).axial[i]
+        b = model.harmonic_response(w, axial_force=force).twist[j]
+        assert a == pytest.approx(b, rel=1e-9)
+
+
+def test_condensation_gives_the_full_solution() -> None:
+    """001 eq. 3-7 through the journals equals solving the whole system directly."""
+    model = _shaft(C14)
+    w = 2 * np.pi * 33.0
+    h = np.zeros(2 * model.n_nodes, dtype=complex)
+    h[1::2] = _torques(model)
+    full = scipy.linalg.solve(model.dynamic_stiffness(w), h)
+    response = model.harmonic_response(w, torque=_torques(model))
+    assert response.condensed
+    np.testing.assert_allclose(response.twist, full[1::2], rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(response.axial, full[0::2], rtol=1e-9, atol=1e-15)
+
+
+def test_singular_inner_block_falls_back_to_the_full_solve() -> None:
+    """At the pin's own resonance on fixed journals B_BB is singular: condensation is skipped and
+    the (well-posed) full system is solved; the residual proves it."""
+    model = _shaft(C14, damping=0.0)
+    pin = [2, 3]  # u and phi of pin 1
+    values = scipy.linalg.eigh(
+        model.stiffness[np.ix_(pin, pin)], model.mass[np.ix_(pin, pin)], eigvals_only=True
+    )
+    w = float(np.sqrt(values[0]))
+    response = model.harmonic_response(w, torque=_torques(model))
+    assert not response.condensed and response.inner_condition > 1e10
+    q = np.zeros(2 * model.n_nodes, dtype=complex)
+    q[0::2], q[1::2] = response.axial, response.twist
+    h = np.zeros(2 * model.n_nodes, dtype=complex)
+    h[1::2] = _torques(model)
+    residual = model.dynamic_stiffness(w) @ q - h
+    assert np.abs(residual).max() <= 1e-6 * np.abs(h).max()
+
+
+def test_undamped_resonance_of_the_whole_crankshaft_is_refused() -> None:
+    model = _shaft(C14, damping=0.0)
+    w = float(model.modes()[0][0])
+    with pytest.raises(ModelError, match=r"singular .* an undamped resonance"):
+        model.harmonic_response(w, torque=_torques(model))
+
+
+def test_condense_refuses_an_ill_conditioned_inner_block() -> None:
+    b = np.array([[2.0, 1.0, 0.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0 + 1e-13]], dtype=complex)
+    with pytest.raises(ModelError, match="ill-conditioned"):
+        condense(b, np.ones(3, dtype=complex), [0])
+
+
+def test_torsion_drives_axial_motion_far_more_than_the_reverse() -> None:
+    """001 Fig. 1: with MN m gas torques on the throws and a 100 kN propeller thrust fluctuation,
+    the axial motion torsion causes is far larger, relative to the axial motion the thrust causes,
+    than the twist the thrust causes relative to the twist the torques cause."""
+    model = _shaft(C14)
+    w = 2 * np.pi * 12.0
+    by_torque = model.harmonic_response(w, torque=_torques(model, 2e6))
+    thrust = np.zeros(model.n_nodes, dtype=complex)
+    thrust[-1] = 1e5
+    by_thrust = model.harmonic_response(w, axial_force=thrust)
+    axial_ratio = np.abs(by_torque.axial).max() / np.abs(by_thrust.axial).max()
+    twist_ratio = np.abs(by_thrust.twist).max() / np.abs(by_torque.twist).max()
+    assert axial_ratio > 100 * twist_ratio
+
+
+def test_pair_coupling_formula() -> None:
+    """Eq. 1: zero for cranks in line (delta 0) or opposite (delta 90 deg), odd in delta."""
+    assert pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, 0.0) == 0.0
+    typical = pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, 0.4)
+    assert abs(pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, math.pi / 2)) < 1e-15 * typical  # cos(pi/2) ~ 6e-17
+    assert pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, -0.4) == -pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, 0.4)
+    with pytest.raises(ModelError, match="positive lateral flexibilities"):
+        pair_coupling(3e-10, 4e-10, 0.0, 2e-9, 0.4)
+
+
+def test_flexibility_must_be_positive_definite() -> None:
+    with pytest.raises(ModelError, match="positive definite"):
+        CrankFlexibility(1e-10, 1e-10, 2e-10)
+    with pytest.raises(ModelError, match="positive flexibilities"):
+        CrankFlexibility(-1e-10, 1e-10)
