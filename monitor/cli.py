@@ -4,6 +4,9 @@ Subcommands:
 
 - ``orders``: the predicted order table of an engine at an operating point.
 - ``engines``: the bundled engine descriptions.
+- ``torsion ...``: shaft-line modes, Campbell data and forced response of an
+  engine, and the stability chart and time response of the variable-inertia
+  crank (see :mod:`monitor.cli_torsion`).
 
 Errors the product raises on purpose (bad engine file, out-of-range input)
 print one clear message and exit with status 2; the table goes to standard
@@ -18,6 +21,7 @@ import sys
 from collections.abc import Sequence
 
 from monitor import __version__
+from monitor.cli_torsion import add_torsion_parser, run_torsion
 from monitor.errors import MonitorError
 
 __all__ = ["main"]
@@ -89,6 +93,7 @@ def _build_parser() -> argparse.ArgumentParser:
     orders.add_argument("--plot", metavar="FILE.png", help="also write a figure of the orders")
 
     sub.add_parser("engines", help="list the bundled engine descriptions")
+    add_torsion_parser(sub)
     return parser
 
 
@@ -149,7 +154,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = _build_parser()
     args = parser.parse_args(argv)
-    handlers = {"orders": _run_orders, "engines": _run_engines}
+    handlers = {"orders": _run_orders, "engines": _run_engines, "torsion": run_torsion}
     try:
         return handlers[args.command](args)
     except MonitorError as error:

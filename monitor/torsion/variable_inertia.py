@@ -69,6 +69,7 @@ from monitor.errors import ModelError
 
 __all__ = [
     "HarmonicExcitation",
+    "Integrator",
     "Monodromy",
     "StabilityChart",
     "TimeResponse",
