@@ -256,6 +256,10 @@ def main() -> None:
     cost = order_table_cost()
     print("rod models ...", flush=True)
     rods = rod_model_table()
+    print("torsion ...", flush=True)
+    from benchmarks.torsion import sections as torsion_sections
+
+    torsion = torsion_sections()
     figure(trunc, grid)
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
@@ -309,6 +313,7 @@ def main() -> None:
         "",
         *rods,
         "",
+        *torsion,
         f"Benchmark run time: {time.perf_counter() - start:.0f} s.",
         "",
     ]
