@@ -213,3 +213,38 @@ def test_bad_models_are_refused(nodes: list[Node], shafts: list[ShaftElement], m
 def test_engine_without_shaft_line_is_refused() -> None:
     with pytest.raises(ModelError, match="has no \\[shaft_line\\]"):
         shaft_line_of(load_engine("kluczyk-1cyl-4stroke"))
+
+
+def test_mean_reciprocating_inertia_of_the_exact_kinematics() -> None:
+    """Mean of m_rec x'^2 over a revolution: m_rec R^2 (1/2 + lambda^2/8 + lambda^4/... ), here
+    against a 20 000-point trapezoid (an independent quadrature); it tends to m R^2 / 2 as lambda -> 0."""
+    from monitor.kinematics import piston_x_derivatives
+    from monitor.torsion.shaft_line import mean_reciprocating_inertia
+
+    e = load_engine("man-b-w-7k98mc")
+    a = np.linspace(0, 2 * np.pi, 20001)
+    dx = piston_x_derivatives(a, e.crank_radius, e.rod_ratio)[1]
+    reference = e.reciprocating_mass * np.trapezoid(dx**2, a) / (2 * np.pi)
+    assert mean_reciprocating_inertia(e) == pytest.approx(reference, rel=1e-12)
+    ratio = mean_reciprocating_inertia(e) / (0.5 * e.reciprocating_mass * e.crank_radius**2)
+    assert ratio == pytest.approx(1 + e.rod_ratio**2 / 4, rel=0.01)
+
+
+def test_natural_frequencies_through_a_revolution() -> None:
+    """With the reciprocating inertia at each crank angle, the frequencies move around their mean-inertia
+    values; with no reciprocating inertia they are higher than all of them."""
+    e = load_engine("man-b-w-7k98mc")
+    mean = shaft_line_of(e).modes().frequencies
+    none = shaft_line_of(e, reciprocating="none").modes().frequencies
+    through = np.array(
+        [
+            shaft_line_of(e, reciprocating=float(a)).modes().frequencies
+            for a in np.linspace(0, 2 * np.pi, 24, endpoint=False)
+        ]
+    )
+    assert np.all(through.min(axis=0) <= mean * (1 + 1e-9)) and np.all(
+        through.max(axis=0) >= mean * (1 - 1e-9)
+    )
+    assert np.all(none > through.max(axis=0))
+    with pytest.raises(ModelError, match="expected 'mean', 'none' or a crank angle"):
+        shaft_line_of(e, reciprocating="max")  # type: ignore[arg-type]

@@ -274,3 +274,19 @@ def test_out_of_range_parameters_are_refused(eps: float, r: float, message: str)
         VariableInertiaCrank(eps, r)
     with pytest.raises(ModelError, match=message):
         monodromy(eps, r)
+
+
+def test_equivalent_crank_of_an_engine() -> None:
+    """epsilon from one throw's inertias, r from a shaft-line mode (paper 002 eq. 5 in engine terms)."""
+    from monitor.engine import load_engine
+    from monitor.torsion.shaft_line import shaft_line_of
+    from monitor.torsion.variable_inertia import crank_of_engine
+
+    e = load_engine("man-b-w-7k98mc")
+    crank = crank_of_engine(e, e.rated_speed, mode=2)
+    half = 0.5 * e.reciprocating_mass * e.crank_radius**2
+    rotating = e.shaft_line.throw_inertia_kgm2 + e.rotating_rod_mass * e.crank_radius**2  # type: ignore[union-attr]
+    assert crank.epsilon == pytest.approx(half / (rotating + half))
+    assert crank.r == pytest.approx(e.rated_speed / shaft_line_of(e).modes().frequencies[1])
+    with pytest.raises(ModelError, match=r"has modes 1\.\."):
+        crank_of_engine(e, e.rated_speed, mode=99)

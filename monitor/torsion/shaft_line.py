@@ -20,10 +20,12 @@ which converges to the continuous shaft as it is divided).
   solved without forming an inverse; its condition number is reported.
 - An engine's shaft line is built from its description
   (:func:`shaft_line_of`): one node per crank throw, with the throw's
-  rotating inertia, the rod's crank-pin share ``m_rot R^2`` and the mean
-  reciprocating inertia ``m_rec R^2 / 2`` (its variation is the subject of
-  :mod:`monitor.torsion.variable_inertia`), then the free-end and driven-end
-  elements.  The forced response to the engine's excitation orders uses each
+  rotating inertia, the rod's crank-pin share ``m_rot R^2`` and the
+  reciprocating parts' inertia ``m_rec (dx/dalpha)^2`` (exact kinematics):
+  its mean over a revolution, or its value at a given crank angle to follow
+  the natural frequencies through a revolution (the variation itself is the
+  subject of :mod:`monitor.torsion.variable_inertia`); then the free-end and
+  driven-end elements.  The forced response to the engine's excitation orders uses each
   cylinder's torque orders, with their phases, from
   :func:`monitor.model_orders.predict_orders`.
 
@@ -58,6 +60,8 @@ __all__ = [
     "ShaftLineModel",
     "campbell",
     "engine_forced_response",
+    "mean_reciprocating_inertia",
+    "reciprocating_inertia",
     "shaft_line_of",
 ]
 
@@ -345,15 +349,47 @@ class ShaftLineModel:
 
 
 # ------------------------------------------------------------------------------- engine shaft lines
-def shaft_line_of(engine: Engine, *, reciprocating: Literal["mean", "none"] = "mean") -> ShaftLineModel:
+def reciprocating_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatArray:
+    """Inertia of one cylinder's reciprocating parts about the crankshaft, ``m_rec (dx/dalpha)^2``.
+
+    Parameters
+    ----------
+    engine : Engine
+        The engine (two-mass reciprocating mass, exact kinematics).
+    crank_angle : array_like
+        The cylinder's own crank angle from TDC [rad].
+
+    Returns
+    -------
+    ndarray
+        [kg m^2]; its mean over a revolution is ``m_rec R^2 (1/2 + lambda^2 / 8 + ...)``.
+    """
+    from monitor.kinematics import piston_x_derivatives
+
+    dx = piston_x_derivatives(crank_angle, engine.crank_radius, engine.rod_ratio)[1]
+    return engine.reciprocating_mass * dx * dx
+
+
+def mean_reciprocating_inertia(engine: Engine) -> float:
+    """Mean of :func:`reciprocating_inertia` over a revolution [kg m^2] (spectrally exact quadrature)."""
+    grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
+    return float(np.mean(reciprocating_inertia(engine, grid)))
+
+
+def shaft_line_of(
+    engine: Engine, *, reciprocating: Literal["mean", "none"] | float = "mean"
+) -> ShaftLineModel:
     """The shaft-line model of an engine description.
 
     Parameters
     ----------
     engine : Engine
         With a ``[shaft_line]`` table.
-    reciprocating : {"mean", "none"}
-        Add the mean reciprocating inertia ``m_rec R^2 / 2`` to each throw, or not.
+    reciprocating : {"mean", "none"} or float
+        The reciprocating parts' inertia on each throw: its mean over a
+        revolution (exact kinematics), none, or its value when cylinder 1's
+        crank stands at this angle (a float [rad]; each throw at its own
+        angle), to follow the natural frequencies through a revolution.
 
     Returns
     -------
@@ -365,9 +401,15 @@ def shaft_line_of(engine: Engine, *, reciprocating: Literal["mean", "none"] = "m
     if line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
     r2 = engine.crank_radius**2
-    throw = line.throw_inertia_kgm2 + engine.rotating_rod_mass * r2
+    base = line.throw_inertia_kgm2 + engine.rotating_rod_mass * r2
     if reciprocating == "mean":
-        throw += 0.5 * engine.reciprocating_mass * r2
+        throws = np.full(engine.cylinders, base + mean_reciprocating_inertia(engine))
+    elif reciprocating == "none":
+        throws = np.full(engine.cylinders, base)
+    elif isinstance(reciprocating, float) and math.isfinite(reciprocating):
+        throws = base + reciprocating_inertia(engine, reciprocating - engine.firing_angles)
+    else:
+        raise ModelError(f"reciprocating = {reciprocating!r}: expected 'mean', 'none' or a crank angle [rad]")
     nodes: list[Node] = []
     shafts: list[ShaftElement] = []
     for element in reversed(line.free_end):
@@ -387,7 +429,7 @@ def shaft_line_of(engine: Engine, *, reciprocating: Literal["mean", "none"] = "m
         order = range(engine.cylinders, 0, -1)
     first_throw = len(nodes)
     for c in order:
-        nodes.append(Node(f"cylinder {c}", throw))
+        nodes.append(Node(f"cylinder {c}", float(throws[c - 1])))
     if free:
         shafts.append(
             ShaftElement(

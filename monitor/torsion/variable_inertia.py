@@ -65,6 +65,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
+from monitor.engine import Engine
 from monitor.errors import ModelError
 
 __all__ = [
@@ -74,6 +75,7 @@ __all__ = [
     "StabilityChart",
     "TimeResponse",
     "VariableInertiaCrank",
+    "crank_of_engine",
     "harmonic_content",
     "instability_ranges",
     "monodromy",
@@ -209,6 +211,36 @@ class VariableInertiaCrank:
         j0 = rotating_inertia + half
         natural = math.sqrt(stiffness / j0)
         return cls(epsilon=half / j0, r=crank_speed / natural, zeta=damping / (2 * j0 * natural))
+
+
+def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> VariableInertiaCrank:
+    """The equivalent single crank of an engine at a speed (one throw's inertia ratio, one mode's frequency).
+
+    Parameters
+    ----------
+    engine : Engine
+        With ``[shaft_line]``.
+    crank_speed : float
+        omega [rad/s].
+    mode : int, optional
+        Which natural mode of the shaft line (1 = lowest) sets ``omega_n``.
+
+    Returns
+    -------
+    VariableInertiaCrank
+        ``epsilon = (m_rec R^2 / 2) / (I_throw + m_rot R^2 + m_rec R^2 / 2)`` and
+        ``r = omega / omega_mode`` with the mean-inertia shaft line.
+    """
+    from monitor.torsion.shaft_line import shaft_line_of
+
+    if engine.shaft_line is None:
+        raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
+    half = 0.5 * engine.reciprocating_mass * engine.crank_radius**2
+    rotating = engine.shaft_line.throw_inertia_kgm2 + engine.rotating_rod_mass * engine.crank_radius**2
+    frequencies = shaft_line_of(engine).modes().frequencies
+    if not 1 <= mode <= frequencies.size:
+        raise ModelError(f"mode = {mode!r}: the shaft line has modes 1..{frequencies.size}")
+    return VariableInertiaCrank(half / (rotating + half), crank_speed / float(frequencies[mode - 1]))
 
 
 def _check(epsilon: float, r: float) -> None:
