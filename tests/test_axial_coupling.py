@@ -147,3 +147,28 @@ def test_flexibility_must_be_positive_definite() -> None:
         CrankFlexibility(1e-10, 1e-10, 2e-10)
     with pytest.raises(ModelError, match="positive flexibilities"):
         CrankFlexibility(-1e-10, 1e-10)
+
+
+def test_eq_1_from_the_single_crank_flexibilities() -> None:
+    """001 eq. 1 by an independent route: the single crank's 6 x 6 flexibility (one end fixed, with the
+    radial-axial term C21 and the tangential-torsional term C34 but no C14) constrained laterally along
+    the bisector of a crank pair (delta from the crank plane) by a Schur complement. The constrained
+    u_x / M_x equals eq. 1 (up to the sign convention of delta) for every delta."""
+    from monitor.torsion.axial_coupling import constrained_coupling
+
+    c11, c22, c33, c44, c55, c66 = 5e-10, 1e-9, 2e-9, 1e-10, 3e-11, 2e-11
+    c21, c34, c61, c54 = (
+        3e-10,
+        4e-10,
+        1e-11,
+        2e-11,
+    )  # in-plane bending under axial force, out-of-plane under torque
+    flexibility = np.diag([c11, c22, c33, c44, c55, c66])
+    for i, j, v in ((1, 0, c21), (2, 3, c34), (5, 0, c61), (4, 3, c54)):
+        flexibility[i, j] = flexibility[j, i] = v
+    assert np.all(np.linalg.eigvalsh(flexibility) > 0)
+    for delta in np.radians([10.0, 25.7, 30.0, 45.0, 60.0, 80.0]):
+        assert -constrained_coupling(flexibility, delta) == pytest.approx(
+            pair_coupling(c21, c34, c22, c33, delta), rel=1e-12
+        )
+    assert constrained_coupling(flexibility, 0.0) == 0.0  # held in the crank plane: no coupling

@@ -56,6 +56,7 @@ __all__ = [
     "CrankFlexibility",
     "HarmonicSolution",
     "condense",
+    "constrained_coupling",
     "pair_coupling",
 ]
 
@@ -91,6 +92,46 @@ def pair_coupling(c21: float, c34: float, c22: float, c33: float, half_angle: fl
         raise ModelError(f"c22 = {c22!r}, c33 = {c33!r}: expected positive lateral flexibilities [m/N]")
     s, c = math.sin(half_angle), math.cos(half_angle)
     return c21 * c34 * c * s / (c33 * s * s + c22 * c * c)
+
+
+def constrained_coupling(flexibility: npt.ArrayLike, direction: float) -> float:
+    """Axial-torsional coupling of a crank whose free journal is held laterally along one direction.
+
+    Parameters
+    ----------
+    flexibility : array_like, shape (6, 6)
+        The single crank's flexibility at its free journal (001 eq. 2, one end
+        fixed), order ``(u_x, u_r, u_t, phi_x, phi_r, phi_t)``: axial, radial (in
+        the crank plane), tangential, then the rotations [m/N, m/(N m), rad/(N m)].
+    direction : float
+        Angle of the held direction from the crank plane, about the shaft axis [rad].
+
+    Returns
+    -------
+    float
+        ``u_x / M_x`` with the constraint [m/(N m)].
+
+    Notes
+    -----
+    The lateral reaction ``p`` along ``g = (0, cos d, sin d, 0, 0, 0)`` makes the
+    constrained flexibility the Schur complement
+    ``C' = C - (C g)(g^T C) / (g^T C g)``.  With ``C14 = C13 = C23 = C24 = 0`` its
+    ``(1, 4)`` entry is ``-C21 C34 cos d sin d / (C22 cos^2 d + C33 sin^2 d)``:
+    paper 001 eq. 1 for two cranks ``2 delta`` apart, whose common journal is held
+    by its bearing along their bisector, ``delta`` from either crank plane.
+    (The paper gives eq. 1 without its derivation; this is ours, and a
+    two-crank beam model with the bending lever arms is not built here.)
+    """
+    c = np.asarray(flexibility, dtype=np.float64)
+    if c.shape != (6, 6) or not np.allclose(c, c.T, rtol=1e-12, atol=0):
+        raise ModelError("flexibility: expected a symmetric 6 x 6 matrix")
+    g = np.array([0.0, math.cos(direction), math.sin(direction), 0.0, 0.0, 0.0])
+    cg = c @ g
+    denominator = float(g @ cg)
+    if not denominator > 0:
+        raise ModelError("flexibility: the held direction has no lateral flexibility (g^T C g <= 0)")
+    constrained = c - np.outer(cg, cg) / denominator
+    return float(constrained[0, 3])
 
 
 @dataclass(frozen=True)
