@@ -263,6 +263,27 @@ class ShaftElement(_Strict):
     )
 
 
+class CrankAxial(_Strict):
+    """Axial and coupling data of one crank throw (paper 001), for the torsional-axial model.
+
+    Flexibilities of one crank with one journal fixed, at the other journal:
+    axial (C11), lateral in the crank plane (C22) and across it (C33), radial
+    displacement per axial force (C21) and tangential displacement per torque
+    (C34); its torsional flexibility is ``1 / throw_stiffness``.
+    """
+
+    axial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    radial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    tangential_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    radial_per_axial_m_per_n: float = Field(description="C21 [m/N]")
+    tangential_per_torque_m_per_nm: float = Field(description="C34 [m/(N m)]")
+    throw_mass_kg: Mass = Field(description="mass of one throw moving axially with the crankshaft")
+    thrust_bearing_stiffness_n_per_m: Annotated[float, AfterValidator(_positive("N/m"))]
+    stiffness_damping_s: Annotated[float, AfterValidator(_non_negative("s"))] = Field(
+        default=1e-4, description="damping proportional to stiffness, C = beta K"
+    )
+
+
 class ShaftLine(_Strict):
     """Torsional data of the crankshaft and the shafting (used by the torsion model)."""
 
@@ -277,6 +298,7 @@ class ShaftLine(_Strict):
     tooth_wheel: str | None = Field(
         default=None, description="name of the element that carries the crank-speed tooth wheel"
     )
+    axial: CrankAxial | None = None
 
 
 class Engine(_Strict):

@@ -172,3 +172,74 @@ def test_eq_1_from_the_single_crank_flexibilities() -> None:
             pair_coupling(c21, c34, c22, c33, delta), rel=1e-12
         )
     assert constrained_coupling(flexibility, 0.0) == 0.0  # held in the crank plane: no coupling
+
+
+def _engine_with(c21: float):  # type: ignore[no-untyped-def]
+    import tomllib
+
+    from monitor.engine import parse_engine
+
+    from .conftest import ENGINES
+
+    with (ENGINES / "man-b-w-7k98mc.toml").open("rb") as handle:
+        data = tomllib.load(handle)
+    data["shaft_line"]["axial"]["radial_per_axial_m_per_n"] = c21
+    return parse_engine(data)
+
+
+def test_superelement_with_held_laterals_reduces_to_eq_1() -> None:
+    """A 6 x 6 superelement flexibility with one lateral direction held gives the CrankFlexibility whose
+    coupling is eq. 1, and whose axial and torsional flexibilities are the constrained ones."""
+    flexibility = np.diag([5e-10, 1e-9, 2e-9, 1e-10, 3e-11, 2e-11])
+    flexibility[1, 0] = flexibility[0, 1] = 3e-10
+    flexibility[2, 3] = flexibility[3, 2] = 4e-10
+    delta = math.radians(25.7)
+    reduced = CrankFlexibility.from_superelement(flexibility, [delta])
+    assert -reduced.coupling == pytest.approx(pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, delta), rel=1e-12)
+    free = CrankFlexibility.from_superelement(flexibility, [])
+    assert free.coupling == 0.0 and free.axial == 5e-10 and free.torsional == 1e-10
+    both = CrankFlexibility.from_superelement(flexibility, [0.0, math.pi / 2])  # laterals fully held
+    # C21 and C34 act in different lateral directions: no path between them (cos(pi/2) ~ 6e-17 aside)
+    assert abs(both.coupling) < 1e-20 * abs(reduced.coupling)
+    assert both.axial == pytest.approx(5e-10 - (3e-10) ** 2 / 1e-9)
+
+
+def test_engine_crankshaft_couplings_follow_the_neighbouring_throws() -> None:
+    from monitor.engine import load_engine
+
+    e = load_engine("man-b-w-7k98mc")
+    model = AxialTorsionalCrankshaft.of_engine(e)
+    axial = e.shaft_line.axial  # type: ignore[union-attr]
+    angles = -e.firing_angles
+    delta = 0.5 * math.remainder(float(angles[1] - angles[0]), 2 * math.pi)
+    expected = pair_coupling(
+        axial.radial_per_axial_m_per_n,
+        axial.tangential_per_torque_m_per_nm,
+        axial.radial_flexibility_m_per_n,
+        axial.tangential_flexibility_m_per_n,
+        delta,
+    )
+    assert model.cranks[0].coupling == pytest.approx(expected, rel=1e-12)
+    assert model.cranks[0].torsional == pytest.approx(1 / e.shaft_line.throw_stiffness_nm_per_rad)  # type: ignore[union-attr]
+    frequencies, share = model.modes()
+    assert np.all(np.diff(frequencies) > 0) and share.size == frequencies.size
+
+
+def test_engine_axial_response_is_first_order_in_the_coupling() -> None:
+    """Torsion-driven axial motion is proportional to C14 (so to C21) away from resonance: doubling C21
+    doubles it within the second-order change of the modes; with C21 = 0 there is none."""
+    from monitor.torsion.axial_coupling import engine_axial_response
+
+    speeds = np.array([0.5, 0.75]) * (104 * math.pi / 30)
+    responses = [engine_axial_response(_engine_with(c21), speeds, max_order=8) for c21 in (1.5e-10, 3.0e-10)]
+    ratio = np.abs(responses[1].axial[0]).sum() / np.abs(responses[0].axial[0]).sum()
+    assert ratio == pytest.approx(2.0, rel=0.02)
+    none = engine_axial_response(_engine_with(0.0), speeds, max_order=8)
+    assert np.abs(none.axial).max() == 0.0
+
+
+def test_engine_without_axial_data_is_refused() -> None:
+    from monitor.engine import load_engine
+
+    with pytest.raises(ModelError, match=r"no \[shaft_line.axial\] data"):
+        AxialTorsionalCrankshaft.of_engine(load_engine("medium-speed-6l32"))

@@ -49,14 +49,17 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
+from monitor.engine import Engine
 from monitor.errors import ModelError
 
 __all__ = [
+    "AxialResponse",
     "AxialTorsionalCrankshaft",
     "CrankFlexibility",
     "HarmonicSolution",
     "condense",
     "constrained_coupling",
+    "engine_axial_response",
     "pair_coupling",
 ]
 
@@ -162,6 +165,34 @@ class CrankFlexibility:
                 f"coupling = {self.coupling!r}: expected C14^2 < C11 C44 = {self.axial * self.torsional:.4g} "
                 "(a flexibility matrix must be positive definite)"
             )
+
+    @classmethod
+    def from_superelement(cls, flexibility: npt.ArrayLike, held: Sequence[float]) -> CrankFlexibility:
+        """The axial-torsional flexibility of a 6 x 6 crank superelement with laterals held.
+
+        Parameters
+        ----------
+        flexibility : array_like, shape (6, 6)
+            The crank's flexibility (001 eq. 2), order ``(u_x, u_r, u_t, phi_x,
+            phi_r, phi_t)`` [m/N, m/(N m), rad/(N m)].
+        held : sequence of float
+            Lateral directions held by bearings, as angles from the crank plane [rad];
+            bending rotations stay free.
+
+        Returns
+        -------
+        CrankFlexibility
+            From the ``(u_x, phi_x)`` block of the constrained flexibility (Schur
+            complement); with one held direction ``delta`` its coupling is eq. 1.
+        """
+        c = np.asarray(flexibility, dtype=np.float64)
+        if c.shape != (6, 6) or not np.allclose(c, c.T, rtol=1e-12, atol=0):
+            raise ModelError("flexibility: expected a symmetric 6 x 6 matrix")
+        g = np.array([[0.0, math.cos(d), math.sin(d), 0.0, 0.0, 0.0] for d in held]).T  # (6, n_held)
+        if g.size:
+            cg = c @ g
+            c = c - cg @ np.linalg.solve(g.T @ cg, cg.T)
+        return cls(axial=float(c[0, 0]), torsional=float(c[3, 3]), coupling=float(c[0, 3]))
 
     @property
     def matrix(self) -> FloatArray:
@@ -382,6 +413,77 @@ class AxialTorsionalCrankshaft:
             )
         return np.asarray(scipy.linalg.solve(b, h), dtype=np.complex128)
 
+    @classmethod
+    def of_engine(cls, engine: Engine) -> AxialTorsionalCrankshaft:
+        """The coupled crankshaft of an engine with ``[shaft_line.axial]`` data.
+
+        Each crank's superelement flexibility has ``C11``, ``C22``, ``C33``,
+        ``C21``, ``C34`` from the description and ``C44 = 1 / throw_stiffness``;
+        its coupling ``C14`` is eq. 1 with ``delta`` half the angle to the next
+        throw (the last throw: to the previous one).  Pins carry half a throw's
+        mass and its torsional inertia (rotating parts, rod share, mean
+        reciprocating inertia), journals a quarter from each neighbouring throw;
+        the thrust bearing holds the driven-end journal; the flywheel's inertia
+        joins that journal.  The shafting beyond the thrust bearing is left out.
+
+        Parameters
+        ----------
+        engine : Engine
+
+        Returns
+        -------
+        AxialTorsionalCrankshaft
+        """
+        from monitor.torsion.shaft_line import mean_reciprocating_inertia
+
+        line = engine.shaft_line
+        if line is None or line.axial is None:
+            raise ModelError(f"engine {engine.id!r} has no [shaft_line.axial] data for the coupled model")
+        axial = line.axial
+        n = engine.cylinders
+        throw_angles = (
+            -engine.firing_angles
+        )  # crank positions: cylinder c trails cylinder 1 by its firing angle
+        cranks = []
+        for c in range(n):
+            other = c + 1 if c + 1 < n else c - 1
+            delta = (
+                0.5 * math.remainder(float(throw_angles[other] - throw_angles[c]), 2 * math.pi)
+                if n > 1
+                else 0.0
+            )
+            c14 = pair_coupling(
+                axial.radial_per_axial_m_per_n,
+                axial.tangential_per_torque_m_per_nm,
+                axial.radial_flexibility_m_per_n,
+                axial.tangential_flexibility_m_per_n,
+                delta,
+            )
+            cranks.append(
+                CrankFlexibility(axial.axial_flexibility_m_per_n, 1.0 / line.throw_stiffness_nm_per_rad, c14)
+            )
+        inertia = (
+            line.throw_inertia_kgm2
+            + engine.rotating_rod_mass * engine.crank_radius**2
+            + mean_reciprocating_inertia(engine)
+        )
+        journal_mass = np.full(n + 1, 0.5 * axial.throw_mass_kg)
+        journal_mass[[0, -1]] = 0.25 * axial.throw_mass_kg
+        journal_inertia = np.full(n + 1, 0.5 * line.throw_inertia_kgm2)
+        journal_inertia[[0, -1]] = 0.25 * line.throw_inertia_kgm2
+        flywheel = next((e for e in line.driven_end if e.kind == "flywheel"), None)
+        if flywheel is not None:
+            journal_inertia[-1] += flywheel.inertia_kgm2
+        return cls(
+            cranks,
+            pin_mass=[0.5 * axial.throw_mass_kg] * n,
+            pin_inertia=[inertia] * n,
+            journal_mass=journal_mass.tolist(),
+            journal_inertia=journal_inertia.tolist(),
+            axial_support={n: axial.thrust_bearing_stiffness_n_per_m},
+            stiffness_damping=axial.stiffness_damping_s,
+        )
+
     def modes(self) -> tuple[FloatArray, FloatArray]:
         """Coupled natural frequencies and the axial share of each mode's kinetic energy.
 
@@ -398,3 +500,78 @@ class AxialTorsionalCrankshaft:
         kinetic = np.diag(self.mass)[:, None] * shapes**2
         axial = kinetic[0::2].sum(axis=0) / kinetic.sum(axis=0)
         return np.sqrt(values[keep]), axial
+
+
+@dataclass(frozen=True)
+class AxialResponse:
+    """Coupled response of an engine's crankshaft to its torque orders over a speed range.
+
+    Attributes
+    ----------
+    speed : ndarray, shape (n_speeds,)
+        [rad/s].
+    orders : ndarray, shape (n_orders,)
+        [-].
+    axial : ndarray, shape (n_nodes, n_speeds, n_orders)
+        Complex axial displacement [m].
+    twist : ndarray, shape (n_nodes, n_speeds, n_orders)
+        Complex twist [rad].
+    """
+
+    speed: FloatArray
+    orders: FloatArray
+    axial: ComplexArray
+    twist: ComplexArray
+
+
+def engine_axial_response(
+    engine: Engine,
+    speeds: npt.ArrayLike,
+    *,
+    load: float | str = "propeller",
+    max_order: float = 12,
+    model: AxialTorsionalCrankshaft | None = None,
+) -> AxialResponse:
+    """Axial and torsional response of the coupled crankshaft to the engine's torque orders (001 eq. 7).
+
+    Parameters
+    ----------
+    engine : Engine
+        With ``[shaft_line.axial]`` data.
+    speeds : array_like
+        Crank speeds, > 0 [rad/s].
+    load : float or "propeller"
+        Fraction of rated IMEP, or the propeller law (IMEP ~ speed^2).
+    max_order : float, optional
+        Highest excitation order [-].
+    model : AxialTorsionalCrankshaft, optional
+        Default: :meth:`AxialTorsionalCrankshaft.of_engine`.
+
+    Returns
+    -------
+    AxialResponse
+    """
+    from monitor.crankshaft import EngineModel
+    from monitor.model_orders import predict_orders
+
+    shaft = model if model is not None else AxialTorsionalCrankshaft.of_engine(engine)
+    w = np.asarray(speeds, dtype=np.float64)
+    if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):
+        raise ModelError("speeds: expected a non-empty 1-D array of positive crank speeds [rad/s]")
+    forces = EngineModel(engine)
+    orders = None
+    axial = twist = None
+    for i, speed in enumerate(w):
+        point_load = min(1.1, (speed / engine.rated_speed) ** 2) if load == "propeller" else float(load)
+        result = predict_orders(forces, crank_speed=float(speed), load=point_load, max_order=max_order)
+        if orders is None:
+            orders = result.orders[1:]
+            axial = np.zeros((shaft.n_nodes, w.size, orders.size), dtype=np.complex128)
+            twist = np.zeros_like(axial)
+        for j, k in enumerate(orders):
+            torque = np.zeros(shaft.n_nodes, dtype=np.complex128)
+            torque[1::2] = result.cylinder_torque[:, j + 1]
+            solution = shaft.harmonic_response(float(k * speed), torque=torque)
+            axial[:, i, j] = solution.axial  # type: ignore[index]
+            twist[:, i, j] = solution.twist  # type: ignore[index]
+    return AxialResponse(w, orders, axial, twist)  # type: ignore[arg-type]
