@@ -160,3 +160,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MonitorError as error:
         print(f"engine-monitor: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader went away (e.g. piped into head): stop quietly
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0

@@ -75,6 +75,21 @@ def add_torsion_parser(sub: Any) -> None:
     resp.add_argument("--max-order", type=float, default=12.0, help="highest excitation order (default 12)")
     common(resp)
 
+    axial = tsub.add_parser(
+        "axial", help="coupled torsional-axial crankshaft (paper 001): modes and axial response"
+    )
+    axial.add_argument("engine", metavar="ENGINE")
+    axial.add_argument(
+        "--rpm-min", type=float, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
+    )
+    axial.add_argument(
+        "--rpm-max", type=float, default=None, help="highest speed [rpm] (default 105 %% of rated)"
+    )
+    axial.add_argument("--steps", type=int, default=60, help="speeds computed (default 60)")
+    axial.add_argument("--load", default="propeller", help="fraction of rated IMEP, or 'propeller' (default)")
+    axial.add_argument("--max-order", type=float, default=12.0, help="highest excitation order (default 12)")
+    common(axial)
+
     stab = tsub.add_parser(
         "stability", help="Floquet stability chart of the variable-inertia crank (paper 002)"
     )
@@ -143,6 +158,7 @@ def run_torsion(args: argparse.Namespace) -> int:
         "modes": _modes,
         "campbell": _campbell,
         "response": _response,
+        "axial": _axial,
         "stability": _stability,
         "simulate": _simulate,
     }[args.torsion_command]
@@ -213,28 +229,17 @@ def _campbell(args: argparse.Namespace) -> None:
 
 def _response(args: argparse.Namespace) -> None:
     from monitor.engine import load_engine
-    from monitor.errors import ModelError
     from monitor.torsion.plots import plot_response
     from monitor.torsion.shaft_line import engine_forced_response, shaft_line_of
 
     engine = load_engine(args.engine)
-    rated = engine.operation.rated_speed_rpm
-    lo = args.rpm_min if args.rpm_min is not None else 0.3 * rated
-    hi = args.rpm_max if args.rpm_max is not None else 1.05 * rated
-    if not 0 < lo < hi or args.steps < 2:
-        raise ModelError(f"expected 0 < rpm-min < rpm-max and at least 2 steps, got {lo}, {hi}, {args.steps}")
-    load: float | str = args.load
-    if load != "propeller":
-        try:
-            load = float(load)
-        except ValueError:
-            raise ModelError(f"--load {args.load!r}: expected a number 0..1.1 or 'propeller'") from None
+    speeds = _speed_range(args, engine.operation.rated_speed_rpm)
+    load = _load(args.load)
     line = shaft_line_of(engine)
     node_name = (
         args.node or (engine.shaft_line.tooth_wheel if engine.shaft_line else None) or line.node_names[-1]
     )
     node = line.index(node_name)
-    speeds = np.linspace(lo, hi, args.steps) * math.pi / 30
     response = engine_forced_response(engine, speeds, load=load, max_order=args.max_order, line=line)  # type: ignore[arg-type]
     amplitude = np.abs(response.angle[node])
     fluctuation = np.abs(response.speed_fluctuation[node])
@@ -271,6 +276,73 @@ def _response(args: argparse.Namespace) -> None:
     _emit(args, document, "\n".join(lines))
     if args.plot:
         plot_response(response, node, args.plot, title=f"{engine.name}: torsional response at {node_name}")
+
+
+def _speed_range(args: argparse.Namespace, rated: float) -> np.ndarray:
+    from monitor.errors import ModelError
+
+    lo = args.rpm_min if args.rpm_min is not None else 0.3 * rated
+    hi = args.rpm_max if args.rpm_max is not None else 1.05 * rated
+    if not 0 < lo < hi or args.steps < 2:
+        raise ModelError(f"expected 0 < rpm-min < rpm-max and at least 2 steps, got {lo}, {hi}, {args.steps}")
+    return np.linspace(lo, hi, args.steps) * math.pi / 30
+
+
+def _load(text: str) -> float | str:
+    from monitor.errors import ModelError
+
+    if text == "propeller":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise ModelError(f"--load {text!r}: expected a number 0..1.1 or 'propeller'") from None
+
+
+def _axial(args: argparse.Namespace) -> None:
+    from monitor.engine import load_engine
+    from monitor.torsion.axial_coupling import AxialTorsionalCrankshaft, engine_axial_response
+
+    engine = load_engine(args.engine)
+    model = AxialTorsionalCrankshaft.of_engine(engine)
+    frequencies, share = model.modes()
+    speeds = _speed_range(args, engine.operation.rated_speed_rpm)
+    response = engine_axial_response(
+        engine, speeds, load=_load(args.load), max_order=args.max_order, model=model
+    )
+    free_end = np.abs(response.axial[0]) * 1e6  # journal 1 [um]
+    lines = [f"Coupled torsional-axial crankshaft of {engine.id} (paper 001)", ""]
+    lines.append(f"{'mode':>4} {'frequency [Hz]':>15} {'axial share':>12}")
+    for i, (f, s) in enumerate(zip(frequencies[:10], share[:10], strict=False)):
+        lines.append(f"{i + 1:4d} {f / (2 * math.pi):15.3f} {s:12.3f}")
+    lines.append("")
+    lines.append("axial vibration at the free-end journal driven by the torque orders [um]:")
+    strongest = np.argsort(free_end.max(axis=0))[::-1][:5]
+    head = " ".join(f"{'k=' + format(response.orders[j], 'g'):>9}" for j in strongest)
+    lines.append(f"{'rpm':>8} {'sum':>9} {head}")
+    for i in range(0, speeds.size, max(1, speeds.size // 20)):
+        cells = " ".join(f"{free_end[i, j]:9.2f}" for j in strongest)
+        lines.append(f"{speeds[i] * 30 / math.pi:8.1f} {free_end[i].sum():9.2f} {cells}")
+    document = {
+        "engine": engine.id,
+        "frequencies_hz": (frequencies / (2 * math.pi)).tolist(),
+        "axial_share": share.tolist(),
+        "couplings_m_per_nm": [c.coupling for c in model.cranks],
+        "speed_rpm": (speeds * 30 / math.pi).tolist(),
+        "orders": response.orders.tolist(),
+        "free_end_axial_um": free_end.tolist(),
+    }
+    _emit(args, document, "\n".join(lines))
+    if args.plot:
+        from monitor.torsion.plots import plot_axial
+
+        plot_axial(
+            speeds * 30 / math.pi,
+            response.orders,
+            free_end,
+            args.plot,
+            title=f"{engine.name}: axial vibration of the free end driven by torsion",
+        )
 
 
 def _stability(args: argparse.Namespace) -> None:

@@ -54,6 +54,26 @@ def test_response(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert (tmp_path / "r.png").exists()
 
 
+def test_axial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    doc = _json(
+        [
+            "torsion",
+            "axial",
+            "man-b-w-7k98mc",
+            "--steps",
+            "6",
+            "--max-order",
+            "8",
+            "--json",
+            "--plot",
+            str(tmp_path / "a.png"),
+        ],
+        capsys,
+    )
+    assert len(doc["couplings_m_per_nm"]) == 7 and np.array(doc["free_end_axial_um"]).shape == (6, 8)
+    assert doc["frequencies_hz"][0] > 1.0 and (tmp_path / "a.png").exists()
+
+
 def test_stability_lists_the_table_1_ranges(capsys: pytest.CaptureFixture[str]) -> None:
     doc = _json(["torsion", "stability", "--points", "20", "--epsilon", "0.34", "--json"], capsys)
     (low, _), (_, high) = doc["instability_ranges"]["0.34"]
@@ -89,6 +109,7 @@ def test_simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         (["torsion", "simulate", "--epsilon", "1.0", "--r", "0.5"], "expected 0 <= epsilon < 1"),
         (["torsion", "simulate", "--epsilon", "0.3", "--r", "0"], "expected a positive speed ratio"),
         (["torsion", "modes", "kluczyk-1cyl-4stroke"], "has no [shaft_line]"),
+        (["torsion", "axial", "medium-speed-6l32"], "no [shaft_line.axial] data"),
         (["torsion", "response", "man-b-w-7k98mc", "--node", "nowhere"], "no node named 'nowhere'"),
         (["torsion", "response", "man-b-w-7k98mc", "--load", "heavy"], "--load 'heavy'"),
         (

@@ -11,7 +11,14 @@ import numpy as np
 from monitor.torsion.shaft_line import CampbellData, ForcedResponse, Modes
 from monitor.torsion.variable_inertia import StabilityChart, TimeResponse
 
-__all__ = ["plot_campbell", "plot_modes", "plot_response", "plot_stability", "plot_time_response"]
+__all__ = [
+    "plot_axial",
+    "plot_campbell",
+    "plot_modes",
+    "plot_response",
+    "plot_stability",
+    "plot_time_response",
+]
 
 
 def _figure(path: str | Path, *, size: tuple[float, float] = (10, 5.5)) -> tuple[Any, Any, Path]:
@@ -205,4 +212,36 @@ def plot_time_response(response: TimeResponse, path: str | Path, *, title: str =
     ax.plot(response.tau / (2 * math.pi), response.gamma, lw=0.8)
     ax.set(xlabel="revolutions", ylabel="gamma [rad]", title=title or "Torsional response")
     ax.grid(alpha=0.3)
+    return _save(fig, out)
+
+
+def plot_axial(
+    speed_rpm: np.ndarray, orders: np.ndarray, amplitude_um: np.ndarray, path: str | Path, *, title: str = ""
+) -> Path:
+    """Axial vibration per order against crank speed.
+
+    Parameters
+    ----------
+    speed_rpm : ndarray, shape (n_speeds,)
+        [rpm].
+    orders : ndarray, shape (n_orders,)
+        [-].
+    amplitude_um : ndarray, shape (n_speeds, n_orders)
+        Axial amplitude [um].
+    path : str or Path
+        PNG file.
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax, out = _figure(path)
+    strongest = np.argsort(amplitude_um.max(axis=0))[::-1][:6]
+    for j in sorted(strongest):
+        ax.plot(speed_rpm, amplitude_um[:, j], label=f"order {orders[j]:g}")
+    ax.plot(speed_rpm, amplitude_um.sum(axis=1), "k--", lw=1, label="sum of orders")
+    ax.set(xlabel="crank speed [rpm]", ylabel="axial amplitude [um]", title=title or "Axial vibration")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     return _save(fig, out)
