@@ -290,3 +290,31 @@ def test_equivalent_crank_of_an_engine() -> None:
     assert crank.r == pytest.approx(e.rated_speed / shaft_line_of(e).modes().frequencies[1])
     with pytest.raises(ModelError, match=r"has modes 1\.\."):
         crank_of_engine(e, e.rated_speed, mode=99)
+
+
+def test_gas_excitation_of_an_engine_drives_the_equivalent_crank() -> None:
+    """The gas-torque orders of cylinder 3, scaled by omega^2 J_0, as the crank's external torque: the
+    excitation reproduces the cylinder's gas torque, and a constant-inertia crank (eps = 0) then
+    responds at each order with the textbook amplitude."""
+    from monitor.crankshaft import EngineModel
+    from monitor.engine import load_engine
+    from monitor.model_orders import predict_orders
+    from monitor.torsion.variable_inertia import gas_excitation
+
+    e = load_engine("man-b-w-7k98mc")
+    w = e.rated_speed
+    excitation = gas_excitation(e, w, load=0.8, max_order=6, cylinder=3)
+    r2 = e.crank_radius**2
+    j0 = e.shaft_line.throw_inertia_kgm2 + e.rotating_rod_mass * r2 + 0.5 * e.reciprocating_mass * r2  # type: ignore[union-attr]
+    torque = predict_orders(EngineModel(e), crank_speed=w, load=0.8, max_order=6).cylinder_gas_torque[2, 1:]
+    tau = np.linspace(0, 2 * math.pi, 721)
+    synthesized = sum(t * np.exp(1j * (k + 1) * tau) for k, t in enumerate(torque)).real
+    np.testing.assert_allclose(excitation(tau) * w**2 * j0, synthesized, atol=1e-9 * np.abs(torque).max())
+    r, zeta = 0.35, 0.05
+    crank = VariableInertiaCrank(0.0, r, zeta=zeta, excitation=excitation)
+    tau = np.linspace(0, 2 * math.pi * 300, 300 * 64 + 1)
+    out = simulate(crank, tau, initial=(0.0, 0.0))
+    last = slice(-64 * 10 - 1, -1)
+    for k, q in zip(excitation.orders, excitation.amplitudes, strict=True):
+        steady = abs(2 * np.mean(out.gamma[last] * np.exp(-1j * k * tau[last])))
+        assert steady == pytest.approx(q / math.hypot(1 / r**2 - k**2, 2 * zeta * k / r), rel=1e-5)

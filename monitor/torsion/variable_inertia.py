@@ -76,6 +76,7 @@ __all__ = [
     "TimeResponse",
     "VariableInertiaCrank",
     "crank_of_engine",
+    "gas_excitation",
     "harmonic_content",
     "instability_ranges",
     "monodromy",
@@ -241,6 +242,55 @@ def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> Var
     if not 1 <= mode <= frequencies.size:
         raise ModelError(f"mode = {mode!r}: the shaft line has modes 1..{frequencies.size}")
     return VariableInertiaCrank(half / (rotating + half), crank_speed / float(frequencies[mode - 1]))
+
+
+def gas_excitation(
+    engine: Engine, crank_speed: float, *, load: float = 1.0, max_order: float = 12, cylinder: int = 1
+) -> HarmonicExcitation:
+    """One cylinder's gas-torque orders as the non-dimensional external torque of its equivalent crank.
+
+    Only the gas torque: the reciprocating parts' inertia torque is what the
+    variable-inertia equation itself describes.
+
+    Parameters
+    ----------
+    engine : Engine
+        With ``[shaft_line]`` (for the throw inertia).
+    crank_speed : float
+        omega [rad/s].
+    load : float, optional
+        Fraction of rated IMEP [-].
+    max_order : float, optional
+        Highest order kept [-].
+    cylinder : int, optional
+        Which cylinder's torque (its phase relative to TDC of cylinder 1).
+
+    Returns
+    -------
+    HarmonicExcitation
+        ``amplitude_k = |T_k| / (omega^2 J_0)``, ``J_0 = I_throw + m_rot R^2 + m_rec R^2 / 2``.
+    """
+    from monitor.crankshaft import EngineModel
+    from monitor.model_orders import predict_orders
+
+    if engine.shaft_line is None:
+        raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
+    if not 1 <= cylinder <= engine.cylinders:
+        raise ModelError(f"cylinder = {cylinder!r}: expected 1..{engine.cylinders}")
+    r2 = engine.crank_radius**2
+    j0 = (
+        engine.shaft_line.throw_inertia_kgm2
+        + engine.rotating_rod_mass * r2
+        + 0.5 * engine.reciprocating_mass * r2
+    )
+    result = predict_orders(EngineModel(engine), crank_speed=crank_speed, load=load, max_order=max_order)
+    torque = result.cylinder_gas_torque[cylinder - 1, 1:]
+    scale = crank_speed**2 * j0
+    return HarmonicExcitation(
+        tuple(float(k) for k in result.orders[1:]),
+        tuple(float(v) for v in np.abs(torque) / scale),
+        tuple(float(v) for v in np.angle(torque)),
+    )
 
 
 def _check(epsilon: float, r: float) -> None:
