@@ -551,27 +551,17 @@ def engine_axial_response(
     -------
     AxialResponse
     """
-    from monitor.crankshaft import EngineModel
-    from monitor.model_orders import predict_orders
+    from monitor.torsion.shaft_line import cylinder_torque_orders
 
     shaft = model if model is not None else AxialTorsionalCrankshaft.of_engine(engine)
-    w = np.asarray(speeds, dtype=np.float64)
-    if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):
-        raise ModelError("speeds: expected a non-empty 1-D array of positive crank speeds [rad/s]")
-    forces = EngineModel(engine)
-    orders = None
-    axial = twist = None
+    w, orders, cylinder_torque = cylinder_torque_orders(engine, speeds, load=load, max_order=max_order)
+    axial = np.zeros((shaft.n_nodes, w.size, orders.size), dtype=np.complex128)
+    twist = np.zeros_like(axial)
     for i, speed in enumerate(w):
-        point_load = min(1.1, (speed / engine.rated_speed) ** 2) if load == "propeller" else float(load)
-        result = predict_orders(forces, crank_speed=float(speed), load=point_load, max_order=max_order)
-        if orders is None:
-            orders = result.orders[1:]
-            axial = np.zeros((shaft.n_nodes, w.size, orders.size), dtype=np.complex128)
-            twist = np.zeros_like(axial)
         for j, k in enumerate(orders):
             torque = np.zeros(shaft.n_nodes, dtype=np.complex128)
-            torque[1::2] = result.cylinder_torque[:, j + 1]
+            torque[1::2] = cylinder_torque[i, :, j]
             solution = shaft.harmonic_response(float(k * speed), torque=torque)
-            axial[:, i, j] = solution.axial  # type: ignore[index]
-            twist[:, i, j] = solution.twist  # type: ignore[index]
-    return AxialResponse(w, orders, axial, twist)  # type: ignore[arg-type]
+            axial[:, i, j] = solution.axial
+            twist[:, i, j] = solution.twist
+    return AxialResponse(w, orders, axial, twist)

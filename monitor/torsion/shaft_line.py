@@ -59,6 +59,7 @@ __all__ = [
     "ShaftElement",
     "ShaftLineModel",
     "campbell",
+    "cylinder_torque_orders",
     "engine_forced_response",
     "mean_reciprocating_inertia",
     "reciprocating_inertia",
@@ -492,6 +493,53 @@ class ForcedResponse:
         return np.asarray(np.abs(self.angle).sum(axis=-1))
 
 
+def cylinder_torque_orders(
+    engine: Engine,
+    speeds: npt.ArrayLike,
+    *,
+    load: float | str = "propeller",
+    max_order: float = 12,
+) -> tuple[FloatArray, FloatArray, ComplexArray]:
+    """Each cylinder's torque orders (gas and inertia, with phases) at every speed of a range.
+
+    Parameters
+    ----------
+    engine : Engine
+        With a gas-force model.
+    speeds : array_like
+        Crank speeds, > 0 [rad/s].
+    load : float or "propeller"
+        Fraction of rated IMEP, or "propeller" for the propeller law
+        (IMEP proportional to speed squared, rated at rated speed, at most 1.1).
+    max_order : float, optional
+        Highest order [-].
+
+    Returns
+    -------
+    speeds : ndarray, shape (n_speeds,)
+        [rad/s].
+    orders : ndarray, shape (n_orders,)
+        Orders without order 0 [-].
+    torque : ndarray, shape (n_speeds, n_cylinders, n_orders)
+        Complex torque orders [N m], phases relative to TDC of cylinder 1.
+    """
+    from monitor.crankshaft import EngineModel
+    from monitor.model_orders import predict_orders
+
+    w = np.asarray(speeds, dtype=np.float64)
+    if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):
+        raise ModelError("speeds: expected a non-empty 1-D array of positive crank speeds [rad/s]")
+    if load != "propeller" and not isinstance(load, int | float):
+        raise ModelError(f"load = {load!r}: expected a fraction of rated IMEP or 'propeller'")
+    model = EngineModel(engine)
+    results = []
+    for speed in w:
+        point_load = min(1.1, (speed / engine.rated_speed) ** 2) if load == "propeller" else float(load)
+        results.append(predict_orders(model, crank_speed=float(speed), load=point_load, max_order=max_order))
+    torque = np.stack([r.cylinder_torque[:, 1:] for r in results])
+    return w, results[0].orders[1:], torque
+
+
 def engine_forced_response(
     engine: Engine,
     speeds: npt.ArrayLike,
@@ -520,24 +568,14 @@ def engine_forced_response(
     -------
     ForcedResponse
     """
-    from monitor.crankshaft import EngineModel
-    from monitor.model_orders import predict_orders
-
     model_line = line if line is not None else shaft_line_of(engine)
     throw_nodes = [model_line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
-    w = np.asarray(speeds, dtype=np.float64)
-    if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):
-        raise ModelError("speeds: expected a non-empty 1-D array of positive crank speeds [rad/s]")
-    model = EngineModel(engine)
-    first = predict_orders(model, crank_speed=float(w[0]), load=0.5, max_order=max_order)
-    orders = first.orders[1:]
+    w, orders, cylinder_torque = cylinder_torque_orders(engine, speeds, load=load, max_order=max_order)
     angle = np.zeros((len(model_line.nodes), w.size, orders.size), dtype=np.complex128)
     condition = np.zeros((w.size, orders.size))
     for i, speed in enumerate(w):
-        point_load = min(1.1, (speed / engine.rated_speed) ** 2) if load == "propeller" else float(load)
-        result = predict_orders(model, crank_speed=float(speed), load=point_load, max_order=max_order)
         torque = np.zeros((len(model_line.nodes), orders.size), dtype=np.complex128)
-        torque[throw_nodes, :] = result.cylinder_torque[:, 1:]
+        torque[throw_nodes, :] = cylinder_torque[i]
         for j, k in enumerate(orders):
             angle[:, i, j], condition[i, j] = model_line.harmonic_response(float(k * speed), torque[:, j])
     return ForcedResponse(w, orders, angle, condition, model_line.node_names)
