@@ -243,3 +243,27 @@ def test_engine_without_axial_data_is_refused() -> None:
 
     with pytest.raises(ModelError, match=r"no \[shaft_line.axial\] data"):
         AxialTorsionalCrankshaft.of_engine(load_engine("medium-speed-6l32"))
+
+
+def test_a_crank_pair_reproduces_eq_1() -> None:
+    """001 Fig. 3 and eq. 1: two identical cranks 2 delta apart in series, the journal between them held
+    by its bearing along their bisector, axial force and torque at the outer journal. Each crank's own
+    flexibility has no C14; the pair's u_x / M_x is eq. 1 for every delta, from the single-crank C21, C34,
+    C22, C33 alone; and it vanishes when the middle bearing is left out."""
+    from monitor.torsion.axial_coupling import pair_flexibility, rotate_flexibility
+
+    c11, c22, c33, c44 = 5e-10, 1e-9, 2e-9, 1e-10
+    c21, c34 = 3e-10, 4e-10
+    single = np.diag([c11, c22, c33, c44, 3e-11, 2e-11])
+    single[1, 0] = single[0, 1] = c21
+    single[2, 3] = single[3, 2] = c34
+    single[5, 0] = single[0, 5] = 1e-11
+    single[4, 3] = single[3, 4] = 2e-11
+    assert single[0, 3] == 0.0
+    for delta in np.radians([5.0, 25.7, 45.0, 60.0, 85.0]):
+        pair = pair_flexibility(single, delta)
+        assert abs(pair[0, 3]) == pytest.approx(abs(pair_coupling(c21, c34, c22, c33, delta)), rel=1e-12)
+        assert pair[0, 3] == pytest.approx(pair[3, 0], rel=1e-12)  # reciprocity
+        unheld = rotate_flexibility(single, delta) + rotate_flexibility(single, -delta)
+        assert abs(unheld[0, 3]) < 1e-30  # without the middle bearing the pair has no coupling
+    assert abs(pair_flexibility(single, 0.0)[0, 3]) < 1e-30  # cranks in line

@@ -61,6 +61,8 @@ __all__ = [
     "constrained_coupling",
     "engine_axial_response",
     "pair_coupling",
+    "pair_flexibility",
+    "rotate_flexibility",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -135,6 +137,61 @@ def constrained_coupling(flexibility: npt.ArrayLike, direction: float) -> float:
         raise ModelError("flexibility: the held direction has no lateral flexibility (g^T C g <= 0)")
     constrained = c - np.outer(cg, cg) / denominator
     return float(constrained[0, 3])
+
+
+def rotate_flexibility(flexibility: FloatArray, angle: float) -> FloatArray:
+    """A crank's 6 x 6 flexibility turned by ``angle`` about the shaft axis into the global frame.
+
+    Parameters
+    ----------
+    flexibility : ndarray, shape (6, 6)
+        In the crank's frame, order ``(u_x, u_r, u_t, phi_x, phi_r, phi_t)`` [m/N, m/(N m), rad/(N m)].
+    angle : float
+        The crank's angle from the global reference direction [rad].
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+    """
+    c, s = math.cos(angle), math.sin(angle)
+    r = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    t = np.zeros((6, 6))
+    t[:3, :3] = r
+    t[3:, 3:] = r
+    return t @ flexibility @ t.T
+
+
+def pair_flexibility(flexibility: npt.ArrayLike, half_angle: float) -> FloatArray:
+    """Flexibility at the outer journal of two identical cranks ``2 delta`` apart (paper 001 Fig. 3).
+
+    Crank 1 stands at ``+delta`` and crank 2 at ``-delta`` from their bisector. They are
+    in series between a fixed journal and the loaded outer journal; the journal
+    between them is held by its main bearing along the bisector. Loads at the outer
+    journal pass through both cranks; the bearing's reaction acts on crank 1 only.
+    As in eq. 1, the cranks' flexibilities add in series without the bending lever
+    arms between them.
+
+    Parameters
+    ----------
+    flexibility : array_like, shape (6, 6)
+        One crank's flexibility in its own frame, order ``(u_x, u_r, u_t, phi_x,
+        phi_r, phi_t)`` [m/N, m/(N m), rad/(N m)].
+    half_angle : float
+        delta [rad].
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+        Flexibility of the pair at the outer journal, in the frame of the bisector.
+    """
+    c = np.asarray(flexibility, dtype=np.float64)
+    if c.shape != (6, 6) or not np.allclose(c, c.T, rtol=1e-12, atol=0):
+        raise ModelError("flexibility: expected a symmetric 6 x 6 matrix")
+    first, second = rotate_flexibility(c, half_angle), rotate_flexibility(c, -half_angle)
+    g = np.array([0.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # along the bisector
+    first_g = first @ g
+    # u = (C1 + C2) f + C1 g p with g^T C1 (f + g p) = 0 at the middle journal
+    return first + second - np.outer(first_g, first_g) / float(g @ first_g)
 
 
 @dataclass(frozen=True)
