@@ -38,6 +38,7 @@ __all__ = [
     "cycle_grid",
     "order_coefficients",
     "order_coefficients_of",
+    "scaled_rfft",
     "synthesize",
 ]
 
@@ -112,7 +113,18 @@ def _check_grid(grid_size: int, cycle_revolutions: int) -> None:
         )
 
 
-def _scaled_rfft(samples: FloatArray) -> ComplexArray:
+def scaled_rfft(samples: FloatArray) -> ComplexArray:
+    """Real FFT along the last axis scaled to peak order amplitudes (order 0 and Nyquist: the value itself).
+
+    Parameters
+    ----------
+    samples : ndarray, shape (..., N)
+        One period on a uniform grid [the quantity's unit].
+
+    Returns
+    -------
+    ndarray, shape (..., N // 2 + 1)
+    """
     n = samples.shape[-1]
     spectrum = np.fft.rfft(samples, axis=-1) * (2.0 / n)
     spectrum[..., 0] *= 0.5
@@ -157,8 +169,8 @@ def order_coefficients(
         raise ModelError(f"samples has {n} points per cycle: expected an even number")
     if not np.all(np.isfinite(values)):
         raise ModelError("samples contain NaN or Inf: the model produced a non-finite value")
-    full = _scaled_rfft(values)
-    half = _scaled_rfft(values[..., ::2])
+    full = scaled_rfft(values)
+    half = scaled_rfft(values[..., ::2])
     n_resolved = half.shape[-1] - 2  # highest bin of the half grid below its Nyquist bin
     top_bin = n_resolved
     if max_order is not None:

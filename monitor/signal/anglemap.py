@@ -1,0 +1,244 @@
+"""The angle map: crank angle as a function of time, and the four-stroke cycle phase.
+
+The map is built from pulse times with known crank angles (tooth-wheel
+edges, or keyphasor pulses one revolution apart) by monotone (PCHIP)
+interpolation of the cumulative angle: it passes through every pulse,
+never runs backwards, and has a continuous speed.  Its inverse, time as a
+function of angle, is the same construction with the axes swapped: this is
+what resampling to the angle domain evaluates.
+
+Four-stroke engines repeat every two revolutions.  The cycle phase says
+which revolution holds cylinder 1's firing TDC: from a cam pulse (once per
+cycle), from a cylinder-pressure channel (the revolution whose TDC has the
+higher pressure), or given explicitly.  The map's angle is then the cycle
+angle, 0 at firing TDC of cylinder 1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.interpolate import PchipInterpolator
+
+from monitor.signal.pulses import SignalError
+
+__all__ = ["AngleMap", "cycle_phase_from_cam", "cycle_phase_from_pressure"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class AngleMap:
+    """Crank angle against time, from pulses with known angles.
+
+    Attributes
+    ----------
+    times : ndarray
+        Pulse times [s].
+    angles : ndarray
+        Their crank angles, increasing, 0 at TDC of cylinder 1 (firing TDC on a
+        four-stroke once the cycle phase is applied) [rad].
+    """
+
+    times: FloatArray
+    angles: FloatArray
+
+    def __post_init__(self) -> None:
+        if self.times.shape != self.angles.shape or self.times.size < 2:
+            raise SignalError("angle map: expected matching arrays of at least two pulse times and angles")
+        if np.any(np.diff(self.times) <= 0) or np.any(np.diff(self.angles) <= 0):
+            raise SignalError("angle map: pulse times and angles must both increase")
+
+    @classmethod
+    def from_keyphasor(cls, times: npt.ArrayLike, *, pulse_angle: float = 0.0) -> AngleMap:
+        """One pulse per revolution, the pulse at ``pulse_angle`` after TDC of cylinder 1.
+
+        Parameters
+        ----------
+        times : array_like
+            Repaired pulse times, one per revolution [s].
+        pulse_angle : float, optional
+            Crank angle of the pulse's leading edge after TDC of cylinder 1 [rad].
+
+        Returns
+        -------
+        AngleMap
+        """
+        t = np.asarray(times, dtype=np.float64)
+        return cls(t, pulse_angle + 2 * math.pi * np.arange(t.size, dtype=np.float64))
+
+    def shifted(self, angle: float) -> AngleMap:
+        """The same map with ``angle`` added to every angle (a cycle-phase correction) [rad]."""
+        return AngleMap(self.times, self.angles + angle)
+
+    def _forward(self) -> PchipInterpolator:
+        return PchipInterpolator(self.times, self.angles, extrapolate=False)
+
+    def angle_at(self, time: npt.ArrayLike) -> FloatArray:
+        """Crank angle at times inside the mapped span [rad]; NaN outside it.
+
+        Parameters
+        ----------
+        time : array_like
+            [s].
+
+        Returns
+        -------
+        ndarray
+        """
+        t = np.asarray(time, dtype=np.float64)
+        slack = 1e-12 * (abs(self.times[0]) + abs(self.times[-1]))
+        inside = (t >= self.times[0] - slack) & (t <= self.times[-1] + slack)
+        values = self._forward()(np.clip(t, self.times[0], self.times[-1]))
+        return np.asarray(np.where(inside, values, np.nan))
+
+    def speed_at(self, time: npt.ArrayLike) -> FloatArray:
+        """Angular speed d(angle)/dt at times inside the mapped span [rad/s].
+
+        Parameters
+        ----------
+        time : array_like
+            [s].
+
+        Returns
+        -------
+        ndarray
+        """
+        return np.asarray(self._forward().derivative()(np.asarray(time, dtype=np.float64)))
+
+    def time_at(self, angle: npt.ArrayLike) -> FloatArray:
+        """Time at which the crank reaches each angle: the exact inverse of :meth:`angle_at` [s].
+
+        NaN outside the span. Each angle's cubic piece is solved by safeguarded
+        Newton iteration (the piece is monotone, so the root is unique).
+
+        Parameters
+        ----------
+        angle : array_like
+            [rad].
+
+        Returns
+        -------
+        ndarray
+        """
+        target = np.asarray(angle, dtype=np.float64)
+        forward = self._forward()
+        flat = target.ravel()
+        out = np.full(flat.shape, np.nan)
+        slack = 1e-12 * (abs(self.angles[0]) + abs(self.angles[-1]))  # round-off at the span's ends
+        inside = (flat >= self.angles[0] - slack) & (flat <= self.angles[-1] + slack)
+        a = np.clip(flat[inside], self.angles[0], self.angles[-1])
+        i = np.clip(np.searchsorted(self.angles, a, side="right") - 1, 0, self.angles.size - 2)
+        t0, t1 = self.times[i], self.times[i + 1]
+        a0, a1 = self.angles[i], self.angles[i + 1]
+        c = forward.c[:, i]  # cubic on [t0, t1] in powers of (t - t0)
+        h = t1 - t0
+        s = (a - a0) / (a1 - a0) * h  # linear first guess, then safeguarded Newton on the cubic
+        for _ in range(30):
+            value = ((c[0] * s + c[1]) * s + c[2]) * s + c[3] - a
+            slope = (3 * c[0] * s + 2 * c[1]) * s + c[2]
+            step = np.where(slope > 0, value / np.where(slope > 0, slope, 1.0), 0.0)
+            s_new = np.clip(s - step, 0.0, h)
+            if np.all(np.abs(s_new - s) <= 1e-15 * np.maximum(h, 1e-300) + 1e-300):
+                s = s_new
+                break
+            s = s_new
+        out[inside] = t0 + s
+        return out.reshape(target.shape)
+
+    @property
+    def mean_speed(self) -> float:
+        """Mean angular speed over the mapped span [rad/s]."""
+        return float((self.angles[-1] - self.angles[0]) / (self.times[-1] - self.times[0]))
+
+
+def cycle_phase_from_pressure(
+    angle_map: AngleMap,
+    pressure: npt.ArrayLike,
+    sample_rate: float,
+    *,
+    start_time: float = 0.0,
+    window: float = math.radians(30.0),
+) -> float:
+    """The shift (0 or 2 pi) that puts cylinder 1's firing TDC at cycle angle 0, from its pressure.
+
+    Parameters
+    ----------
+    angle_map : AngleMap
+        Map whose angle 0 (mod 2 pi) is a TDC of cylinder 1.
+    pressure : array_like
+        Cylinder 1's pressure (any unit) [Pa or V].
+    sample_rate : float
+        [Hz].
+    start_time : float, optional
+        Time of the first pressure sample [s].
+    window : float, optional
+        Half-width of the crank-angle window around each TDC [rad].
+
+    Returns
+    -------
+    float
+        0 if the TDCs at even multiples of 2 pi (0, 4 pi, ...) have the higher mean
+        pressure, else 2 pi [rad].
+
+    Raises
+    ------
+    SignalError
+        With fewer than two TDCs of each kind, or no clear difference between them.
+    """
+    p = np.asarray(pressure, dtype=np.float64)
+    t = start_time + np.arange(p.size) / sample_rate
+    angle = angle_map.angle_at(t)
+    valid = np.isfinite(angle)
+    angle, p = angle[valid], p[valid]
+    revolution = np.round(angle / (2 * math.pi))
+    near = np.abs(angle - 2 * math.pi * revolution) < window
+    even = near & (np.mod(revolution, 2) == 0)
+    odd = near & (np.mod(revolution, 2) == 1)
+    if np.unique(revolution[even]).size < 2 or np.unique(revolution[odd]).size < 2:
+        raise SignalError("cycle phase: the recording needs at least two TDCs of each revolution kind")
+    mean_even = np.array([p[even & (revolution == r)].mean() for r in np.unique(revolution[even])])
+    mean_odd = np.array([p[odd & (revolution == r)].mean() for r in np.unique(revolution[odd])])
+    if mean_even.min() > mean_odd.max():
+        return 0.0
+    if mean_odd.min() > mean_even.max():
+        return 2 * math.pi
+    raise SignalError(
+        "cycle phase: the pressure around TDC does not separate the firing revolution from the other "
+        "(no firing, or a misfiring cylinder 1); give the phase explicitly or use a cam channel"
+    )
+
+
+def cycle_phase_from_cam(angle_map: AngleMap, cam_times: npt.ArrayLike, *, cam_angle: float) -> float:
+    """The shift (0 or 2 pi) from a once-per-cycle cam pulse at ``cam_angle`` in the cycle.
+
+    Parameters
+    ----------
+    angle_map : AngleMap
+        Map whose angle 0 (mod 2 pi) is a TDC of cylinder 1.
+    cam_times : array_like
+        Cam pulse times [s].
+    cam_angle : float
+        Cycle angle of the cam pulse after cylinder 1's firing TDC, 0..4 pi [rad].
+
+    Returns
+    -------
+    float
+        0 or 2 pi [rad].
+    """
+    angles = angle_map.angle_at(np.asarray(cam_times, dtype=np.float64))
+    angles = angles[np.isfinite(angles)]
+    if angles.size == 0:
+        raise SignalError("cycle phase: no cam pulse inside the mapped span")
+    shift = np.mod(cam_angle - angles, 4 * math.pi)
+    # every pulse must agree on a shift of 0 or 2 pi (within 90 degrees)
+    candidates = np.round(shift / (2 * math.pi)) % 2
+    if not (
+        np.all(candidates == candidates[0])
+        and np.all(np.abs(shift - 2 * math.pi * np.round(shift / (2 * math.pi))) < math.pi / 2)
+    ):
+        raise SignalError("cycle phase: the cam pulses do not fall once per cycle at the stated angle")
+    return float(2 * math.pi * candidates[0])
