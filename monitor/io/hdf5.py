@@ -1,0 +1,240 @@
+"""The product's HDF5 recording format (recordings/FORMAT.md): reader and writer.
+
+One file per recording: root attributes describe the recording, the group
+``/channels`` holds one dataset per channel with the channel's attributes.
+Datasets are chunked (about one second each, so a slice reads alone) and
+carry Fletcher-32 checksums, so a damaged chunk is detected when read.
+
+The reader is strict, because files come from outside: a file that is not
+HDF5 or not this format, a missing or malformed attribute, an unknown unit,
+a sample count that contradicts the stated duration, a checksum failure,
+and the HDF5 features that can read other files of the server (external
+links, external raw storage, virtual datasets) are all refused with a
+message naming the channel and the problem.  It also accepts the waveform
+attribute names that NI's TDMS-to-HDF5 exports use (``wf_increment``,
+``wf_start_offset``, ``unit_string``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import h5py
+
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
+
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "read_hdf5", "write_hdf5"]
+
+FORMAT_NAME = "engine-monitor recording"
+FORMAT_VERSION = 1
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float = 1.0) -> Path:
+    """Write a recording, whole or not at all (temporary file, fsync, atomic rename).
+
+    Parameters
+    ----------
+    recording : Recording
+    path : str or Path
+        Output file (.h5).
+    chunk_seconds : float, optional
+        Length of a chunk of a waveform [s].
+
+    Returns
+    -------
+    Path
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(handle)
+    try:
+        with h5py.File(temporary, "w") as f:
+            f.attrs["format"] = FORMAT_NAME
+            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["engine_id"] = recording.engine_id
+            f.attrs["start_time"] = recording.start_time
+            f.attrs["notes"] = recording.notes
+            group = f.create_group("channels", track_order=True)
+            for c in recording.channels:
+                if c.is_events:
+                    chunk = max(1, min(c.data.size, 65536))
+                else:
+                    chunk = max(1, min(c.data.size, round(chunk_seconds * float(c.sample_rate))))  # type: ignore[arg-type]
+                ds = group.create_dataset(
+                    c.name,
+                    data=c.data,
+                    chunks=(chunk,) if c.data.size else None,
+                    fletcher32=bool(c.data.size),
+                )
+                ds.attrs["kind"] = c.kind
+                ds.attrs["unit"] = c.unit
+                ds.attrs["representation"] = "events" if c.is_events else "waveform"
+                if not c.is_events:
+                    ds.attrs["sample_rate_hz"] = float(c.sample_rate)  # type: ignore[arg-type]
+                    ds.attrs["duration_s"] = c.duration
+                ds.attrs["start_offset_s"] = c.start_offset
+                ds.attrs["location"] = c.location
+                ds.attrs["direction"] = c.direction
+                for key, value in c.fields.items():
+                    ds.attrs[key] = value
+        with open(temporary, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        raise
+    return target
+
+
+def read_hdf5(path: str | Path) -> Recording:
+    """Read and validate a recording (see the module docstring for what is refused).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Recording
+        Waveform channels come with their data-quality spans found and masked.
+
+    Raises
+    ------
+    FormatError
+        Naming the channel (or the file) and the problem.
+    """
+    source = Path(path)
+    try:
+        with open(source, "rb") as fh:
+            head = fh.read(8)
+    except OSError as error:
+        raise FormatError(f"{source}: cannot read: {error}") from None
+    if head != _HDF5_SIGNATURE:
+        raise FormatError(f"{source}: not an HDF5 file (no HDF5 signature at its start)")
+    try:
+        f = h5py.File(source, "r")
+    except OSError as error:
+        raise FormatError(f"{source}: damaged HDF5 file: {error}") from None
+    with f:
+        fmt = _text(f.attrs.get("format", ""))
+        if fmt != FORMAT_NAME:
+            raise FormatError(f"{source}: not an {FORMAT_NAME} (root attribute 'format' is {fmt!r})")
+        version = int(f.attrs.get("format_version", 0))
+        if version != FORMAT_VERSION:
+            raise FormatError(
+                f"{source}: format_version {version} is not supported (expected {FORMAT_VERSION})"
+            )
+        for name in ("engine_id", "start_time"):
+            if name not in f.attrs:
+                raise FormatError(f"{source}: missing root attribute {name!r}")
+        _refuse_links(f, source)
+        if "channels" not in f or not isinstance(f["channels"], h5py.Group):
+            raise FormatError(f"{source}: missing the group 'channels'")
+        channels = [_read_channel(f["channels"], name, source) for name in f["channels"]]
+        return Recording(
+            engine_id=_text(f.attrs["engine_id"]),
+            start_time=_text(f.attrs["start_time"]),
+            channels=tuple(channels),
+            notes=_text(f.attrs.get("notes", "")),
+        )
+
+
+def _refuse_links(f: h5py.File, source: Path) -> None:
+    def visit(group: h5py.Group, prefix: str) -> None:
+        for name in group:
+            link = group.get(name, getlink=True)
+            where = f"{prefix}/{name}"
+            if isinstance(link, h5py.ExternalLink):
+                raise FormatError(
+                    f"{source}: {where} is an external link (to {link.filename!r}); "
+                    "external links are refused: they can read other files"
+                )
+            if isinstance(link, h5py.SoftLink):
+                raise FormatError(f"{source}: {where} is a soft link; the format has none")
+            item = group[name]
+            if isinstance(item, h5py.Group):
+                visit(item, where)
+            elif isinstance(item, h5py.Dataset):
+                if item.is_virtual:
+                    raise FormatError(
+                        f"{source}: {where} is a virtual dataset; refused: it can read other files"
+                    )
+                if item.external:
+                    raise FormatError(f"{source}: {where} keeps its data in external files; refused")
+
+    visit(f, "")
+
+
+def _read_channel(group: h5py.Group, name: str, source: Path) -> Channel:
+    ds = group[name]
+    where = f"{source}: channel {name!r}"
+    if not isinstance(ds, h5py.Dataset):
+        raise FormatError(f"{where}: expected a dataset")
+    a = ds.attrs
+    kind = _text(a.get("kind", ""))
+    if not kind:
+        raise FormatError(f"{where}: missing attribute 'kind'")
+    unit = _text(a["unit"]) if "unit" in a else _text(a.get("unit_string", ""))
+    if not unit:
+        raise FormatError(f"{where}: missing attribute 'unit' (or NI 'unit_string')")
+    representation = _text(a.get("representation", "waveform"))
+    if representation not in ("waveform", "events"):
+        raise FormatError(f"{where}: representation {representation!r}: expected 'waveform' or 'events'")
+    rate: float | None = None
+    if representation == "waveform":
+        if "sample_rate_hz" in a:
+            rate = float(a["sample_rate_hz"])
+        elif "wf_increment" in a:
+            increment = float(a["wf_increment"])
+            if not increment > 0:
+                raise FormatError(f"{where}: wf_increment {increment!r}: expected a positive sample interval")
+            rate = 1.0 / increment
+        else:
+            raise FormatError(f"{where}: missing attribute 'sample_rate_hz' (or NI 'wf_increment')")
+    offset = float(a.get("start_offset_s", a.get("wf_start_offset", 0.0)))
+    fields: dict[str, float | int | str] = {}
+    for key in KIND_FIELDS.get(kind, {}):
+        if key in a:
+            value = a[key]
+            fields[key] = int(value) if key in ("teeth", "missing_teeth", "cylinder") else float(value)
+    try:
+        data = ds[()]
+    except OSError as error:
+        raise FormatError(
+            f"{where}: checksum failure or damaged data ({error}); the file is corrupt"
+        ) from None
+    if data.ndim != 1:
+        raise FormatError(f"{where}: data has shape {data.shape}, expected one dimension")
+    if rate is not None and "duration_s" in a:
+        stated = float(a["duration_s"])
+        if abs(data.size / rate - stated) > 1.0 / rate:
+            raise FormatError(
+                f"{where}: {data.size} samples at {rate:g} Hz last {data.size / rate:.6g} s, "
+                f"but duration_s says {stated:.6g} s"
+            )
+    try:
+        channel = Channel(
+            name=name,
+            kind=kind,
+            unit=unit,
+            data=data,
+            sample_rate=rate,
+            start_offset=offset,
+            location=_text(a.get("location", "")),
+            direction=_text(a.get("direction", "")),
+            fields=fields,
+        )
+    except FormatError as error:
+        raise FormatError(f"{source}: {error}") from None
+    return channel.checked()

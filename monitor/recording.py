@@ -1,0 +1,317 @@
+"""Recordings: channels of a data acquisition, validated, with their data-quality report.
+
+A recording holds the channels one acquisition produced on one engine:
+accelerometers on main bearings, a keyphasor, a crank-speed tooth wheel, a
+cam pulse, cylinder pressure.  A channel is either a waveform (samples at a
+fixed rate from a start offset) or an event channel (edge times, for pulse
+channels recorded by a counter).  Everything a later stage needs to know
+about a channel is an attribute of it, validated here once: its kind and
+unit, its sensor location and direction, and the fields of its kind (a
+tooth wheel's tooth count, missing teeth and the crank angle of its first
+tooth after the gap; a keyphasor pulse's angle after TDC of cylinder 1;
+the cylinder of a pressure channel).
+
+Data quality.  NaN and Inf samples, and clipped spans (runs of samples
+stuck at the channel's extreme value), are found, reported with their
+spans in time and masked: the mask travels with the channel, and nothing
+downstream averages them in silently.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from monitor.errors import MonitorError
+
+__all__ = [
+    "KINDS",
+    "UNITS",
+    "Channel",
+    "FormatError",
+    "QualitySpan",
+    "Recording",
+    "quality_spans",
+]
+
+FloatArray = npt.NDArray[np.float64]
+Kind = Literal["acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure"]
+
+KINDS: tuple[str, ...] = ("acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure")
+#: Units accepted per kind (the unit of the stored samples; event channels store times in s).
+UNITS: dict[str, tuple[str, ...]] = {
+    "acceleration": ("m/s^2", "g", "mm/s^2", "V"),
+    "velocity": ("m/s", "mm/s", "V"),
+    "keyphasor": ("V", "s"),
+    "tooth": ("V", "s"),
+    "cam": ("V", "s"),
+    "speed": ("rpm", "rad/s", "Hz", "V"),
+    "pressure": ("Pa", "kPa", "bar", "MPa", "V"),
+}
+#: Kind-specific attributes and whether each is required.
+KIND_FIELDS: dict[str, dict[str, bool]] = {
+    "tooth": {"teeth": True, "missing_teeth": True, "first_tooth_angle_deg": True},
+    "keyphasor": {"pulse_angle_deg": True},
+    "cam": {"cam_angle_deg": True},
+    "pressure": {"cylinder": True},
+}
+#: The shortest run of equal extreme samples reported as clipping.
+CLIP_RUN = 5
+
+
+class FormatError(MonitorError, ValueError):
+    """A recording file, or a channel in it, breaks the format; the message names which and how."""
+
+
+@dataclass(frozen=True)
+class QualitySpan:
+    """A span of unusable samples.
+
+    Attributes
+    ----------
+    start, stop : float
+        Times of the first and the last sample of the span [s].
+    samples : int
+    reason : {"nan", "inf", "clipped"}
+    """
+
+    start: float
+    stop: float
+    samples: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One channel of a recording.
+
+    Attributes
+    ----------
+    name : str
+        Unique in the recording (also the HDF5 dataset and the MCAP topic suffix).
+    kind : str
+        One of :data:`KINDS`.
+    unit : str
+        Unit of ``data`` (one of :data:`UNITS` for the kind; "s" for event times).
+    data : ndarray
+        Samples (waveform), or event times [s] (event channel).
+    sample_rate : float or None
+        [Hz]; None for an event channel.
+    start_offset : float
+        Time of the first sample after the recording's start [s].
+    location : str
+        Sensor location, e.g. "main bearing 3", "free end".
+    direction : str
+        e.g. "vertical", "horizontal", "axial", or "".
+    fields : dict
+        Kind-specific attributes (:data:`KIND_FIELDS`).
+    mask : ndarray of bool or None
+        True where a sample is unusable (see ``quality``); None if none is.
+    quality : tuple of QualitySpan
+    """
+
+    name: str
+    kind: str
+    unit: str
+    data: np.ndarray
+    sample_rate: float | None
+    start_offset: float = 0.0
+    location: str = ""
+    direction: str = ""
+    fields: dict[str, float | int | str] = field(default_factory=dict)
+    mask: np.ndarray | None = None
+    quality: tuple[QualitySpan, ...] = ()
+
+    def __post_init__(self) -> None:
+        where = f"channel {self.name!r}"
+        if not self.name or "/" in self.name:
+            raise FormatError(f"{where}: expected a non-empty name without '/'")
+        if self.kind not in KINDS:
+            raise FormatError(f"{where}: kind {self.kind!r} is unknown; expected one of {', '.join(KINDS)}")
+        if self.unit not in UNITS[self.kind]:
+            raise FormatError(
+                f"{where}: unit {self.unit!r} is unknown for a {self.kind} channel; "
+                f"expected one of {', '.join(UNITS[self.kind])}"
+            )
+        if self.data.ndim != 1:
+            raise FormatError(f"{where}: data has shape {self.data.shape}, expected one dimension")
+        if self.is_events:
+            if self.unit != "s":
+                raise FormatError(
+                    f"{where}: an event channel stores times; expected unit 's', got {self.unit!r}"
+                )
+            if self.data.size and (not np.all(np.isfinite(self.data)) or np.any(np.diff(self.data) <= 0)):
+                raise FormatError(f"{where}: event times must be finite and increasing")
+        else:
+            rate = self.sample_rate
+            if rate is None or not (math.isfinite(rate) and rate > 0):
+                raise FormatError(f"{where}: sample rate {rate!r}: expected a positive rate in Hz")
+            if self.unit == "s":
+                raise FormatError(f"{where}: unit 's' is for event channels (edge times), not waveforms")
+        if not math.isfinite(self.start_offset):
+            raise FormatError(f"{where}: start offset {self.start_offset!r}: expected a finite time in s")
+        for name, required in KIND_FIELDS.get(self.kind, {}).items():
+            if required and name not in self.fields:
+                raise FormatError(f"{where}: a {self.kind} channel needs the attribute {name!r}")
+        if self.kind == "tooth":
+            teeth, missing = self.fields["teeth"], self.fields["missing_teeth"]
+            if not (
+                isinstance(teeth, int | np.integer)
+                and isinstance(missing, int | np.integer)
+                and teeth >= 3
+                and 1 <= missing < teeth - 1
+            ):
+                raise FormatError(
+                    f"{where}: teeth = {teeth!r}, missing_teeth = {missing!r}: expected integers, "
+                    "teeth >= 3 and 1 <= missing_teeth < teeth - 1"
+                )
+
+    @property
+    def is_events(self) -> bool:
+        """True for an event channel (edge times instead of samples)."""
+        return self.sample_rate is None
+
+    @property
+    def duration(self) -> float:
+        """Time covered by the samples [s] (event channels: first to last event)."""
+        if self.is_events:
+            return float(self.data[-1] - self.data[0]) if self.data.size > 1 else 0.0
+        return self.data.size / float(self.sample_rate)  # type: ignore[arg-type]
+
+    def times(self) -> FloatArray:
+        """Time of every sample from the recording's start [s] (events: the event times)."""
+        if self.is_events:
+            return np.asarray(self.data, dtype=np.float64)
+        return self.start_offset + np.arange(self.data.size) / float(self.sample_rate)  # type: ignore[arg-type]
+
+    def checked(self) -> Channel:
+        """This channel with its data-quality spans found and masked (see :func:`quality_spans`)."""
+        if self.is_events:
+            return self
+        spans, mask = quality_spans(self.data, float(self.sample_rate), start_offset=self.start_offset)  # type: ignore[arg-type]
+        return Channel(
+            self.name,
+            self.kind,
+            self.unit,
+            self.data,
+            self.sample_rate,
+            self.start_offset,
+            self.location,
+            self.direction,
+            dict(self.fields),
+            mask if mask.any() else None,
+            tuple(spans),
+        )
+
+
+def quality_spans(
+    data: npt.ArrayLike, sample_rate: float, *, start_offset: float = 0.0, clip_run: int = CLIP_RUN
+) -> tuple[list[QualitySpan], npt.NDArray[np.bool_]]:
+    """NaN, Inf and clipped spans of a waveform, and the mask of those samples.
+
+    Parameters
+    ----------
+    data : array_like, shape (n,)
+        Samples.
+    sample_rate : float
+        [Hz].
+    start_offset : float, optional
+        Time of the first sample [s].
+    clip_run : int, optional
+        Shortest run of samples equal to the channel's maximum (or minimum) reported as clipped.
+
+    Returns
+    -------
+    spans : list of QualitySpan
+    mask : ndarray of bool
+        True at every sample in a span.
+    """
+    x = np.asarray(data)
+    mask = np.zeros(x.size, dtype=bool)
+    spans: list[QualitySpan] = []
+
+    def runs(flags: npt.NDArray[np.bool_], reason: str, minimum: int = 1) -> None:
+        if not flags.any():
+            return
+        edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+        starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        for a, b in zip(starts, stops, strict=True):
+            if b - a >= minimum:
+                mask[a:b] = True
+                spans.append(
+                    QualitySpan(
+                        start_offset + a / sample_rate,
+                        start_offset + (b - 1) / sample_rate,
+                        int(b - a),
+                        reason,
+                    )
+                )
+
+    runs(np.isnan(x), "nan")
+    runs(np.isinf(x), "inf")
+    finite = np.isfinite(x)
+    if finite.any():
+        top, bottom = np.max(x[finite]), np.min(x[finite])
+        if top > bottom:
+            runs(finite & (x == top), "clipped", clip_run)
+            runs(finite & (x == bottom), "clipped", clip_run)
+    spans.sort(key=lambda s: s.start)
+    return spans, mask
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A validated recording.
+
+    Attributes
+    ----------
+    engine_id : str
+        The engine description it belongs to.
+    start_time : str
+        UTC start, ISO 8601 (``2026-11-22T10:15:00Z``).
+    channels : tuple of Channel
+    notes : str
+    truncated : bool
+        True if the file ended early and was read up to its last whole block.
+    """
+
+    engine_id: str
+    start_time: str
+    channels: tuple[Channel, ...]
+    notes: str = ""
+    truncated: bool = False
+
+    def __post_init__(self) -> None:
+        from datetime import datetime
+
+        if not self.engine_id:
+            raise FormatError("recording: engine_id is empty; expected the id of an engine description")
+        try:
+            parsed = datetime.fromisoformat(self.start_time.replace("Z", "+00:00"))
+        except ValueError:
+            raise FormatError(
+                f"recording: start_time {self.start_time!r} is not ISO 8601 "
+                "(expected e.g. 2026-11-22T10:15:00Z)"
+            ) from None
+        if parsed.utcoffset() is None or parsed.utcoffset().total_seconds() != 0:  # type: ignore[union-attr]
+            raise FormatError(f"recording: start_time {self.start_time!r} must be in UTC (end it with Z)")
+        names = [c.name for c in self.channels]
+        if len(set(names)) != len(names):
+            raise FormatError(
+                f"recording: channel names repeat: {sorted(n for n in names if names.count(n) > 1)}"
+            )
+
+    def channel(self, name: str) -> Channel:
+        """The channel called ``name``."""
+        for c in self.channels:
+            if c.name == name:
+                return c
+        raise FormatError(f"no channel {name!r}; channels: {', '.join(c.name for c in self.channels)}")
+
+    def of_kind(self, kind: str) -> list[Channel]:
+        """The channels of one kind, in order."""
+        return [c for c in self.channels if c.kind == kind]
