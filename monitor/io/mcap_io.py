@@ -1,0 +1,544 @@
+"""The product's MCAP recording format (recordings/FORMAT.md): writer, strict reader, third-party listing.
+
+A recording in MCAP is one topic per channel (``/<channel name>``) carrying
+blocks of samples.  Messages are protobuf, and the schema embedded in the
+file is a real protobuf ``FileDescriptorSet`` (``engine_monitor.SampleBlock``,
+``engine_monitor.EventBlock``, with ``google.protobuf.Timestamp``), so a
+general MCAP viewer such as Foxglove decodes and plots them.  The recording's
+attributes are an MCAP metadata record ``recording``; each channel's are its
+MCAP channel metadata.  Chunks are compressed (zstd or lz4) and carry CRCs.
+
+Speed.  A packed ``repeated float`` field is, on the wire, exactly a
+little-endian float32 array; the blocks are encoded and decoded here at
+that level (``numpy.frombuffer``, no per-sample work), which the tests check
+against the official protobuf decoder.
+
+Reading.  The file is streamed record by record with CRC validation, which
+serves indexed and unindexed files alike; a file cut short is read up to
+its last whole chunk and the result says so (``truncated``); a CRC or
+decompression failure is a checksum failure naming the chunk.
+"""
+
+from __future__ import annotations
+
+import calendar
+import contextlib
+import os
+import struct
+import tempfile
+from collections import defaultdict
+from collections.abc import Iterator
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from mcap.exceptions import EndOfFile, McapError
+from mcap.records import Channel as McapChannel
+from mcap.records import Message, Metadata, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.writer import CompressionType, Writer
+
+from monitor import __version__
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
+
+__all__ = [
+    "McapListing",
+    "decode_block",
+    "encode_event_block",
+    "encode_sample_block",
+    "list_mcap",
+    "read_mcap",
+    "schema_descriptor_set",
+    "write_mcap",
+]
+
+FORMAT_NAME = "engine-monitor recording"
+FORMAT_VERSION = 1
+MAGIC = b"\x89MCAP0\r\n"
+SAMPLE_SCHEMA = "engine_monitor.SampleBlock"
+EVENT_SCHEMA = "engine_monitor.EventBlock"
+_INTEGER_FIELDS = ("teeth", "missing_teeth", "cylinder")
+
+
+# --------------------------------------------------------------------------------------- schema
+def schema_descriptor_set() -> bytes:
+    """The ``FileDescriptorSet`` embedded as the MCAP schema (protobuf, self-describing)."""
+    from google.protobuf import descriptor_pb2, timestamp_pb2
+
+    fds = descriptor_pb2.FileDescriptorSet()
+    timestamp_pb2.DESCRIPTOR.CopyToProto(fds.file.add())
+    proto = fds.file.add()
+    proto.name = "engine_monitor/recording.proto"
+    proto.package = "engine_monitor"
+    proto.syntax = "proto3"
+    proto.dependency.append("google/protobuf/timestamp.proto")
+    f = descriptor_pb2.FieldDescriptorProto
+    sample = proto.message_type.add()
+    sample.name = "SampleBlock"
+    for number, name, kind, label, type_name in (
+        (1, "timestamp", f.TYPE_MESSAGE, f.LABEL_OPTIONAL, ".google.protobuf.Timestamp"),
+        (2, "start_offset_s", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+        (3, "sample_rate_hz", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+        (4, "samples_f32", f.TYPE_FLOAT, f.LABEL_REPEATED, ""),
+        (5, "samples_f64", f.TYPE_DOUBLE, f.LABEL_REPEATED, ""),
+        (6, "mean", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+        (7, "rms", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+        (8, "minimum", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+        (9, "maximum", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
+    ):
+        field = sample.field.add(name=name, number=number, type=kind, label=label)
+        if type_name:
+            field.type_name = type_name
+    event = proto.message_type.add()
+    event.name = "EventBlock"
+    event.field.add(
+        name="timestamp",
+        number=1,
+        type=f.TYPE_MESSAGE,
+        label=f.LABEL_OPTIONAL,
+        type_name=".google.protobuf.Timestamp",
+    )
+    event.field.add(name="times_s", number=4, type=f.TYPE_DOUBLE, label=f.LABEL_REPEATED)
+    return fds.SerializeToString()
+
+
+# ------------------------------------------------------------------------------------ wire format
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while True:
+        byte = value & 0x7F
+        value >>= 7
+        if value:
+            out.append(byte | 0x80)
+        else:
+            out.append(byte)
+            return bytes(out)
+
+
+def _read_varint(buf: memoryview, pos: int) -> tuple[int, int]:
+    result = shift = 0
+    while True:
+        byte = buf[pos]
+        pos += 1
+        result |= (byte & 0x7F) << shift
+        if not byte & 0x80:
+            return result, pos
+        shift += 7
+
+
+def _timestamp(ns: int) -> bytes:
+    seconds, nanos = divmod(ns, 1_000_000_000)
+    inner = b""
+    if seconds:
+        inner += b"\x08" + _varint(seconds)
+    if nanos:
+        inner += b"\x10" + _varint(nanos)
+    return b"\x0a" + _varint(len(inner)) + inner
+
+
+def _double(number: int, value: float) -> bytes:
+    return _varint(number << 3 | 1) + struct.pack("<d", value)
+
+
+def _packed(number: int, data: np.ndarray) -> bytes:
+    raw = data.astype(data.dtype.newbyteorder("<"), copy=False).tobytes()
+    return _varint(number << 3 | 2) + _varint(len(raw)) + raw
+
+
+def encode_sample_block(time_ns: int, start_offset: float, rate: float, samples: np.ndarray) -> bytes:
+    """One ``engine_monitor.SampleBlock`` in protobuf wire format (float32 or float64 samples)."""
+    finite = samples[np.isfinite(samples)].astype(np.float64)
+    stats = (
+        (finite.mean(), np.sqrt(np.mean(finite**2)), finite.min(), finite.max())
+        if finite.size
+        else (0.0,) * 4
+    )
+    field = 4 if samples.dtype == np.float32 else 5
+    return (
+        _timestamp(time_ns)
+        + _double(2, start_offset)
+        + _double(3, rate)
+        + _packed(field, samples)
+        + b"".join(_double(6 + i, float(v)) for i, v in enumerate(stats))
+    )
+
+
+def encode_event_block(time_ns: int, times: np.ndarray) -> bytes:
+    """One ``engine_monitor.EventBlock`` in protobuf wire format."""
+    return _timestamp(time_ns) + _packed(4, times.astype(np.float64))
+
+
+def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
+    """(start offset [s], sample rate [Hz] or 0, samples or event times) of a Sample- or EventBlock."""
+    buf = memoryview(data)
+    pos, start, rate = 0, 0.0, 0.0
+    values: np.ndarray = np.empty(0)
+    while pos < len(buf):
+        key, pos = _read_varint(buf, pos)
+        number, wire = key >> 3, key & 7
+        if wire == 1:
+            value = struct.unpack_from("<d", buf, pos)[0]
+            pos += 8
+            if number == 2:
+                start = value
+            elif number == 3:
+                rate = value
+        elif wire == 2:
+            length, pos = _read_varint(buf, pos)
+            if number == 4 and rate:
+                values = np.frombuffer(buf[pos : pos + length], dtype="<f4").copy()
+            elif number in (4, 5):
+                values = np.frombuffer(buf[pos : pos + length], dtype="<f8").copy()
+            pos += length
+        elif wire == 0:
+            _, pos = _read_varint(buf, pos)
+        elif wire == 5:
+            pos += 4
+        else:
+            raise FormatError(f"message has a field of wire type {wire}, not valid protobuf")
+    return start, rate, values
+
+
+# ------------------------------------------------------------------------------------------ write
+def write_mcap(
+    recording: Recording,
+    path: str | Path,
+    *,
+    block_seconds: float = 0.1,
+    compression: Literal["zstd", "lz4", "none"] = "zstd",
+    chunk_size: int = 4 * 1024 * 1024,
+) -> Path:
+    """Write a recording to MCAP, whole or not at all (temporary file, fsync, atomic rename).
+
+    Parameters
+    ----------
+    recording : Recording
+    path : str or Path
+        Output file (.mcap).
+    block_seconds : float, optional
+        Length of one sample block (one message) [s].
+    compression : {"zstd", "lz4", "none"}
+        Chunk compression.
+    chunk_size : int, optional
+        Target uncompressed chunk size [bytes].
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    FormatError
+        For a waveform that is neither float32 nor float64.
+    """
+    for c in recording.channels:
+        if not c.is_events and c.data.dtype not in (np.float32, np.float64):
+            raise FormatError(
+                f"channel {c.name!r}: MCAP stores float32 or float64 samples, not {c.data.dtype}"
+            )
+    start_ns = _start_ns(recording.start_time)
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(handle)
+    kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+    try:
+        with open(temporary, "wb") as fh:
+            writer = Writer(fh, chunk_size=chunk_size, compression=kinds[compression])
+            writer.start(profile="", library=f"engine-monitor {__version__}")
+            descriptor = schema_descriptor_set()
+            schemas = {
+                name: writer.register_schema(name=name, encoding="protobuf", data=descriptor)
+                for name in (SAMPLE_SCHEMA, EVENT_SCHEMA)
+            }
+            writer.add_metadata(
+                "recording",
+                {
+                    "format": FORMAT_NAME,
+                    "format_version": str(FORMAT_VERSION),
+                    "engine_id": recording.engine_id,
+                    "start_time": recording.start_time,
+                    "notes": recording.notes,
+                    "channels": ",".join(c.name for c in recording.channels),
+                },
+            )
+            blocks = []
+            for order, c in enumerate(recording.channels):
+                channel_id = writer.register_channel(
+                    topic=f"/{c.name}",
+                    message_encoding="protobuf",
+                    schema_id=schemas[EVENT_SCHEMA if c.is_events else SAMPLE_SCHEMA],
+                    metadata=_channel_metadata(c),
+                )
+                blocks.extend(_blocks(c, channel_id, order, block_seconds, start_ns))
+            blocks.sort(key=lambda b: (b[0], b[1]))
+            for sequence, (time_ns, _, channel_id, payload) in enumerate(blocks):
+                writer.add_message(
+                    channel_id=channel_id,
+                    log_time=time_ns,
+                    publish_time=time_ns,
+                    data=payload(),
+                    sequence=sequence,
+                )
+            writer.finish()
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        raise
+    return target
+
+
+def _start_ns(start_time: str) -> int:
+    """UTC start time in integer nanoseconds since the Unix epoch (exact to the microsecond)."""
+    moment = datetime.fromisoformat(start_time.replace("Z", "+00:00"))
+    return calendar.timegm(moment.utctimetuple()) * 1_000_000_000 + moment.microsecond * 1000
+
+
+def _channel_metadata(c: Channel) -> dict[str, str]:
+    meta = {
+        "kind": c.kind,
+        "unit": c.unit,
+        "representation": "events" if c.is_events else "waveform",
+        "start_offset_s": repr(float(c.start_offset)),
+        "location": c.location,
+        "direction": c.direction,
+        "dtype": str(c.data.dtype),
+        "samples": str(c.data.size),
+    }
+    if not c.is_events:
+        meta["sample_rate_hz"] = repr(float(c.sample_rate))  # type: ignore[arg-type]
+    for key, value in c.fields.items():
+        meta[key] = str(int(value)) if key in _INTEGER_FIELDS else repr(float(value))
+    return meta
+
+
+def _blocks(c: Channel, channel_id: int, order: int, block_seconds: float, start_ns: int):  # type: ignore[no-untyped-def]
+    if c.is_events:
+        per_block = 4096
+        for i in range(0, max(c.data.size, 1), per_block):
+            part = np.asarray(c.data[i : i + per_block], dtype=np.float64)
+            t = part[0] if part.size else c.start_offset
+            yield (
+                start_ns + round(float(t) * 1e9),
+                order,
+                channel_id,
+                lambda part=part, t=t: encode_event_block(start_ns + round(float(t) * 1e9), part),
+            )
+        return
+    rate = float(c.sample_rate)  # type: ignore[arg-type]
+    per_block = max(1, round(block_seconds * rate))
+    for i in range(0, max(c.data.size, 1), per_block):
+        offset = c.start_offset + i / rate
+        time_ns = start_ns + round(offset * 1e9)
+        yield (
+            time_ns,
+            order,
+            channel_id,
+            lambda i=i, offset=offset, time_ns=time_ns: encode_sample_block(
+                time_ns, offset, rate, np.asarray(c.data[i : i + per_block])
+            ),
+        )
+
+
+# ------------------------------------------------------------------------------------------- read
+def _records(path: Path) -> Iterator[Any]:
+    """Records of an MCAP file; on a cut-short file stops at the last whole chunk (then yields None)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+            if head != MAGIC:
+                raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
+            fh.seek(0)
+            reader = StreamReader(fh, validate_crcs=True)
+            try:
+                yield from reader.records
+            except EndOfFile:
+                yield None  # cut short
+            except CRCValidationError as error:
+                raise FormatError(f"{path}: checksum failure: {error}") from None
+            except McapError as error:
+                raise FormatError(f"{path}: damaged MCAP file: {error}") from None
+            except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
+                if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
+                    raise FormatError(
+                        f"{path}: checksum failure: a chunk does not decompress ({error})"
+                    ) from None
+                raise
+    except OSError as error:
+        raise FormatError(f"{path}: cannot read: {error}") from None
+
+
+def read_mcap(path: str | Path) -> Recording:
+    """Read and validate a recording written in the product's MCAP format.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Recording
+        ``truncated`` is True if the file was cut short (read to its last whole
+        chunk); waveform channels come with their data-quality spans.
+
+    Raises
+    ------
+    FormatError
+        Naming the file or channel and the problem.
+    """
+    source = Path(path)
+    schemas: dict[int, str] = {}
+    channels: dict[int, McapChannel] = {}
+    blocks: dict[int, list[tuple[float, np.ndarray]]] = defaultdict(list)
+    recording_meta: dict[str, str] | None = None
+    truncated = False
+    for record in _records(source):
+        if record is None:
+            truncated = True
+        elif isinstance(record, Schema):
+            schemas[record.id] = record.name
+        elif isinstance(record, McapChannel):
+            channels[record.id] = record
+        elif isinstance(record, Metadata) and record.name == "recording":
+            recording_meta = dict(record.metadata)
+        elif isinstance(record, Message):
+            channel = channels.get(record.channel_id)
+            if channel is not None and schemas.get(channel.schema_id) in (SAMPLE_SCHEMA, EVENT_SCHEMA):
+                start, _, values = decode_block(record.data)
+                blocks[record.channel_id].append((start, values))
+    if recording_meta is None or recording_meta.get("format") != FORMAT_NAME:
+        raise FormatError(
+            f"{source}: not an {FORMAT_NAME} (no 'recording' metadata record naming the format)"
+        )
+    if recording_meta.get("format_version") != str(FORMAT_VERSION):
+        raise FormatError(
+            f"{source}: format_version {recording_meta.get('format_version')!r} is not supported"
+        )
+    for name in ("engine_id", "start_time"):
+        if not recording_meta.get(name):
+            raise FormatError(f"{source}: the 'recording' metadata has no {name!r}")
+    result = []
+    for channel_id, channel in channels.items():
+        if schemas.get(channel.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):
+            raise FormatError(
+                f"{source}: topic {channel.topic!r} has schema "
+                f"{schemas.get(channel.schema_id)!r}, not one of this format's"
+            )
+        result.append((channel, _assemble(source, channel, blocks.get(channel_id, []), truncated)))
+    order = recording_meta.get("channels", "").split(",")
+    result.sort(key=lambda item: order.index(item[1].name) if item[1].name in order else len(order))
+    return Recording(
+        engine_id=recording_meta["engine_id"],
+        start_time=recording_meta["start_time"],
+        notes=recording_meta.get("notes", ""),
+        channels=tuple(c for _, c in result),
+        truncated=truncated,
+    )
+
+
+def _assemble(
+    source: Path, channel: McapChannel, parts: list[tuple[float, np.ndarray]], truncated: bool
+) -> Channel:
+    meta = dict(channel.metadata)
+    name = channel.topic.lstrip("/")
+    where = f"{source}: channel {name!r}"
+    for key in ("kind", "unit", "representation", "dtype"):
+        if key not in meta:
+            raise FormatError(f"{where}: missing channel metadata {key!r}")
+    events = meta["representation"] == "events"
+    rate = None if events else float(meta.get("sample_rate_hz", "nan"))
+    parts.sort(key=lambda p: p[0])
+    dtype = np.dtype(meta["dtype"])
+    data = np.concatenate([p[1] for p in parts]).astype(dtype, copy=False) if parts else np.empty(0, dtype)
+    if not events and parts:
+        expected = float(meta.get("start_offset_s", "0"))
+        for start, values in parts:  # blocks must follow each other without gaps or overlaps
+            if abs(start - expected) > 0.5 / rate:  # type: ignore[operator]
+                raise FormatError(
+                    f"{where}: a block starts at {start:.9g} s, expected {expected:.9g} s "
+                    "(missing or repeated block)"
+                )
+            expected = start + values.size / rate  # type: ignore[operator]
+    stated = int(meta.get("samples", data.size))
+    if data.size != stated and not (truncated and data.size < stated):
+        raise FormatError(f"{where}: {data.size} samples in its blocks, but its metadata says {stated}")
+    fields: dict[str, float | int | str] = {}
+    for key in KIND_FIELDS.get(meta["kind"], {}):
+        if key in meta:
+            fields[key] = int(meta[key]) if key in _INTEGER_FIELDS else float(meta[key])
+    try:
+        result = Channel(
+            name=name,
+            kind=meta["kind"],
+            unit=meta["unit"],
+            data=data,
+            sample_rate=rate,
+            start_offset=float(meta.get("start_offset_s", "0")),
+            location=meta.get("location", ""),
+            direction=meta.get("direction", ""),
+            fields=fields,
+        )
+    except FormatError as error:
+        raise FormatError(f"{source}: {error}") from None
+    return result.checked()
+
+
+# -------------------------------------------------------------------------------- third-party files
+@dataclass(frozen=True)
+class McapListing:
+    """What an MCAP file holds, by topic (any schema, for files other programs wrote).
+
+    Attributes
+    ----------
+    messages : dict of str to int
+        Messages per topic.
+    schemas : dict of str to str
+        Schema name per topic.
+    truncated : bool
+        The file was cut short; counts cover its whole chunks.
+    """
+
+    messages: dict[str, int]
+    schemas: dict[str, str]
+    truncated: bool
+
+    @property
+    def total(self) -> int:
+        """All messages."""
+        return sum(self.messages.values())
+
+
+def list_mcap(path: str | Path) -> McapListing:
+    """Count the messages per topic of any MCAP file, streaming, CRCs checked.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    McapListing
+    """
+    source = Path(path)
+    schemas: dict[int, str] = {}
+    topics: dict[int, str] = {}
+    counts: dict[str, int] = defaultdict(int)
+    truncated = False
+    names: dict[str, str] = {}
+    for record in _records(source):
+        if record is None:
+            truncated = True
+        elif isinstance(record, Schema):
+            schemas[record.id] = record.name
+        elif isinstance(record, McapChannel):
+            topics[record.id] = record.topic
+            names[record.topic] = schemas.get(record.schema_id, "")
+            counts.setdefault(record.topic, 0)
+        elif isinstance(record, Message):
+            counts[topics.get(record.channel_id, f"channel {record.channel_id}")] += 1
+    return McapListing(dict(counts), names, truncated)
