@@ -92,6 +92,32 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     orders.add_argument("--plot", metavar="FILE.png", help="also write a figure of the orders")
 
+    spectrum = sub.add_parser(
+        "spectrum",
+        help="order spectra of a recording's channels",
+        description=(
+            "Resample a recording's channels to the crank-angle domain and compute their order spectra "
+            "(peak amplitude in the channel's unit, phase in degrees relative to TDC of cylinder 1), "
+            "with the crank-speed fluctuation orders."
+        ),
+    )
+    spectrum.add_argument("recording", metavar="RECORDING", help="recording file (.h5 or .mcap)")
+    spectrum.add_argument(
+        "--engine", help="engine description (default: the recording's engine id, if bundled)"
+    )
+    spectrum.add_argument(
+        "--cycle", choices=("two-stroke", "four-stroke"), help="override the engine's cycle"
+    )
+    spectrum.add_argument("--channel", action="append", help="channel to analyse (repeatable; default: all)")
+    spectrum.add_argument(
+        "--orders", help="comma-separated orders to list (default: every order to --max-order)"
+    )
+    spectrum.add_argument("--max-order", type=float, default=24.0, help="highest order (default 24)")
+    spectrum.add_argument("--samples-per-cycle", type=int, default=None, help="angle-domain grid")
+    spectrum.add_argument("--block-cycles", type=int, default=1, help="cycles per averaged block (default 1)")
+    spectrum.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
+    spectrum.add_argument("--plot", metavar="FILE.png", help="also draw the spectra")
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
@@ -127,6 +153,105 @@ def _run_orders(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_spectrum(args: argparse.Namespace) -> int:
+    import math
+
+    import numpy as np
+
+    from monitor.engine import bundled_engines, load_engine
+    from monitor.errors import ModelError
+    from monitor.pipeline import read_recording, spectra
+
+    recording = read_recording(args.recording)
+    if args.cycle:
+        revolutions = 1 if args.cycle == "two-stroke" else 2
+    else:
+        source = args.engine or (recording.engine_id if recording.engine_id in bundled_engines() else None)
+        if source is None:
+            raise ModelError(
+                f"engine {recording.engine_id!r} is not bundled: give --engine FILE.toml or --cycle"
+            )
+        revolutions = load_engine(source).cycle_revolutions
+    result = spectra(
+        recording,
+        cycle_revolutions=revolutions,
+        channels=args.channel,
+        samples_per_cycle=args.samples_per_cycle,
+        max_order=args.max_order,
+        block_cycles=args.block_cycles,
+    )
+    listed = None
+    if args.orders:
+        try:
+            listed = [float(k) for k in args.orders.split(",")]
+        except ValueError:
+            raise ModelError(f"--orders {args.orders!r}: expected comma-separated numbers") from None
+    rpm = result.mean_speed * 30 / math.pi
+    document = {
+        "recording": {
+            "engine_id": recording.engine_id,
+            "start_time": recording.start_time,
+            "truncated": recording.truncated,
+        },
+        "angle_reference": {
+            "channel": result.reference.source,
+            "repairs": result.reference.repairs,
+            "cycle_phase": result.reference.cycle_phase,
+        },
+        "mean_speed_rpm": rpm,
+        "cycle_revolutions": revolutions,
+        "channels": {},
+    }
+    cut = " (truncated)" if recording.truncated else ""
+    lines = [
+        f"Recording of {recording.engine_id} from {recording.start_time}{cut}",
+        f"angle reference: {result.reference.source} ({result.reference.repairs} pulse repairs"
+        + (f", cycle phase from {result.reference.cycle_phase}" if result.reference.cycle_phase else "")
+        + f"); mean speed {rpm:.2f} rpm",
+        "amplitudes are peak, in each channel's unit; phases relative to TDC of cylinder 1",
+    ]
+    for name, spectrum in result.spectra.items():
+        keep = (
+            np.ones(spectrum.orders.size, dtype=bool)
+            if listed is None
+            else np.isin(np.round(spectrum.orders * 2) / 2, listed)
+        )
+        keep[0] = listed is not None and 0.0 in listed
+        unit = result.units[name]
+        document["channels"][name] = {  # type: ignore[index]
+            "unit": unit,
+            "blocks": spectrum.blocks,
+            "orders": spectrum.orders[keep].tolist(),
+            "amplitude": spectrum.magnitude[keep].tolist(),
+            "phase_deg": np.degrees(spectrum.phase[keep]).tolist(),
+            "magnitude_std": spectrum.magnitude_std[keep].tolist(),
+        }
+        lines += [
+            "",
+            f"{name} [{unit}], {spectrum.blocks} blocks of {spectrum.block_cycles} cycle(s):",
+            f"{'order':>6} {'amplitude':>12} {'phase':>8} {'spread':>10}",
+        ]
+        for k, a, ph, sd in zip(
+            spectrum.orders[keep],
+            spectrum.magnitude[keep],
+            spectrum.phase[keep],
+            spectrum.magnitude_std[keep],
+            strict=True,
+        ):
+            lines.append(f"{k:6.1f} {a:12.5g} {math.degrees(ph):8.1f} {sd:10.3g}")
+    if args.json:
+        json.dump(document, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        print("\n".join(lines))
+    if args.plot:
+        from monitor.plots import plot_spectra
+
+        path = plot_spectra(result, args.plot, title=f"{recording.engine_id}, {rpm:.1f} rpm")
+        print(f"plot written to {path}", file=sys.stderr)
+    return 0
+
+
 def _run_engines(_: argparse.Namespace) -> int:
     from monitor.engine import bundled_engines, load_engine
 
@@ -154,7 +279,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = _build_parser()
     args = parser.parse_args(argv)
-    handlers = {"orders": _run_orders, "engines": _run_engines, "torsion": run_torsion}
+    handlers = {
+        "orders": _run_orders,
+        "engines": _run_engines,
+        "torsion": run_torsion,
+        "spectrum": _run_spectrum,
+    }
     try:
         return handlers[args.command](args)
     except MonitorError as error:

@@ -7,13 +7,14 @@ physics puts where. Each function writes one PNG and returns its path.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from monitor.crankshaft import EngineModel
 from monitor.model_orders import ModelOrders
 
-__all__ = ["plot_model_orders"]
+__all__ = ["plot_model_orders", "plot_spectra"]
 
 
 def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path) -> Path:
@@ -94,5 +95,55 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
     ax.set_yticks(range(1, engine.bearing_count + 1))
 
     fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
+    """Order spectra of a recording: one panel per channel, amplitude on a log scale.
+
+    Parameters
+    ----------
+    result : monitor.pipeline.SpectrumResult
+    path : str or Path
+        Output PNG.
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(result.spectra)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(
+        len(names), 1, figsize=(11, 2.6 * len(names) + 0.8), constrained_layout=True, squeeze=False
+    )
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        spectrum = result.spectra[name]
+        orders, amplitude = spectrum.orders[1:], spectrum.magnitude[1:]
+        ax.bar(orders, np.maximum(amplitude, 1e-12), width=0.35 / result.cycle_revolutions)
+        ax.errorbar(
+            orders,
+            spectrum.magnitude_mean[1:],
+            yerr=spectrum.magnitude_std[1:],
+            fmt="none",
+            ecolor="k",
+            elinewidth=0.6,
+            capsize=1.5,
+        )
+        ax.set_yscale("log")
+        top = float(amplitude.max(initial=1e-12))
+        ax.set_ylim(max(top * 1e-6, 1e-12), top * 3)
+        ax.set(ylabel=f"[{result.units[name]}]", title=name)
+        ax.grid(alpha=0.3, axis="y", which="both")
+    axes[-1, 0].set_xlabel("order")
+    fig.suptitle(title or "Order spectra")
+    fig.savefig(out, dpi=100)
     plt.close(fig)
     return out

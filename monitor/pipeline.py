@@ -1,0 +1,282 @@
+"""The measured side, composed: recording -> angle map -> angle-domain channels -> order spectra.
+
+The CLI, the service and the batch call these functions, nothing deeper.
+
+Angle reference.  A tooth-wheel channel is preferred (many pulses per
+revolution: a precise map at varying speed), else a keyphasor; a recording
+with neither is refused, not guessed.  Four-stroke engines also need the
+cycle phase: from a cam channel, else from cylinder 1's pressure channel,
+else it must be given.
+
+Crank speed.  The angle map's derivative, resampled to the angle domain,
+gives the speed-fluctuation orders (``crank speed`` in the spectra,
+[rad/s]); they are what the torque orders of the model predict.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from monitor.recording import Channel, FormatError, Recording
+from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrum, order_spectrum, to_angle_domain
+from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.pulses import SignalError, detect_edges, repair_keyphasor
+from monitor.signal.toothwheel import decode_tooth_wheel
+
+__all__ = ["AngleReference", "SpectrumResult", "angle_reference", "read_recording", "spectra"]
+
+SPEED_CHANNEL = "crank speed"
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Read a recording in the product's HDF5 or MCAP format (by the file's signature).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Recording
+    """
+    source = Path(path)
+    try:
+        with open(source, "rb") as fh:
+            head = fh.read(8)
+    except OSError as error:
+        raise FormatError(f"{source}: cannot read: {error}") from None
+    if head == b"\x89HDF\r\n\x1a\n":
+        from monitor.io.hdf5 import read_hdf5
+
+        return read_hdf5(source)
+    if head == b"\x89MCAP0\r\n":
+        from monitor.io.mcap_io import read_mcap
+
+        return read_mcap(source)
+    raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
+
+
+@dataclass(frozen=True)
+class AngleReference:
+    """The angle map of a recording and how it was found.
+
+    Attributes
+    ----------
+    angle_map : AngleMap
+        Cycle angle against time (0 at firing TDC of cylinder 1).
+    source : str
+        The channel it came from.
+    repairs : int
+        Pulses inserted or removed.
+    cycle_phase : str
+        How the four-stroke phase was found ("cam", "pressure", "given", or "" for two-stroke).
+    """
+
+    angle_map: AngleMap
+    source: str
+    repairs: int
+    cycle_phase: str
+
+
+def _edges(channel: Channel) -> np.ndarray:
+    if channel.is_events:
+        return np.asarray(channel.data, dtype=np.float64)
+    if channel.mask is not None:
+        raise SignalError(
+            f"channel {channel.name!r} has {len(channel.quality)} unusable span(s) "
+            "(NaN, Inf or clipping): a pulse channel must be clean"
+        )
+    return detect_edges(channel.data, _rate(channel), start_time=channel.start_offset).times
+
+
+def _rate(channel: Channel) -> float:
+    if channel.sample_rate is None:
+        raise SignalError(f"channel {channel.name!r} holds events, not a waveform")
+    return float(channel.sample_rate)
+
+
+def angle_reference(
+    recording: Recording, *, cycle_revolutions: int, cycle_phase: float | None = None
+) -> AngleReference:
+    """The crank (cycle) angle map of a recording.
+
+    Parameters
+    ----------
+    recording : Recording
+    cycle_revolutions : int
+        1 two-stroke, 2 four-stroke.
+    cycle_phase : float, optional
+        Four-stroke: the shift (0 or 2 pi) to apply, if known [rad]; otherwise
+        it is found from a cam or a cylinder-1 pressure channel.
+
+    Returns
+    -------
+    AngleReference
+
+    Raises
+    ------
+    SignalError
+        Without a usable angle reference (no tooth wheel or keyphasor channel,
+        or one that does not decode), or a four-stroke cycle phase that cannot be found.
+    """
+    teeth = recording.of_kind("tooth")
+    keyphasors = recording.of_kind("keyphasor")
+    if teeth:
+        channel = teeth[0]
+        decoding = decode_tooth_wheel(
+            _edges(channel),
+            teeth=int(channel.fields["teeth"]),
+            missing=int(channel.fields["missing_teeth"]),
+            first_tooth_angle=math.radians(float(channel.fields["first_tooth_angle_deg"])),
+        )
+        angle_map = AngleMap(decoding.times, decoding.angles)
+        repairs = int(decoding.inserted.size + decoding.removed.size)
+    elif keyphasors:
+        channel = keyphasors[0]
+        repaired = repair_keyphasor(_edges(channel))
+        angle_map = AngleMap.from_keyphasor(
+            repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
+        )
+        repairs = int(repaired.inserted.size + repaired.removed.size)
+    else:
+        raise SignalError("the recording has no tooth-wheel or keyphasor channel: no usable angle reference")
+    how = ""
+    if cycle_revolutions == 2:
+        if cycle_phase is not None:
+            shift, how = float(cycle_phase), "given"
+        elif recording.of_kind("cam"):
+            cam = recording.of_kind("cam")[0]
+            shift = cycle_phase_from_cam(
+                angle_map, _edges(cam), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
+            )
+            how = "cam"
+        else:
+            pressures = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
+            if not pressures:
+                raise SignalError(
+                    "four-stroke recording without a cam or cylinder-1 pressure channel: give the cycle phase"
+                )
+            p = pressures[0]
+            shift = cycle_phase_from_pressure(angle_map, p.data, _rate(p), start_time=p.start_offset)
+            how = "pressure"
+        angle_map = angle_map.shifted(shift)
+    return AngleReference(angle_map, channel.name, repairs, how)
+
+
+@dataclass(frozen=True)
+class SpectrumResult:
+    """Order spectra of a recording's channels.
+
+    Attributes
+    ----------
+    reference : AngleReference
+    spectra : dict of str to OrderSpectrum
+        By channel name; ``"crank speed"`` is the speed fluctuation [rad/s].
+    units : dict of str to str
+    mean_speed : float
+        Mean crank speed over the analysed span [rad/s].
+    cycle_revolutions : int
+    """
+
+    reference: AngleReference
+    spectra: dict[str, OrderSpectrum]
+    units: dict[str, str]
+    mean_speed: float
+    cycle_revolutions: int
+
+
+def spectra(
+    recording: Recording,
+    *,
+    cycle_revolutions: int,
+    channels: list[str] | None = None,
+    samples_per_cycle: int | None = None,
+    max_order: float = 24.0,
+    block_cycles: int = 1,
+    interpolation_order: Literal[1, 3, 5] = 3,
+    cycle_phase: float | None = None,
+) -> SpectrumResult:
+    """Order spectra of the waveform channels of a recording and of its crank speed.
+
+    Parameters
+    ----------
+    recording : Recording
+    cycle_revolutions : int
+        1 two-stroke, 2 four-stroke.
+    channels : list of str, optional
+        Channels to analyse; default: every accelerometer, velocity, pressure and speed channel.
+    samples_per_cycle : int, optional
+        Angle-domain grid; default: at least 8 samples per highest order, a power of two.
+    max_order : float, optional
+        Highest order reported [-].
+    block_cycles : int, optional
+        Cycles per averaged block.
+    interpolation_order : int, optional
+        1, 3 or 5.
+    cycle_phase : float, optional
+        Four-stroke phase shift if known [rad].
+
+    Returns
+    -------
+    SpectrumResult
+    """
+    reference = angle_reference(recording, cycle_revolutions=cycle_revolutions, cycle_phase=cycle_phase)
+    if samples_per_cycle is None:
+        samples_per_cycle = 2 ** math.ceil(math.log2(8 * max_order * cycle_revolutions))
+    wanted = (
+        channels
+        if channels is not None
+        else [
+            c.name
+            for c in recording.channels
+            if c.kind in ("acceleration", "velocity", "pressure", "speed") and not c.is_events
+        ]
+    )
+    result: dict[str, OrderSpectrum] = {}
+    units: dict[str, str] = {}
+    angle_map = reference.angle_map
+    for name in wanted:
+        channel = recording.channel(name)
+        if channel.is_events:
+            raise SignalError(f"channel {name!r} holds events, not a waveform: no spectrum")
+        if channel.mask is not None:
+            spans = ", ".join(f"{q.reason} {q.start:.3f}-{q.stop:.3f} s" for q in channel.quality[:3])
+            more = " ..." if len(channel.quality) > 3 else ""
+            raise SignalError(
+                f"channel {name!r} has unusable spans ({spans}{more}): "
+                "cut them out before computing its spectrum"
+            )
+        resampled = to_angle_domain(
+            channel.data,
+            _rate(channel),
+            angle_map,
+            samples_per_cycle=samples_per_cycle,
+            cycle_revolutions=cycle_revolutions,
+            start_time=channel.start_offset,
+            interpolation_order=interpolation_order,
+        )
+        result[name] = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
+        units[name] = channel.unit
+    # crank speed: the angle map's derivative on the same grid
+    cycle = 2 * math.pi * cycle_revolutions
+    first = math.ceil(angle_map.angles[0] / cycle)
+    last = math.floor(angle_map.angles[-1] / cycle)
+    if last - first >= 1:
+        grid = first * cycle + (cycle / samples_per_cycle) * np.arange((last - first) * samples_per_cycle)
+        speed = angle_map.speed_at(angle_map.time_at(grid))
+        signal = AngleDomainSignal(
+            speed.reshape(last - first, samples_per_cycle),
+            first,
+            samples_per_cycle,
+            cycle_revolutions,
+            None,
+            3,
+        )
+        result[SPEED_CHANNEL] = order_spectrum(signal, block_cycles=block_cycles, max_order=max_order)
+        units[SPEED_CHANNEL] = "rad/s"
+    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions)
