@@ -118,6 +118,16 @@ def _build_parser() -> argparse.ArgumentParser:
     spectrum.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
     spectrum.add_argument("--plot", metavar="FILE.png", help="also draw the spectra")
 
+    imp = sub.add_parser(
+        "import",
+        help="convert a test-bench file (MDF4, TDMS) into a recording",
+        description="Convert an ASAM MDF or NI TDMS file into an engine-monitor recording (HDF5 or MCAP), "
+        "with a channel-mapping file (see monitor.io.imports).",
+    )
+    imp.add_argument("source", metavar="SOURCE", help=".mf4/.mdf or .tdms file")
+    imp.add_argument("--map", required=True, metavar="MAP.toml", help="channel-mapping file")
+    imp.add_argument("-o", "--output", required=True, metavar="OUT.h5|OUT.mcap", help="recording to write")
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
@@ -252,6 +262,37 @@ def _run_spectrum(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_import(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from monitor.io.hdf5 import write_hdf5
+    from monitor.io.imports import import_mdf, import_tdms, load_mapping
+    from monitor.io.mcap_io import write_mcap
+    from monitor.recording import FormatError
+
+    mapping = load_mapping(args.map)
+    source = Path(args.source)
+    suffix = source.suffix.lower()
+    if suffix == ".tdms":
+        recording = import_tdms(source, mapping)
+    elif suffix in (".mf4", ".mdf", ".dat"):
+        recording = import_mdf(source, mapping)
+    else:
+        raise FormatError(f"{source}: unknown source type {suffix!r}; expected .tdms, .mf4 or .mdf")
+    output = Path(args.output)
+    if output.suffix.lower() in (".h5", ".hdf5"):
+        write_hdf5(recording, output)
+    elif output.suffix.lower() == ".mcap":
+        write_mcap(recording, output)
+    else:
+        raise FormatError(f"{output}: expected an .h5 or .mcap output file")
+    for c in recording.channels:
+        spans = f", {len(c.quality)} unusable span(s) masked" if c.quality else ""
+        print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples{spans}")
+    print(f"recording written to {output}", file=sys.stderr)
+    return 0
+
+
 def _run_engines(_: argparse.Namespace) -> int:
     from monitor.engine import bundled_engines, load_engine
 
@@ -284,6 +325,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "engines": _run_engines,
         "torsion": run_torsion,
         "spectrum": _run_spectrum,
+        "import": _run_import,
     }
     try:
         return handlers[args.command](args)
