@@ -260,6 +260,10 @@ def main() -> None:
     from benchmarks.torsion import sections as torsion_sections
 
     torsion = torsion_sections()
+    print("angle domain ...", flush=True)
+    from benchmarks.angle_domain import sections as angle_domain_sections
+
+    angle_domain = angle_domain_sections()
     figure(trunc, grid)
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
@@ -314,6 +318,7 @@ def main() -> None:
         *rods,
         "",
         *torsion,
+        *angle_domain,
         f"Benchmark run time: {time.perf_counter() - start:.0f} s.",
         "",
     ]

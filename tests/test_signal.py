@@ -269,3 +269,22 @@ def test_real_four_stroke_cycle_phase_from_the_pressure_channel() -> None:
     # none near the gas-exchange TDC at 360 deg: the phase is right in every cycle
     assert np.all((where > 0.0) & (where < 40.0)), where
     assert 8.0 < float(np.median(where)) < 22.0
+
+
+def test_order_speed_map_of_a_run_up() -> None:
+    """A run-up from 300 to 900 rpm with an order-4 component whose amplitude grows with speed squared
+    (an inertia force) and a fixed order 2: the map shows both laws bin by bin."""
+    from monitor.signal.angle_domain import order_speed_map
+
+    t = np.arange(int(20.0 * FS)) / FS
+    w = (300 + 600 * t / t[-1]) * math.pi / 30
+    alpha = cumulative_trapezoid(w, t, initial=0.0)
+    x = 0.5 * np.cos(2 * alpha) + 1e-5 * w**2 * np.cos(4 * alpha + 0.3)
+    marks = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * (math.pi / 30)
+    angle_map = AngleMap(np.interp(marks, alpha, t), marks)
+    resampled = to_angle_domain(x, FS, angle_map, samples_per_cycle=128)
+    result = order_speed_map(resampled, angle_map, bins=10, max_order=8)
+    filled = result.cycles > 0
+    assert filled.sum() >= 9
+    np.testing.assert_allclose(result.amplitude[filled, 2], 0.5, rtol=2e-3)
+    np.testing.assert_allclose(result.amplitude[filled, 4], 1e-5 * result.speed[filled] ** 2, rtol=0.03)

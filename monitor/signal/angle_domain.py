@@ -37,7 +37,14 @@ from monitor.orders import scaled_rfft
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.pulses import SignalError
 
-__all__ = ["AngleDomainSignal", "OrderSpectrum", "order_spectrum", "to_angle_domain"]
+__all__ = [
+    "AngleDomainSignal",
+    "OrderSpectrum",
+    "OrderSpeedMap",
+    "order_spectrum",
+    "order_speed_map",
+    "to_angle_domain",
+]
 
 FloatArray = npt.NDArray[np.float64]
 ComplexArray = npt.NDArray[np.complex128]
@@ -242,3 +249,66 @@ def order_spectrum(
         blocks=blocks,
         block_cycles=block_cycles,
     )
+
+
+@dataclass(frozen=True)
+class OrderSpeedMap:
+    """Order amplitudes against crank speed (a run-up or run-down).
+
+    Attributes
+    ----------
+    speed : ndarray, shape (n_bins,)
+        Bin centres [rad/s].
+    orders : ndarray, shape (n_orders,)
+        [-].
+    amplitude : ndarray, shape (n_bins, n_orders)
+        Mean magnitude of the cycles in each speed bin, in the channel's unit; NaN
+        where a bin holds no cycle.
+    cycles : ndarray of int, shape (n_bins,)
+        Cycles per bin.
+    """
+
+    speed: FloatArray
+    orders: FloatArray
+    amplitude: FloatArray
+    cycles: npt.NDArray[np.int64]
+
+
+def order_speed_map(
+    signal: AngleDomainSignal, angle_map: AngleMap, *, bins: int = 40, max_order: float | None = None
+) -> OrderSpeedMap:
+    """Order amplitudes of every cycle, binned by the cycle's mean speed.
+
+    Parameters
+    ----------
+    signal : AngleDomainSignal
+        The channel resampled with the same angle map.
+    angle_map : AngleMap
+        Gives each cycle's duration, hence its mean speed.
+    bins : int, optional
+        Speed bins between the slowest and the fastest cycle.
+    max_order : float, optional
+        Highest order kept [-].
+
+    Returns
+    -------
+    OrderSpeedMap
+    """
+    if bins < 1:
+        raise SignalError(f"bins = {bins!r}: expected at least one speed bin")
+    n_cycles = signal.values.shape[0]
+    cycle = 2 * math.pi * signal.cycle_revolutions
+    edges_angle = (signal.first_cycle + np.arange(n_cycles + 1)) * cycle
+    times = angle_map.time_at(edges_angle)
+    speed = cycle / np.diff(times)
+    magnitude = np.abs(scaled_rfft(signal.values))
+    orders = np.arange(magnitude.shape[-1], dtype=np.float64) / signal.cycle_revolutions
+    keep = orders <= (max_order if max_order is not None else orders[-1]) + 1e-12
+    lo, hi = float(np.nanmin(speed)), float(np.nanmax(speed))
+    edges = np.linspace(lo, hi if hi > lo else lo * (1 + 1e-9) + 1e-12, bins + 1)
+    which = np.clip(np.searchsorted(edges, speed, side="right") - 1, 0, bins - 1)
+    amplitude = np.full((bins, int(keep.sum())), np.nan)
+    counts = np.bincount(which, minlength=bins).astype(np.int64)
+    for b in np.flatnonzero(counts):
+        amplitude[b] = magnitude[which == b][:, keep].mean(axis=0)
+    return OrderSpeedMap(0.5 * (edges[:-1] + edges[1:]), orders[keep], amplitude, counts)
