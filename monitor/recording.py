@@ -11,14 +11,15 @@ tooth wheel's tooth count, missing teeth and the crank angle of its first
 tooth after the gap; a keyphasor pulse's angle after TDC of cylinder 1;
 the cylinder of a pressure channel).
 
-Data quality.  NaN and Inf samples, and clipped spans (runs of samples
-stuck at the channel's extreme value), are found, reported with their
-spans in time and masked: the mask travels with the channel, and nothing
+Data quality.  NaN and Inf samples, and clipped spans (runs of samples at
+the limits of the channel's stated measuring range), are found, reported
+with their spans in time and masked: the mask travels with the channel, and nothing
 downstream averages them in silently.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -112,6 +113,10 @@ class Channel:
     mask : ndarray of bool or None
         True where a sample is unusable (see ``quality``); None if none is.
     quality : tuple of QualitySpan
+    range : (float, float) or None
+        The sensor's (or the acquisition's) measuring range, in the channel's unit:
+        samples at its limits for several samples in a row are clipped. Without
+        it clipping cannot be told from a flat peak and is not judged.
     """
 
     name: str
@@ -125,6 +130,7 @@ class Channel:
     fields: dict[str, float | int | str] = field(default_factory=dict)
     mask: np.ndarray | None = None
     quality: tuple[QualitySpan, ...] = ()
+    range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         where = f"channel {self.name!r}"
@@ -152,6 +158,14 @@ class Channel:
                 raise FormatError(f"{where}: sample rate {rate!r}: expected a positive rate in Hz")
             if self.unit == "s":
                 raise FormatError(f"{where}: unit 's' is for event channels (edge times), not waveforms")
+        if self.range is not None and not (
+            len(self.range) == 2
+            and all(math.isfinite(v) for v in self.range)
+            and self.range[0] < self.range[1]
+        ):
+            raise FormatError(
+                f"{where}: range {self.range!r}: expected (minimum, maximum) with minimum < maximum"
+            )
         if not math.isfinite(self.start_offset):
             raise FormatError(f"{where}: start offset {self.start_offset!r}: expected a finite time in s")
         for name, required in KIND_FIELDS.get(self.kind, {}).items():
@@ -189,40 +203,44 @@ class Channel:
         return self.start_offset + np.arange(self.data.size) / float(self.sample_rate)  # type: ignore[arg-type]
 
     def checked(self) -> Channel:
-        """This channel with its data-quality spans found and masked (see :func:`quality_spans`)."""
-        if self.is_events:
+        """This channel with its data-quality spans found and masked (see :func:`quality_spans`).
+
+        Pulse channels (keyphasor, tooth, cam) are not judged for clipping: a
+        logic-level pulse sits at its rails by design.
+        """
+        if self.is_events or self.sample_rate is None:
             return self
-        spans, mask = quality_spans(self.data, float(self.sample_rate), start_offset=self.start_offset)  # type: ignore[arg-type]
-        return Channel(
-            self.name,
-            self.kind,
-            self.unit,
-            self.data,
-            self.sample_rate,
-            self.start_offset,
-            self.location,
-            self.direction,
-            dict(self.fields),
-            mask if mask.any() else None,
-            tuple(spans),
+        limits = None if self.kind in ("keyphasor", "tooth", "cam") else self.range
+        spans, mask = quality_spans(
+            self.data, self.sample_rate, start_offset=self.start_offset, limits=limits
         )
+        return dataclasses.replace(self, mask=mask if mask.any() else None, quality=tuple(spans))
 
 
 def quality_spans(
-    data: npt.ArrayLike, sample_rate: float, *, start_offset: float = 0.0, clip_run: int = CLIP_RUN
+    data: npt.ArrayLike,
+    sample_rate: float,
+    *,
+    start_offset: float = 0.0,
+    limits: tuple[float, float] | None = None,
+    clip_run: int = CLIP_RUN,
 ) -> tuple[list[QualitySpan], npt.NDArray[np.bool_]]:
     """NaN, Inf and clipped spans of a waveform, and the mask of those samples.
 
     Parameters
     ----------
     data : array_like, shape (n,)
-        Samples.
+        Samples [the channel's unit].
     sample_rate : float
         [Hz].
     start_offset : float, optional
         Time of the first sample [s].
+    limits : (float, float), optional
+        The measuring range [the channel's unit]; runs of samples at or beyond a
+        limit are clipped. Without limits, clipping is not judged (a quantised
+        peak or a flat pulse top is not clipping).
     clip_run : int, optional
-        Shortest run of samples equal to the channel's maximum (or minimum) reported as clipped.
+        Shortest run of samples at a limit reported as clipped.
 
     Returns
     -------
@@ -254,11 +272,9 @@ def quality_spans(
     runs(np.isnan(x), "nan")
     runs(np.isinf(x), "inf")
     finite = np.isfinite(x)
-    if finite.any():
-        top, bottom = np.max(x[finite]), np.min(x[finite])
-        if top > bottom:
-            runs(finite & (x == top), "clipped", clip_run)
-            runs(finite & (x == bottom), "clipped", clip_run)
+    if limits is not None and finite.any():
+        runs(finite & (x >= limits[1]), "clipped", clip_run)
+        runs(finite & (x <= limits[0]), "clipped", clip_run)
     spans.sort(key=lambda s: s.start)
     return spans, mask
 

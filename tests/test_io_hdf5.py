@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import h5py
@@ -190,21 +189,67 @@ def test_ni_waveform_attribute_names_are_accepted(tmp_path: Path) -> None:
 
 
 def test_nan_inf_and_clipping_are_reported_and_masked(tmp_path: Path) -> None:
+    """NaN and Inf always; clipping only against the stated measuring range."""
     x = np.sin(np.linspace(0, 20, 1000)).astype(np.float32)
     x[100:110] = np.nan
     x[500] = np.inf
-    x[700:720] = np.nanmax(x[np.isfinite(x)]) + 1  # a sensor stuck at its range
-    spans, mask = quality_spans(x, 100.0)
+    x[700:720] = 2.0  # a sensor stuck at the top of its +-2 range
+    spans, mask = quality_spans(x, 100.0, limits=(-2.0, 2.0))
     assert [(s.reason, s.samples) for s in spans] == [("nan", 10), ("inf", 1), ("clipped", 20)]
     assert spans[0].start == pytest.approx(1.0) and spans[2].stop == pytest.approx(7.19)
     assert mask.sum() == 31
+    unranged, _ = quality_spans(x, 100.0)
+    assert [s.reason for s in unranged] == ["nan", "inf"]  # no range: clipping is not judged
 
     def stored(f: h5py.File) -> None:
         ds = f["channels"].create_dataset("bad", data=x)
-        ds.attrs.update({"kind": "acceleration", "unit": "g", "sample_rate_hz": 100.0})
+        ds.attrs.update(
+            {
+                "kind": "acceleration",
+                "unit": "g",
+                "sample_rate_hz": 100.0,
+                "range_min": -2.0,
+                "range_max": 2.0,
+            }
+        )
 
     channel = read_hdf5(_write_raw(tmp_path / "q.h5", stored)).channel("bad")
     assert channel.mask is not None and channel.mask.sum() == 31 and len(channel.quality) == 3
+    assert channel.range == (-2.0, 2.0)
+
+
+def test_clean_quantised_and_pulse_channels_are_not_masked(tmp_path: Path) -> None:
+    """A 16-bit accelerometer well inside its range, and a 0/5 V keyphasor sitting on its rails:
+    flat peaks and pulse tops are not clipping (review finding: they used to be masked)."""
+    t = np.arange(200000) / 25600.0
+    quantised = np.round(8.0 * np.sin(2 * np.pi * 1.733 * t) / (20 / 65536)) * (20 / 65536)
+    ttl = np.where(np.mod(t, 0.58) < 0.01, 5.0, 0.0)
+
+    def stored(f: h5py.File) -> None:
+        a = f["channels"].create_dataset("acc16", data=quantised.astype(np.float32))
+        a.attrs.update(
+            {
+                "kind": "acceleration",
+                "unit": "m/s^2",
+                "sample_rate_hz": 25600.0,
+                "range_min": -10.0,
+                "range_max": 10.0,
+            }
+        )
+        k = f["channels"].create_dataset("kp", data=ttl.astype(np.float32))
+        k.attrs.update(
+            {
+                "kind": "keyphasor",
+                "unit": "V",
+                "sample_rate_hz": 25600.0,
+                "pulse_angle_deg": 0.0,
+                "range_min": 0.0,
+                "range_max": 5.0,
+            }
+        )
+
+    recording = read_hdf5(_write_raw(tmp_path / "clean.h5", stored))
+    assert recording.channel("acc16").mask is None and recording.channel("kp").mask is None
 
 
 def test_write_is_all_or_nothing(
@@ -248,4 +293,3 @@ def test_bad_channels_are_refused(kwargs: dict, message: str) -> None:  # type: 
     base = {"name": "c", "data": np.zeros(10), "sample_rate": 100.0}
     with pytest.raises(FormatError, match=message):
         Channel(**{**base, **kwargs})
-    assert math.isfinite(1.0)

@@ -87,6 +87,8 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
                 ds.attrs["direction"] = c.direction
                 for key, value in c.fields.items():
                     ds.attrs[key] = value
+                if c.range is not None:
+                    ds.attrs["range_min"], ds.attrs["range_max"] = c.range
         with open(temporary, "rb") as fh:
             os.fsync(fh.fileno())
         os.replace(temporary, target)
@@ -234,6 +236,9 @@ def _read_channel(group: h5py.Group, name: str, source: Path) -> Channel:
             location=_text(a.get("location", "")),
             direction=_text(a.get("direction", "")),
             fields=fields,
+            range=(float(a["range_min"]), float(a["range_max"]))
+            if "range_min" in a and "range_max" in a
+            else None,
         )
     except FormatError as error:
         raise FormatError(f"{source}: {error}") from None

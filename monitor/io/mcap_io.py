@@ -314,6 +314,8 @@ def _channel_metadata(c: Channel) -> dict[str, str]:
         meta["sample_rate_hz"] = repr(float(c.sample_rate))  # type: ignore[arg-type]
     for key, value in c.fields.items():
         meta[key] = str(int(value)) if key in _INTEGER_FIELDS else repr(float(value))
+    if c.range is not None:
+        meta["range_min"], meta["range_max"] = repr(float(c.range[0])), repr(float(c.range[1]))
     return meta
 
 
@@ -482,6 +484,7 @@ def _assemble(
             location=meta.get("location", ""),
             direction=meta.get("direction", ""),
             fields=fields,
+            range=(float(meta["range_min"]), float(meta["range_max"])) if "range_min" in meta else None,
         )
     except FormatError as error:
         raise FormatError(f"{source}: {error}") from None
