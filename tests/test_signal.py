@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import cumulative_trapezoid
 
 from monitor.signal.angle_domain import order_spectrum, to_angle_domain
@@ -288,3 +290,25 @@ def test_order_speed_map_of_a_run_up() -> None:
     assert filled.sum() >= 9
     np.testing.assert_allclose(result.amplitude[filled, 2], 0.5, rtol=2e-3)
     np.testing.assert_allclose(result.amplitude[filled, 4], 1e-5 * result.speed[filled] ** 2, rtol=0.03)
+
+
+@given(revolution=st.integers(2, 8), tooth=st.integers(0, 57))
+@settings(max_examples=60)
+def test_a_lost_tooth_anywhere_is_repaired_with_the_right_angles(revolution: int, tooth: int) -> None:
+    """Review finding: a tooth lost next to the gap used to shift a whole revolution by one pitch.
+    Whatever tooth is lost, every decoded edge keeps its true crank angle."""
+    t, alpha = _trajectory(1.5, 600.0, 0.05)
+    pitch = math.pi / 30
+    positions = np.arange(math.ceil(alpha[0] / pitch) + 1, math.floor(alpha[-1] / pitch))
+    positions = positions[np.mod(positions, 60) < 58]
+    times = np.interp(positions * pitch, alpha, t)
+    first_after_gap = np.flatnonzero(np.mod(positions, 60) == 0)
+    lost = int(first_after_gap[revolution] + tooth)
+    kept = np.delete(np.arange(positions.size), lost)
+    first = float(np.mod(positions[first_after_gap[0]] * pitch, 2 * math.pi))
+    decoding = decode_tooth_wheel(times[kept], teeth=60, missing=2, first_tooth_angle=first)
+    assert decoding.inserted.size == 1 and decoding.times.size == positions.size
+    offset = decoding.angles[0] - positions[0] * pitch  # whole revolutions between the numbering origins
+    assert abs(math.remainder(offset, 2 * math.pi)) < 1e-9
+    np.testing.assert_allclose(decoding.angles - offset, positions * pitch, atol=1e-9)
+    assert abs(decoding.inserted[0] - times[lost]) < 0.02 * np.median(np.diff(times))

@@ -147,11 +147,28 @@ def decode_tooth_wheel(
             break
         k = int(bad[0])
         start, stop = int(gaps[k]), int(gaps[k + 1])  # edge indices: first tooth after gap k .. after gap k+1
-        if counts[k] == per_rev - 1:  # a lost tooth: split the longest ordinary interval
-            dt = np.diff(arr[start:stop])
-            i = start + int(np.argmax(dt))
-            new = 0.5 * (arr[i] + arr[i + 1])
-            times.insert(i + 1, float(new))
+        if counts[k] == per_rev - 1:  # a lost tooth: inside the revolution, or next to one of its gaps
+            segment = arr[start : stop + 1]
+            ordinary = np.diff(segment)[:-1]  # the last interval is the next gap
+            pitch = float(np.median(ordinary))
+            after = (arr[stop] - arr[stop - 1]) / pitch
+            before = (arr[start] - arr[start - 1]) / pitch
+            if ordinary.max() / pitch > 1.5:  # a double interval inside: split it
+                i = start + int(np.argmax(ordinary))
+                new = 0.5 * (arr[i] + arr[i + 1])
+                position = i + 1
+            elif after > missing + 1.5:  # the last tooth before the next gap is lost
+                new = arr[stop - 1] + pitch
+                position = stop
+            elif before > missing + 1.5:  # the first tooth after this revolution's gap is lost
+                new = arr[start] - pitch
+                position = start
+            else:
+                raise SignalError(
+                    f"revolution starting at t = {arr[start]:.6g} s is one tooth short, but neither an "
+                    "interval inside it nor its gaps is long enough to show where"
+                )
+            times.insert(position, float(new))
             inserted.append(float(new))
         elif counts[k] == per_rev + 1:  # a spurious edge: drop the one that leaves the most even spacing
             segment = arr[start - 1 : stop + 1]
