@@ -112,7 +112,9 @@ def _build_parser() -> argparse.ArgumentParser:
     spectrum.add_argument(
         "--orders", help="comma-separated orders to list (default: every order to --max-order)"
     )
-    spectrum.add_argument("--max-order", type=float, default=24.0, help="highest order (default 24)")
+    spectrum.add_argument(
+        "--max-order", type=_positive_float, default=24.0, help="highest order (default 24)"
+    )
     spectrum.add_argument("--samples-per-cycle", type=int, default=None, help="angle-domain grid")
     spectrum.add_argument("--block-cycles", type=int, default=1, help="cycles per averaged block (default 1)")
     spectrum.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
@@ -221,12 +223,15 @@ def _run_spectrum(args: argparse.Namespace) -> int:
         "amplitudes are peak, in each channel's unit; phases relative to TDC of cylinder 1",
     ]
     for name, spectrum in result.spectra.items():
-        keep = (
-            np.ones(spectrum.orders.size, dtype=bool)
-            if listed is None
-            else np.isin(np.round(spectrum.orders * 2) / 2, listed)
-        )
-        keep[0] = listed is not None and 0.0 in listed
+        if listed is None:
+            keep = np.ones(spectrum.orders.size, dtype=bool)
+            keep[0] = False
+        else:
+            step = float(spectrum.orders[1]) if spectrum.orders.size > 1 else 1.0
+            off_grid = [k for k in listed if abs(k / step - round(k / step)) > 1e-9]
+            if off_grid:
+                raise ModelError(f"--orders {off_grid}: not on the grid of this spectrum (steps of {step:g})")
+            keep = np.isclose(spectrum.orders[:, None], np.asarray(listed)[None, :], atol=1e-9).any(axis=1)
         unit = result.units[name]
         document["channels"][name] = {  # type: ignore[index]
             "unit": unit,

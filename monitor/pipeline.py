@@ -10,7 +10,13 @@ else it must be given.
 
 Crank speed.  The angle map's derivative, resampled to the angle domain,
 gives the speed-fluctuation orders (``crank speed`` in the spectra,
-[rad/s]); they are what the torque orders of the model predict.
+[rad/s]); they are what the torque orders of the model predict.  A map
+made of ``P`` pulses per revolution resolves speed orders below ``P / 2``
+only: a tooth wheel gives them, a keyphasor alone gives the mean speed.
+
+Grid.  The default angle-domain grid is sized so that the anti-alias
+filter leaves every order up to ``max_order`` untouched at the fastest
+speed of the recording; a grid given too coarse for that is refused.
 """
 
 from __future__ import annotations
@@ -75,12 +81,16 @@ class AngleReference:
         Pulses inserted or removed.
     cycle_phase : str
         How the four-stroke phase was found ("cam", "pressure", "given", or "" for two-stroke).
+    pulses_per_revolution : int
+        Pulses the map is built from per revolution (teeth present, or 1): the map
+        resolves speed orders below half of it.
     """
 
     angle_map: AngleMap
     source: str
     repairs: int
     cycle_phase: str
+    pulses_per_revolution: int
 
 
 def _edges(channel: Channel) -> np.ndarray:
@@ -136,6 +146,7 @@ def angle_reference(
         )
         angle_map = AngleMap(decoding.times, decoding.angles)
         repairs = int(decoding.inserted.size + decoding.removed.size)
+        pulses = decoding.teeth - decoding.missing
     elif keyphasors:
         channel = keyphasors[0]
         repaired = repair_keyphasor(_edges(channel))
@@ -143,6 +154,7 @@ def angle_reference(
             repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
         )
         repairs = int(repaired.inserted.size + repaired.removed.size)
+        pulses = 1
     else:
         raise SignalError("the recording has no tooth-wheel or keyphasor channel: no usable angle reference")
     how = ""
@@ -165,7 +177,7 @@ def angle_reference(
             shift = cycle_phase_from_pressure(angle_map, p.data, _rate(p), start_time=p.start_offset)
             how = "pressure"
         angle_map = angle_map.shifted(shift)
-    return AngleReference(angle_map, channel.name, repairs, how)
+    return AngleReference(angle_map, channel.name, repairs, how, pulses)
 
 
 @dataclass(frozen=True)
@@ -225,9 +237,25 @@ def spectra(
     -------
     SpectrumResult
     """
+    if not (math.isfinite(max_order) and max_order > 0):
+        raise SignalError(f"max_order = {max_order!r}: expected a positive order")
     reference = angle_reference(recording, cycle_revolutions=cycle_revolutions, cycle_phase=cycle_phase)
+    probe = reference.angle_map.speed_at(
+        np.linspace(reference.angle_map.times[0], reference.angle_map.times[-1], 2000)
+    )
+    speed_ratio = float(np.nanmax(probe) / np.nanmin(probe))
+    # the anti-alias cutoff (0.8 of the grid's Nyquist at the slowest speed) must leave max_order with
+    # its frequency at the fastest speed below 0.6 of the cutoff (Butterworth 8 forward and back:
+    # attenuation below 3e-4 there): N >= R (fastest / slowest) max_order / (0.6 * 0.8 * 0.5)
+    needed = cycle_revolutions * speed_ratio * max_order / 0.24
     if samples_per_cycle is None:
-        samples_per_cycle = 2 ** math.ceil(math.log2(8 * max_order * cycle_revolutions))
+        samples_per_cycle = 2 ** math.ceil(math.log2(max(needed, 16)))
+    elif samples_per_cycle < needed:
+        raise SignalError(
+            f"samples_per_cycle = {samples_per_cycle}: with the speed varying {speed_ratio:.2f}:1 the "
+            f"anti-alias filter would attenuate orders up to max_order = {max_order:g}; "
+            f"use at least {math.ceil(needed)} (or a lower max_order)"
+        )
     wanted = (
         channels
         if channels is not None
@@ -277,6 +305,10 @@ def spectra(
             None,
             3,
         )
-        result[SPEED_CHANNEL] = order_spectrum(signal, block_cycles=block_cycles, max_order=max_order)
+        # the map holds pulses_per_revolution samples of the speed per revolution: orders from
+        # half of that up are not in it (a keyphasor gives the mean speed only)
+        resolvable = min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9)
+        speed_spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=max(resolvable, 0.0))
+        result[SPEED_CHANNEL] = speed_spectrum
         units[SPEED_CHANNEL] = "rad/s"
     return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions)

@@ -118,3 +118,68 @@ def test_cli_spectrum_refuses_unknown_files(tmp_path: Path, capsys: pytest.Captu
     assert "neither HDF5 nor MCAP" in capsys.readouterr().err
     with pytest.raises(FormatError):
         read_recording(bad)
+
+
+def _speed_recording(pulse: str) -> Recording:
+    """Crank speed defined in angle: w(a) = w0 (1 + 0.02 cos 7a + 0.01 cos(2a + 1)); the times of the
+    wheel's teeth (or the keyphasor's pulses) follow from t(a) = int da / w(a)."""
+    w0 = 104 * math.pi / 30
+    a = np.linspace(0, 2 * math.pi * 60, 60 * 4096 + 1)
+    w = w0 * (1 + 0.02 * np.cos(7 * a) + 0.01 * np.cos(2 * a + 1))
+    t = cumulative_trapezoid(1 / w, a, initial=0.0)
+    pitch = math.pi / 30
+    if pulse == "tooth":
+        k = np.arange(1, 60 * 60 - 1)
+        k = k[np.mod(k, 60) < 58]
+        channel = Channel(
+            "tooth",
+            "tooth",
+            "s",
+            np.interp(k * pitch, a, t),
+            None,
+            fields={"teeth": 60, "missing_teeth": 2, "first_tooth_angle_deg": 0.0},
+        )
+    else:
+        revs = np.arange(1, 59) * 2 * math.pi
+        channel = Channel(
+            "kp", "keyphasor", "s", np.interp(revs, a, t), None, fields={"pulse_angle_deg": 0.0}
+        )
+    return Recording("man-b-w-7k98mc", "2026-11-22T10:15:00Z", (channel,))
+
+
+def test_crank_speed_orders_from_a_tooth_wheel_and_from_a_keyphasor() -> None:
+    """Review finding: a keyphasor-only map reported a speed spectrum of exact zeros. A tooth wheel
+    recovers the speed's orders 7 and 2 (amplitude and phase); a keyphasor gives only the mean."""
+    w0 = 104 * math.pi / 30
+    tooth = spectra(_speed_recording("tooth"), cycle_revolutions=1, max_order=12).spectra["crank speed"]
+    assert tooth.magnitude[7] == pytest.approx(0.02 * w0, rel=2e-3)
+    assert tooth.magnitude[2] == pytest.approx(0.01 * w0, rel=2e-3)
+    assert abs(tooth.phase[7]) < math.radians(0.5) and tooth.phase[2] == pytest.approx(
+        1.0, abs=math.radians(0.5)
+    )
+    keyphasor = spectra(_speed_recording("kp"), cycle_revolutions=1, max_order=12).spectra["crank speed"]
+    assert keyphasor.orders.tolist() == [0.0]
+    assert keyphasor.magnitude[0] == pytest.approx(tooth.magnitude[0], rel=1e-3)
+
+
+def test_grid_too_coarse_for_the_orders_is_refused(rng: np.random.Generator) -> None:
+    """Review finding: orders above the anti-alias passband at the fastest speed were silently attenuated."""
+    with pytest.raises(SignalError, match=r"samples_per_cycle = 32: .* use at least \d+"):
+        spectra(_synthetic(rng), cycle_revolutions=1, max_order=24, samples_per_cycle=32)
+    with pytest.raises(SignalError, match="max_order = 0: expected a positive order"):
+        spectra(_synthetic(rng), cycle_revolutions=1, max_order=0)
+
+
+def test_cli_orders_selects_exact_orders(
+    tmp_path: Path, rng: np.random.Generator, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Review finding: with blocks of several cycles, --orders matched the neighbouring bins too."""
+    path = write_hdf5(_synthetic(rng), tmp_path / "r.h5")
+    assert main(["spectrum", str(path), "--json", "--orders", "1,2,7", "--block-cycles", "4"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["channels"]["mb1-vertical"]["orders"] == [1.0, 2.0, 7.0]
+    assert main(["spectrum", str(path), "--orders", "1.1"]) == 2
+    assert "not on the grid" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:  # argparse refuses it before anything runs
+        main(["spectrum", str(path), "--max-order", "0"])
+    assert refused.value.code == 2

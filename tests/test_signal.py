@@ -312,3 +312,20 @@ def test_a_lost_tooth_anywhere_is_repaired_with_the_right_angles(revolution: int
     assert abs(math.remainder(offset, 2 * math.pi)) < 1e-9
     np.testing.assert_allclose(decoding.angles - offset, positions * pitch, atol=1e-9)
     assert abs(decoding.inserted[0] - times[lost]) < 0.02 * np.median(np.diff(times))
+
+
+def test_run_up_map_leaves_out_what_the_filter_attenuated() -> None:
+    """Review finding: a high order was silently attenuated at the fast end of a run-up."""
+    from monitor.signal.angle_domain import order_speed_map
+
+    t = np.arange(int(20.0 * FS)) / FS
+    w = (300 + 600 * t / t[-1]) * math.pi / 30
+    alpha = cumulative_trapezoid(w, t, initial=0.0)
+    x = np.cos(4 * alpha) + np.cos(24 * alpha)
+    marks = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * (math.pi / 30)
+    angle_map = AngleMap(np.interp(marks, alpha, t), marks)
+    result = order_speed_map(to_angle_domain(x, FS, angle_map, samples_per_cycle=128), angle_map, bins=8)
+    reported = np.isfinite(result.amplitude[:, 24])
+    assert reported.any() and not reported.all()  # the fast bins are left out, not shown attenuated
+    np.testing.assert_allclose(result.amplitude[reported, 24], 1.0, rtol=1e-3)
+    np.testing.assert_allclose(result.amplitude[result.cycles > 0, 4], 1.0, rtol=1e-3)

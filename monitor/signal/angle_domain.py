@@ -263,7 +263,8 @@ class OrderSpeedMap:
         [-].
     amplitude : ndarray, shape (n_bins, n_orders)
         Mean magnitude of the cycles in each speed bin, in the channel's unit; NaN
-        where a bin holds no cycle.
+        where a bin holds no cycle, or where the order's frequency at the bin's
+        upper speed exceeds 0.6 of the anti-alias cutoff (it would be attenuated).
     cycles : ndarray of int, shape (n_bins,)
         Cycles per bin.
     """
@@ -311,4 +312,10 @@ def order_speed_map(
     counts = np.bincount(which, minlength=bins).astype(np.int64)
     for b in np.flatnonzero(counts):
         amplitude[b] = magnitude[which == b][:, keep].mean(axis=0)
-    return OrderSpeedMap(0.5 * (edges[:-1] + edges[1:]), orders[keep], amplitude, counts)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    if signal.cutoff_hz is not None:
+        # an order whose frequency in a bin exceeds 0.6 of the anti-alias cutoff was attenuated (by more
+        # than 3e-4, Butterworth 8 forward and back): not reported
+        fastest = edges[1:] / (2 * math.pi)
+        amplitude[np.multiply.outer(fastest, orders[keep]) > 0.6 * signal.cutoff_hz] = np.nan
+    return OrderSpeedMap(centres, orders[keep], amplitude, counts)
