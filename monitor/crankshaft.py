@@ -49,6 +49,7 @@ from monitor.forces import (
     crank_train_forces,
 )
 from monitor.gas import ParametricCycle, gas_force, resample_trace
+from monitor.kinematics import check_crank_speed
 from monitor.orders import cycle_grid
 
 __all__ = [
@@ -209,6 +210,7 @@ class EngineModel:
 
     def unbalance_force(self, crank_speed: float) -> tuple[FloatArray, FloatArray]:
         """Centrifugal force of cylinder 1's throw unbalance over the grid (x, y) [N]."""
-        u = self.engine.net_crank_unbalance * crank_speed**2
+        omega, _ = check_crank_speed(crank_speed)
+        u = self.engine.net_crank_unbalance * omega**2
         alpha = self._setup.alpha
         return u * np.sin(alpha), u * np.cos(alpha)

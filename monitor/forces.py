@@ -56,6 +56,7 @@ import numpy.typing as npt
 from monitor.engine import Engine
 from monitor.errors import ModelError
 from monitor.kinematics import (
+    check_crank_speed,
     check_rod_ratio,
     piston_x_derivatives,
     piston_x_derivatives_approx,
@@ -299,8 +300,7 @@ def crank_train_forces(
             "rod_model = 'rigid' needs the exact kinematics; the two-term approximation is "
             "defined for the classic two-mass model only"
         )
-    omega = np.asarray(crank_speed, dtype=np.float64)
-    omega_dot = np.asarray(crank_acceleration, dtype=np.float64)
+    omega, omega_dot = check_crank_speed(crank_speed, crank_acceleration)
     f_gas = np.broadcast_to(np.asarray(gas_force, dtype=np.float64), kinematics.crank_angle.shape)
     if f_gas.size and not np.all(np.isfinite(f_gas)):
         raise ModelError("gas_force contains NaN or Inf: expected finite forces [N]")

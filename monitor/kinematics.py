@@ -41,6 +41,7 @@ import numpy.typing as npt
 from monitor.errors import ModelError
 
 __all__ = [
+    "check_crank_speed",
     "check_rod_ratio",
     "cos_rod_angle",
     "piston_acceleration",
@@ -255,7 +256,27 @@ def piston_displacement_approx(crank_angle: ArrayLike, crank_radius: float, rod_
     return piston_x_derivatives_approx(crank_angle, crank_radius, rod_ratio)[0]
 
 
-def _speed_pair(crank_speed: ArrayLike, crank_acceleration: ArrayLike) -> tuple[FloatArray, FloatArray]:
+def check_crank_speed(
+    crank_speed: ArrayLike, crank_acceleration: ArrayLike = 0.0
+) -> tuple[FloatArray, FloatArray]:
+    """Crank speed and angular acceleration as arrays, refused if not finite or absurd.
+
+    Parameters
+    ----------
+    crank_speed : array_like
+        omega; magnitude at most ``MAX_CRANK_SPEED`` [rad/s].
+    crank_acceleration : array_like, optional
+        domega/dt; magnitude at most ``MAX_CRANK_ACCELERATION`` [rad/s^2].
+
+    Returns
+    -------
+    omega, omega_dot : ndarray
+
+    Raises
+    ------
+    ModelError
+        Naming the value and the limit.
+    """
     omega = np.asarray(crank_speed, dtype=np.float64)
     omega_dot = np.asarray(crank_acceleration, dtype=np.float64)
     checks = (
@@ -264,7 +285,7 @@ def _speed_pair(crank_speed: ArrayLike, crank_acceleration: ArrayLike) -> tuple[
     )
     for name, value, limit, unit in checks:
         if value.size and not np.all(np.abs(value) <= limit):
-            worst = value.ravel()[np.flatnonzero(~(np.abs(value.ravel()) <= limit))[0]]
+            worst = float(value.ravel()[np.flatnonzero(~(np.abs(value.ravel()) <= limit))[0]])
             raise ModelError(
                 f"{name} = {worst!r}: expected a finite value with magnitude <= {limit:g} {unit}"
             )
@@ -292,7 +313,7 @@ def piston_velocity(
     ndarray
         Piston velocity towards the crank [m/s].
     """
-    omega, _ = _speed_pair(crank_speed, 0.0)
+    omega, _ = check_crank_speed(crank_speed, 0.0)
     return piston_x_derivatives(crank_angle, crank_radius, rod_ratio)[1] * omega
 
 
@@ -317,7 +338,7 @@ def piston_velocity_approx(
     ndarray
         [m/s].
     """
-    omega, _ = _speed_pair(crank_speed, 0.0)
+    omega, _ = check_crank_speed(crank_speed, 0.0)
     return piston_x_derivatives_approx(crank_angle, crank_radius, rod_ratio)[1] * omega
 
 
@@ -353,7 +374,7 @@ def piston_acceleration(
     ``a = d2x/dalpha2 omega^2 + dx/dalpha domega/dt``; with a constant speed
     this is paper 000 eq. 10.
     """
-    omega, omega_dot = _speed_pair(crank_speed, crank_acceleration)
+    omega, omega_dot = check_crank_speed(crank_speed, crank_acceleration)
     _, dx, d2x = piston_x_derivatives(crank_angle, crank_radius, rod_ratio)
     return d2x * omega * omega + dx * omega_dot
 
@@ -385,7 +406,7 @@ def piston_acceleration_approx(
     ndarray
         [m/s^2].
     """
-    omega, omega_dot = _speed_pair(crank_speed, crank_acceleration)
+    omega, omega_dot = check_crank_speed(crank_speed, crank_acceleration)
     _, dx, d2x = piston_x_derivatives_approx(crank_angle, crank_radius, rod_ratio)
     return d2x * omega * omega + dx * omega_dot
 
@@ -460,7 +481,7 @@ def rod_angular_velocity(crank_angle: ArrayLike, crank_speed: ArrayLike, rod_rat
     ndarray
         dbeta/dt [rad/s] (counter-clockwise positive in the section frame).
     """
-    omega, _ = _speed_pair(crank_speed, 0.0)
+    omega, _ = check_crank_speed(crank_speed, 0.0)
     return rod_angle_derivatives(crank_angle, rod_ratio)[1] * omega
 
 
@@ -488,7 +509,7 @@ def rod_angular_acceleration(
     ndarray
         d2beta/dt2 [rad/s^2].
     """
-    omega, omega_dot = _speed_pair(crank_speed, crank_acceleration)
+    omega, omega_dot = check_crank_speed(crank_speed, crank_acceleration)
     _, d1, d2 = rod_angle_derivatives(crank_angle, rod_ratio)
     return d2 * omega * omega + d1 * omega_dot
 
@@ -538,7 +559,7 @@ def rod_cg_acceleration(
             f"cg_fraction = {cg_fraction!r}: expected 0 <= cg_fraction <= 1 (distance of "
             "the rod's centre of gravity from the piston pin over the rod length)"
         )
-    omega, omega_dot = _speed_pair(crank_speed, crank_acceleration)
+    omega, omega_dot = check_crank_speed(crank_speed, crank_acceleration)
     alpha = _angles(crank_angle)
     a_piston = piston_acceleration(alpha, omega, crank_radius, rod_ratio, omega_dot)
     s = np.sin(alpha)

@@ -206,6 +206,10 @@ def test_bad_inputs_are_refused() -> None:
     alpha = cycle_grid(8)
     exact = crank_kinematics(alpha, 1.0, 0.3)
     approx = crank_kinematics(alpha, 1.0, 0.3, model="approx")
+    with pytest.raises(ModelError, match="crank_speed = nan"):
+        crank_train_forces(exact, TRAIN, crank_speed=float("nan"))
+    with pytest.raises(ModelError, match="crank_acceleration = inf"):
+        crank_train_forces(exact, TRAIN, crank_speed=1.0, crank_acceleration=float("inf"))
     with pytest.raises(ModelError, match="gas_force contains NaN"):
         crank_train_forces(exact, TRAIN, crank_speed=1.0, gas_force=np.full(8, np.nan))
     with pytest.raises(ModelError, match="needs the exact kinematics"):

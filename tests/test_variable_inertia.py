@@ -293,8 +293,9 @@ def test_equivalent_crank_of_an_engine() -> None:
 
 
 def test_gas_excitation_of_an_engine_drives_the_equivalent_crank() -> None:
-    """The gas-torque orders of cylinder 3, scaled by omega^2 J_0, as the crank's external torque: the
-    excitation reproduces the cylinder's gas torque, and a constant-inertia crank (eps = 0) then
+    """The gas-torque orders in the crank's own angle (review finding: a cylinder's phase relative to
+    cylinder 1 was put against the crank's own inertia variation). Every cylinder's torque, taken back
+    to its own angle (times exp(+j k phi_c)), is the excitation; a constant-inertia crank (eps = 0) then
     responds at each order with the textbook amplitude."""
     from monitor.crankshaft import EngineModel
     from monitor.engine import load_engine
@@ -303,13 +304,14 @@ def test_gas_excitation_of_an_engine_drives_the_equivalent_crank() -> None:
 
     e = load_engine("man-b-w-7k98mc")
     w = e.rated_speed
-    excitation = gas_excitation(e, w, load=0.8, max_order=6, cylinder=3)
+    excitation = gas_excitation(e, w, load=0.8, max_order=6)
     r2 = e.crank_radius**2
     j0 = e.shaft_line.throw_inertia_kgm2 + e.rotating_rod_mass * r2 + 0.5 * e.reciprocating_mass * r2  # type: ignore[union-attr]
-    torque = predict_orders(EngineModel(e), crank_speed=w, load=0.8, max_order=6).cylinder_gas_torque[2, 1:]
-    tau = np.linspace(0, 2 * math.pi, 721)
-    synthesized = sum(t * np.exp(1j * (k + 1) * tau) for k, t in enumerate(torque)).real
-    np.testing.assert_allclose(excitation(tau) * w**2 * j0, synthesized, atol=1e-9 * np.abs(torque).max())
+    result = predict_orders(EngineModel(e), crank_speed=w, load=0.8, max_order=6)
+    ours = np.array(excitation.amplitudes) * np.exp(1j * np.array(excitation.phases)) * w**2 * j0
+    for c in range(e.cylinders):
+        own_angle = result.cylinder_gas_torque[c, 1:] * np.exp(1j * result.orders[1:] * e.firing_angles[c])
+        np.testing.assert_allclose(own_angle, ours, rtol=1e-9, atol=1e-9 * np.abs(ours).max())
     r, zeta = 0.35, 0.05
     crank = VariableInertiaCrank(0.0, r, zeta=zeta, excitation=excitation)
     tau = np.linspace(0, 2 * math.pi * 300, 300 * 64 + 1)

@@ -477,9 +477,9 @@ class AxialTorsionalCrankshaft:
         Each crank's superelement flexibility has ``C11``, ``C22``, ``C33``,
         ``C21``, ``C34`` from the description and ``C44 = 1 / throw_stiffness``;
         its coupling ``C14`` is eq. 1 with ``delta`` half the angle to the next
-        throw (the last throw: to the previous one).  Pins carry half a throw's
-        mass and its torsional inertia (rotating parts, rod share, mean
-        reciprocating inertia), journals a quarter from each neighbouring throw;
+        throw (the last throw: to the previous one).  A throw's mass and its own
+        polar inertia go half to its pin and a quarter to each journal; the rod's
+        crank-pin share and the mean reciprocating inertia act at the pin;
         the thrust bearing holds the driven-end journal; the flywheel's inertia
         joins that journal.  The shafting beyond the thrust bearing is left out.
 
@@ -519,8 +519,10 @@ class AxialTorsionalCrankshaft:
             cranks.append(
                 CrankFlexibility(axial.axial_flexibility_m_per_n, 1.0 / line.throw_stiffness_nm_per_rad, c14)
             )
+        # a throw's own inertia is shared like its mass (half at the pin, a quarter to each journal);
+        # the rod and reciprocating parts act at the pin
         inertia = (
-            line.throw_inertia_kgm2
+            0.5 * line.throw_inertia_kgm2
             + engine.rotating_rod_mass * engine.crank_radius**2
             + mean_reciprocating_inertia(engine)
         )

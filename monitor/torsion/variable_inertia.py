@@ -245,12 +245,14 @@ def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> Var
 
 
 def gas_excitation(
-    engine: Engine, crank_speed: float, *, load: float = 1.0, max_order: float = 12, cylinder: int = 1
+    engine: Engine, crank_speed: float, *, load: float = 1.0, max_order: float = 12
 ) -> HarmonicExcitation:
-    """One cylinder's gas-torque orders as the non-dimensional external torque of its equivalent crank.
+    """A cylinder's gas-torque orders as the non-dimensional external torque of its equivalent crank.
 
     Only the gas torque: the reciprocating parts' inertia torque is what the
-    variable-inertia equation itself describes.
+    variable-inertia equation itself describes.  The phases are in the
+    crank's own angle (0 at its own TDC), the angle its inertia varies with;
+    every cylinder's crank is alike in that angle.
 
     Parameters
     ----------
@@ -262,8 +264,6 @@ def gas_excitation(
         Fraction of rated IMEP [-].
     max_order : float, optional
         Highest order kept [-].
-    cylinder : int, optional
-        Which cylinder's torque (its phase relative to TDC of cylinder 1).
 
     Returns
     -------
@@ -275,8 +275,6 @@ def gas_excitation(
 
     if engine.shaft_line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
-    if not 1 <= cylinder <= engine.cylinders:
-        raise ModelError(f"cylinder = {cylinder!r}: expected 1..{engine.cylinders}")
     r2 = engine.crank_radius**2
     j0 = (
         engine.shaft_line.throw_inertia_kgm2
@@ -284,7 +282,7 @@ def gas_excitation(
         + 0.5 * engine.reciprocating_mass * r2
     )
     result = predict_orders(EngineModel(engine), crank_speed=crank_speed, load=load, max_order=max_order)
-    torque = result.cylinder_gas_torque[cylinder - 1, 1:]
+    torque = result.cylinder_gas_torque[0, 1:]  # cylinder 1: its own angle is the engine's crank angle
     scale = crank_speed**2 * j0
     return HarmonicExcitation(
         tuple(float(k) for k in result.orders[1:]),
