@@ -183,3 +183,23 @@ def test_cli_orders_selects_exact_orders(
     with pytest.raises(SystemExit) as refused:  # argparse refuses it before anything runs
         main(["spectrum", str(path), "--max-order", "0"])
     assert refused.value.code == 2
+
+
+def test_a_ttl_keyphasor_read_from_a_file_drives_the_spectrum(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """Review finding: a 0/5 V keyphasor read back from a file was masked as clipped and refused."""
+    recording = _synthetic(rng, tooth=False)
+    t = np.arange(recording.channels[0].data.size) / FS
+    w = 104 * math.pi / 30 * (1 + 0.1 * np.sin(2 * np.pi * 0.05 * t))
+    alpha = cumulative_trapezoid(w, t, initial=0.0) + 0.2
+    ttl = np.where(np.mod(alpha, 2 * math.pi) < 0.05, 5.0, 0.0).astype(np.float32)
+    channels = (
+        *recording.channels,
+        Channel("kp", "keyphasor", "V", ttl, FS, fields={"pulse_angle_deg": 0.0}, range=(0.0, 5.0)),
+    )
+    path = write_hdf5(Recording(recording.engine_id, recording.start_time, channels), tmp_path / "kp.h5")
+    result = spectra(read_recording(path), cycle_revolutions=1, max_order=12)
+    assert result.reference.source == "kp"
+    for k, (a, _) in ORDERS.items():
+        assert result.spectra["mb1-vertical"].magnitude[k] == pytest.approx(a, rel=5e-3)

@@ -148,7 +148,23 @@ def _packed(number: int, data: np.ndarray) -> bytes:
 
 
 def encode_sample_block(time_ns: int, start_offset: float, rate: float, samples: np.ndarray) -> bytes:
-    """One ``engine_monitor.SampleBlock`` in protobuf wire format (float32 or float64 samples)."""
+    """One ``engine_monitor.SampleBlock`` in protobuf wire format (float32 or float64 samples).
+
+    Parameters
+    ----------
+    time_ns : int
+        Time of the first sample, nanoseconds since the Unix epoch [ns].
+    start_offset : float
+        Time of the first sample after the recording's start [s].
+    rate : float
+        Sample rate [Hz].
+    samples : ndarray
+        float32 or float64 samples [the channel's unit].
+
+    Returns
+    -------
+    bytes
+    """
     finite = samples[np.isfinite(samples)].astype(np.float64)
     stats = (
         (finite.mean(), np.sqrt(np.mean(finite**2)), finite.min(), finite.max())
@@ -166,12 +182,36 @@ def encode_sample_block(time_ns: int, start_offset: float, rate: float, samples:
 
 
 def encode_event_block(time_ns: int, times: np.ndarray) -> bytes:
-    """One ``engine_monitor.EventBlock`` in protobuf wire format."""
+    """One ``engine_monitor.EventBlock`` in protobuf wire format.
+
+    Parameters
+    ----------
+    time_ns : int
+        Time of the first event, nanoseconds since the Unix epoch [ns].
+    times : ndarray
+        Event times after the recording's start [s].
+
+    Returns
+    -------
+    bytes
+    """
     return _timestamp(time_ns) + _packed(4, times.astype(np.float64))
 
 
 def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
-    """(start offset [s], sample rate [Hz] or 0, samples or event times) of a Sample- or EventBlock."""
+    """Decode a SampleBlock or an EventBlock from its protobuf wire format.
+
+    Parameters
+    ----------
+    data : bytes
+        The message.
+
+    Returns
+    -------
+    start_offset, sample_rate, values : float, float, ndarray
+        Start offset [s], sample rate [Hz] (0 for an EventBlock), and the samples
+        or event times [s].
+    """
     buf = memoryview(data)
     pos, start, rate = 0, 0.0, 0.0
     values: np.ndarray = np.empty(0)

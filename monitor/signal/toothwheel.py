@@ -107,7 +107,7 @@ def decode_tooth_wheel(
         Crank angle of the first tooth after the gap, from TDC of cylinder 1 [rad].
     gap_ratio : float, optional
         Interval over the running median of nine intervals that marks the gap;
-        default ``missing + 0.5``.
+        default ``missing + 0.5`` [-].
 
     Returns
     -------

@@ -348,9 +348,8 @@ class AxialTorsionalCrankshaft:
     axial_support : dict of int to float, optional
         Axial springs to ground at journal nodes (the thrust bearing), by journal
         index from 0 [N/m].
-    axial_damping, torsional_damping : float, optional
-        Damping proportional to stiffness, ``C_d = beta K``, one factor each for the
-        axial and the torsional parts [s].
+    stiffness_damping : float, optional
+        Damping proportional to stiffness, ``C_d = beta K`` [s].
     """
 
     def __init__(
@@ -600,7 +599,7 @@ def engine_axial_response(
     speeds : array_like
         Crank speeds, > 0 [rad/s].
     load : float or "propeller"
-        Fraction of rated IMEP, or the propeller law (IMEP ~ speed^2).
+        Fraction of rated IMEP, or the propeller law (IMEP ~ speed^2) [-].
     max_order : float, optional
         Highest excitation order [-].
     model : AxialTorsionalCrankshaft, optional

@@ -372,7 +372,17 @@ def reciprocating_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatAr
 
 
 def mean_reciprocating_inertia(engine: Engine) -> float:
-    """Mean of :func:`reciprocating_inertia` over a revolution [kg m^2] (spectrally exact quadrature)."""
+    """Mean of :func:`reciprocating_inertia` over a revolution (spectrally exact quadrature).
+
+    Parameters
+    ----------
+    engine : Engine
+
+    Returns
+    -------
+    float
+        [kg m^2].
+    """
     grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
     return float(np.mean(reciprocating_inertia(engine, grid)))
 
@@ -510,7 +520,7 @@ def cylinder_torque_orders(
         Crank speeds, > 0 [rad/s].
     load : float or "propeller"
         Fraction of rated IMEP, or "propeller" for the propeller law
-        (IMEP proportional to speed squared, rated at rated speed, at most 1.1).
+        (IMEP proportional to speed squared, rated at rated speed, at most 1.1) [-].
     max_order : float, optional
         Highest order [-].
 
@@ -558,7 +568,7 @@ def engine_forced_response(
         Crank speeds, > 0 [rad/s].
     load : float or "propeller"
         Fraction of rated IMEP, or "propeller" for the propeller law
-        (IMEP proportional to speed squared, rated at rated speed).
+        (IMEP proportional to speed squared, rated at rated speed) [-].
     max_order : float, optional
         Highest excitation order [-].
     line : ShaftLineModel, optional
