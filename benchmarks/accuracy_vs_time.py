@@ -8,6 +8,7 @@ repeats (the machine is shared); ratios are taken within the run.
 from __future__ import annotations
 
 import math
+import os
 import platform
 import time
 import timeit
@@ -271,7 +272,8 @@ def main() -> None:
         "",
         f"Written by `make bench` (`python -m benchmarks.accuracy_vs_time`) on {stamp}, engine-monitor "
         f"{__version__}, Python {platform.python_version()}, numpy {np.__version__}, "
-        f"{platform.machine()} with 2 cores (shared machine: times are the best of several repeats; "
+        f"{platform.machine()} with {os.cpu_count()} cores (shared machine: times are the best of "
+        "several repeats; "
         "compare ratios within this run). Do not edit by hand.",
         "",
         "## Published values",
