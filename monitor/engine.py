@@ -366,6 +366,15 @@ class Engine(_Strict):
             raise ValueError(
                 f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}"
             )
+        cycle_model = self.combustion
+        if cycle_model is not None:
+            end = cycle_model.exhaust_opening_deg + cycle_model.blowdown_deg
+            next_closing = cycle_model.inlet_closing_deg + 360 * self.cycle_revolutions
+            if end > next_closing:
+                raise ValueError(
+                    f"combustion.exhaust_opening_deg + blowdown_deg = {end:g} deg reaches past the next "
+                    f"inlet closing at {next_closing:g} deg"
+                )
         if self.combustion is None and self.pressure_trace is None:
             raise ValueError(
                 "no gas-force model: add a [combustion] table (parametric cylinder pressure) or a "
@@ -643,9 +652,17 @@ def read_pressure_trace(engine: Engine) -> tuple[FloatArray, FloatArray]:
             "lengths of at least 8 points"
         )
     if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(pressure))):
-        raise EngineDescriptionError("pressure_trace: contains NaN or Inf")
+        bad = int(np.count_nonzero(~np.isfinite(angle)) + np.count_nonzero(~np.isfinite(pressure)))
+        raise EngineDescriptionError(
+            f"pressure_trace: {bad} value(s) are NaN or Inf: expected finite numbers"
+        )
     if not trace.absolute:
         pressure = pressure + (engine.combustion.ambient_pressure_bar if engine.combustion else 1.013) * 1e5
     if np.any(pressure <= 0):
-        raise EngineDescriptionError("pressure_trace: absolute pressure must be positive everywhere")
+        first = int(np.flatnonzero(pressure <= 0)[0])
+        raise EngineDescriptionError(
+            f"pressure_trace: absolute pressure {pressure[first] / 1e5:.6g} bar at "
+            f"{math.degrees(angle[first]):.6g} deg: expected positive pressures everywhere"
+            + ("" if trace.absolute else " (the trace is gauge; ambient was added)")
+        )
     return angle, pressure

@@ -277,7 +277,11 @@ class ParametricCycle:
         eo = math.radians(c.exhaust_opening_deg)
         blowdown = math.radians(c.blowdown_deg)
         if eo + blowdown > ic + period:
-            raise ModelError("exhaust_opening_deg + blowdown_deg reaches past the next inlet closing")
+            end = c.exhaust_opening_deg + c.blowdown_deg
+            raise ModelError(
+                f"exhaust_opening_deg + blowdown_deg = {end:g} deg reaches past the next inlet closing "
+                f"at {c.inlet_closing_deg + 360 * self.cycle_revolutions:g} deg"
+            )
         theta = np.mod(np.asarray(crank_angle, dtype=np.float64) - ic, period) + ic
         n_c, n_e = c.polytropic_compression, c.polytropic_expansion
         v = self.volume(theta)

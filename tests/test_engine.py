@@ -155,3 +155,11 @@ def test_unreadable_files_are_refused(tmp_path: Path) -> None:
     bad.write_text("id = \n")
     with pytest.raises(EngineDescriptionError, match="not valid TOML"):
         load_engine(bad)
+
+
+def test_blowdown_past_the_next_inlet_closing_is_refused_when_loading() -> None:
+    """Review finding: this was found only when the model was built; the description now refuses it."""
+    _refused(
+        lambda d: d["combustion"].update(exhaust_opening_deg=170.0, blowdown_deg=90.0),
+        "exhaust_opening_deg + blowdown_deg = 260 deg reaches past the next inlet closing at 250 deg",
+    )

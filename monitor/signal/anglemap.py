@@ -50,9 +50,18 @@ class AngleMap:
 
     def __post_init__(self) -> None:
         if self.times.shape != self.angles.shape or self.times.size < 2:
-            raise SignalError("angle map: expected matching arrays of at least two pulse times and angles")
+            raise SignalError(
+                f"angle map: {self.times.shape} pulse times and {self.angles.shape} angles: expected "
+                "matching 1-D arrays of at least two"
+            )
         if np.any(np.diff(self.times) <= 0) or np.any(np.diff(self.angles) <= 0):
-            raise SignalError("angle map: pulse times and angles must both increase")
+            dt, da = np.diff(self.times), np.diff(self.angles)
+            first = int(np.flatnonzero((dt <= 0) | (da <= 0))[0])
+            raise SignalError(
+                f"angle map: pulse {first + 1} (t = {self.times[first + 1]:.9g} s, angle "
+                f"{self.angles[first + 1]:.9g} rad) does not follow pulse {first}: expected increasing "
+                "times and angles"
+            )
 
     @classmethod
     def from_keyphasor(cls, times: npt.ArrayLike, *, pulse_angle: float = 0.0) -> AngleMap:

@@ -233,7 +233,11 @@ def repair_keyphasor(times: npt.ArrayLike, *, window: int = 9, max_missing: int 
     if t.ndim != 1 or t.size < 4:
         raise SignalError(f"keyphasor has {t.size} pulses: expected at least 4")
     if np.any(np.diff(t) <= 0):
-        raise SignalError("keyphasor pulse times must increase")
+        first = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise SignalError(
+            f"keyphasor: pulse {first + 1} at {t[first + 1]:.9g} s does not follow pulse "
+            f"{first} at {t[first]:.9g} s: expected increasing times"
+        )
     removed: list[float] = []
     kept = list(t)
     changed = True

@@ -374,8 +374,14 @@ class AxialTorsionalCrankshaft:
         inertias = np.empty(2 * n + 1)
         masses[0::2], inertias[0::2] = jm, ji
         masses[1::2], inertias[1::2] = pin_mass, pin_inertia
-        if np.any(masses <= 0) or np.any(inertias <= 0) or not np.all(np.isfinite(masses + inertias)):
-            raise ModelError("every node needs a positive mass and inertia")
+        bad = np.flatnonzero(~(np.isfinite(masses) & np.isfinite(inertias) & (masses > 0) & (inertias > 0)))
+        if bad.size:
+            i = int(bad[0])
+            where = f"journal {i // 2}" if i % 2 == 0 else f"pin {i // 2}"
+            raise ModelError(
+                f"{where}: mass = {masses[i]!r} kg, inertia = {inertias[i]!r} kg m^2: "
+                "expected positive, finite values"
+            )
         dof = 2 * (2 * n + 1)
         k = np.zeros((dof, dof))
         for i, crank in enumerate(cranks):
@@ -385,7 +391,10 @@ class AxialTorsionalCrankshaft:
                 k[np.ix_(idx, idx)] += np.block([[half, -half], [-half, half]])
         for journal, stiffness in (axial_support or {}).items():
             if not 0 <= journal <= n or stiffness < 0:
-                raise ModelError(f"axial_support: journal {journal} with {stiffness!r} N/m is not valid")
+                raise ModelError(
+                    f"axial_support: journal {journal} with {stiffness!r} N/m: expected a journal "
+                    f"in 0..{n} and a non-negative stiffness"
+                )
             k[4 * journal, 4 * journal] += stiffness
         self.cranks = tuple(cranks)
         self.stiffness = k

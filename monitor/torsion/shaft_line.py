@@ -203,10 +203,16 @@ class ShaftLineModel:
                     f"shaft {i}: stiffness = {s.stiffness!r}: expected a positive value [N m/rad]"
                 )
             if s.damping < 0 or s.inertia < 0:
-                raise ModelError(f"shaft {i}: damping and inertia must be non-negative")
+                raise ModelError(
+                    f"shaft {i}: damping = {s.damping!r} N m s/rad, inertia = {s.inertia!r} kg m^2: "
+                    "expected non-negative values"
+                )
         for i, g in enumerate(self.gears):
             if not (0 <= g.node_a < n and 0 <= g.node_b < n and g.radius_a > 0 and g.radius_b > 0):
-                raise ModelError(f"gear mesh {i}: expected two nodes in 0..{n - 1} and positive radii")
+                raise ModelError(
+                    f"gear mesh {i}: nodes {g.node_a}, {g.node_b}, radii {g.radius_a!r}, {g.radius_b!r}: "
+                    f"expected two nodes in 0..{n - 1} and positive radii"
+                )
         self.mass, self.stiffness, self.damping = self._assemble()
         self.transform = self._constraints()
 

@@ -117,7 +117,10 @@ class HarmonicExcitation:
 
     def __post_init__(self) -> None:
         if not len(self.orders) == len(self.amplitudes) == len(self.phases):
-            raise ModelError("HarmonicExcitation: orders, amplitudes and phases must have equal lengths")
+            raise ModelError(
+                f"HarmonicExcitation: {len(self.orders)} orders, {len(self.amplitudes)} amplitudes and "
+                f"{len(self.phases)} phases: expected equal lengths"
+            )
         for k in self.orders:
             if not (k > 0 and abs(2 * k - round(2 * k)) < 1e-12):
                 raise ModelError(f"excitation order {k!r}: expected a positive multiple of 0.5")
@@ -825,7 +828,8 @@ def harmonic_content(
     m = monodromy(crank.epsilon, crank.r, zeta=crank.zeta)
     if bool(m.unstable) or crank.zeta > 0:
         raise ModelError(
-            "harmonic_content: expected an undamped, stable point (the free motion must persist)"
+            f"harmonic_content: epsilon = {crank.epsilon!r}, r = {crank.r!r}, zeta = {crank.zeta!r}: "
+            "expected an undamped, stable point (the free motion must persist for its orders to be read)"
         )
     # the multipliers exp(+-j nu pi) fix nu modulo 2: candidates +-base + 2k
     base = math.acos(max(-1.0, min(1.0, 0.5 * float(m.trace)))) / math.pi
