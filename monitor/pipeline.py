@@ -50,17 +50,15 @@ def read_recording(path: str | Path) -> Recording:
     -------
     Recording
     """
+    from monitor.io import HDF5_SIGNATURE, MCAP_MAGIC, file_signature
+
     source = Path(path)
-    try:
-        with open(source, "rb") as fh:
-            head = fh.read(8)
-    except OSError as error:
-        raise FormatError(f"{source}: cannot read: {error}") from None
-    if head == b"\x89HDF\r\n\x1a\n":
+    head = file_signature(source)
+    if head == HDF5_SIGNATURE:
         from monitor.io.hdf5 import read_hdf5
 
         return read_hdf5(source)
-    if head == b"\x89MCAP0\r\n":
+    if head == MCAP_MAGIC:
         from monitor.io.mcap_io import read_mcap
 
         return read_mcap(source)

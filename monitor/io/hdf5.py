@@ -25,13 +25,13 @@ from typing import Any
 
 import h5py
 
+from monitor.io import HDF5_SIGNATURE, file_signature
 from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "read_hdf5", "write_hdf5"]
 
 FORMAT_NAME = "engine-monitor recording"
 FORMAT_VERSION = 1
-_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 
 def _text(value: Any) -> str:
@@ -117,12 +117,7 @@ def read_hdf5(path: str | Path) -> Recording:
         Naming the channel (or the file) and the problem.
     """
     source = Path(path)
-    try:
-        with open(source, "rb") as fh:
-            head = fh.read(8)
-    except OSError as error:
-        raise FormatError(f"{source}: cannot read: {error}") from None
-    if head != _HDF5_SIGNATURE:
+    if file_signature(source) != HDF5_SIGNATURE:
         raise FormatError(f"{source}: not an HDF5 file (no HDF5 signature at its start)")
     try:
         f = h5py.File(source, "r")

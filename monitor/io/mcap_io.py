@@ -41,6 +41,7 @@ from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
+from monitor.io import MCAP_MAGIC, file_signature
 from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
 
 __all__ = [
@@ -56,7 +57,6 @@ __all__ = [
 
 FORMAT_NAME = "engine-monitor recording"
 FORMAT_VERSION = 1
-MAGIC = b"\x89MCAP0\r\n"
 SAMPLE_SCHEMA = "engine_monitor.SampleBlock"
 EVENT_SCHEMA = "engine_monitor.EventBlock"
 _INTEGER_FIELDS = ("teeth", "missing_teeth", "cylinder")
@@ -390,12 +390,10 @@ def _blocks(c: Channel, channel_id: int, order: int, block_seconds: float, start
 # ------------------------------------------------------------------------------------------- read
 def _records(path: Path) -> Iterator[Any]:
     """Records of an MCAP file; on a cut-short file stops at the last whole chunk (then yields None)."""
+    if file_signature(path) != MCAP_MAGIC:
+        raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
     try:
         with open(path, "rb") as fh:
-            head = fh.read(8)
-            if head != MAGIC:
-                raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
-            fh.seek(0)
             reader = StreamReader(fh, validate_crcs=True)
             try:
                 yield from reader.records
