@@ -99,9 +99,11 @@ def detect_edges(
     -----
     Candidate peaks are those whose prominence exceeds ``min_prominence``
     (``scipy.signal.find_peaks``). A candidate starts a new pulse only if the
-    signal fell below the current pulse's level since its top (hysteresis);
-    otherwise it belongs to it, so a notched or noisy flat top stays one
-    pulse. A pulse's level is ``valley + level (top - valley)`` with the valley
+    signal fell below the level of the pulse before it (hysteresis, measured
+    from the lowest of the preceding valleys); otherwise it belongs to it, so
+    a notched or noisy flat top stays one pulse. All of it is vectorised
+    (``reduceat`` over the stretches between candidates): a long recording
+    costs a few array passes. A pulse's level is ``valley + level (top - valley)`` with the valley
     before it (after it, for falling edges); the edge is where the signal
     crosses that level on the way up (down), interpolated linearly between
     the two samples around the crossing. A pulse with its own threshold keeps
@@ -128,52 +130,73 @@ def detect_edges(
     candidates, _ = find_peaks(x, prominence=prominence)
     if candidates.size < 2:
         raise SignalError(f"fewer than two pulses with prominence {prominence:.4g} found: check the channel")
-    # lowest sample before each candidate (from the previous one, or the record start) and after the last
-    valley_index = np.empty(candidates.size + 1, dtype=np.int64)
-    bounds = np.concatenate([[0], candidates, [x.size - 1]])
-    for k in range(bounds.size - 1):
-        valley_index[k] = bounds[k] + int(np.argmin(x[bounds[k] : bounds[k + 1] + 1]))
-    # hysteresis: a candidate starts a new pulse only if the signal fell below the current pulse's
-    # mid level since its top; otherwise it is part of it (a notched or noisy top)
-    groups: list[list[int]] = []  # [first candidate, top candidate, valley before, valley after]
-    for k, peak in enumerate(candidates):
-        if groups:
-            first, top, before, _ = groups[-1]
-            base = x[before]
-            mid = base + level * (min(x[candidates[top]], x[peak]) - base)
-            if x[valley_index[k]] >= mid:  # never went below the level: same pulse
-                if x[peak] > x[candidates[top]]:
-                    groups[-1][1] = k
-                groups[-1][3] = int(valley_index[k + 1])
-                continue
-        groups.append([k, k, int(valley_index[k]), int(valley_index[k + 1])])
-    times = np.full(len(groups), np.nan)
-    levels = np.empty(len(groups))
-    swings = np.empty(len(groups))
-    for g, (first, top, before, after) in enumerate(groups):
-        peak = int(candidates[top])
-        trough = before if direction == "rising" else after
-        levels[g] = x[trough] + level * (x[peak] - x[trough])
-        swings[g] = x[peak] - x[trough]
-        lev = levels[g]
-        if direction == "rising":
-            below = np.flatnonzero(x[trough : int(candidates[first]) + 1] < lev)
-            if below.size == 0:
-                continue  # cut by the start of the record: its edge is not in it
-            j = trough + int(below[-1])  # last sample below the level before the pulse's top
-        else:
-            last = int(candidates[groups[g][1]])
-            tail = x[last : after + 1]
-            crossing = np.flatnonzero(tail < lev)
-            if crossing.size == 0:
-                continue  # cut by the end of the record
-            j = last + int(crossing[0]) - 1  # last sample at or above the level
-        a, b = x[j] - lev, x[j + 1] - lev
-        times[g] = j + (a / (a - b) if a != b else 0.0)
+    times, levels, swings = _time_pulses(x, candidates, level, direction)
     whole = np.isfinite(times)
     if np.count_nonzero(whole) < 2:
         raise SignalError("fewer than two whole pulses in the record")
     return EdgeDetection(start_time + times[whole] / sample_rate, levels[whole], swings[whole])
+
+
+def _segment_starts(lengths: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    return np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+
+
+def _time_pulses(
+    x: FloatArray, candidates: npt.NDArray[np.int64], level: float, direction: str, window: int = 8
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Group candidate peaks into pulses (hysteresis) and time each pulse's edge, without Python loops.
+
+    The lowest sample between consecutive candidates is each candidate's valley. Candidate ``k``
+    joins the pulse before it unless the valley between them fell below that pulse's level,
+    measured from the lowest of the ``window`` preceding valleys (a notched or noisy top stays one
+    pulse). Each pulse's edge is the last sample below its level before its first candidate
+    (rising) or the first sample below it after its top (falling), interpolated between samples.
+    Returns edge times in samples (NaN where the record cuts the edge off), levels and swings.
+    """
+    n, m = x.size, candidates.size
+    bounds = np.concatenate([[0], candidates, [n - 1]]).astype(np.int64)
+    valley = np.minimum.reduceat(x, bounds[:-1])
+    stretch = np.diff(np.concatenate([bounds[:-1], [n]]))
+    owner = np.repeat(np.arange(m + 1), stretch)
+    index = np.arange(n)
+    valley_index = np.minimum.reduceat(np.where(x == valley[owner], index, n), bounds[:-1])
+    height = x[candidates]
+    base = valley[:-1].copy()
+    for shift in range(1, window):
+        base[shift:] = np.minimum(base[shift:], valley[:-1][:-shift])
+    previous_top = np.concatenate([[np.inf], height[:-1]])
+    mid = base + level * (np.minimum(previous_top, height) - base)
+    merged = np.zeros(m, dtype=bool)
+    merged[1:] = valley[1:m] >= mid[1:]
+    group = np.cumsum(~merged) - 1
+    first = np.flatnonzero(~merged)
+    last = np.concatenate([first[1:] - 1, [m - 1]])
+    top_height = np.maximum.reduceat(height, first)
+    top = np.minimum.reduceat(np.where(height == top_height[group], np.arange(m), m), first)
+    trough = valley_index[first] if direction == "rising" else valley_index[last + 1]
+    levels = x[trough] + level * (x[candidates[top]] - x[trough])
+    swings = x[candidates[top]] - x[trough]
+    if direction == "rising":
+        start, stop = trough, candidates[first]
+    else:
+        start, stop = candidates[top], valley_index[last + 1]
+    lengths = (stop - start + 1).astype(np.int64)
+    starts = _segment_starts(lengths)
+    pulse = np.repeat(np.arange(first.size), lengths)
+    positions = np.repeat(start - starts, lengths) + np.arange(int(lengths.sum()))
+    below = x[positions] < levels[pulse]
+    if direction == "rising":
+        j = np.maximum.reduceat(np.where(below, positions, -1), starts)
+        whole = j >= 0
+    else:
+        after = np.minimum.reduceat(np.where(below, positions, n + 1), starts)
+        whole = after <= n - 1
+        j = after - 1
+    j = np.where(whole, j, 0)
+    a = x[j] - levels
+    b = x[np.minimum(j + 1, n - 1)] - levels
+    fraction = np.where(a != b, a / np.where(a != b, a - b, 1.0), 0.0)
+    return np.where(whole, j + fraction, np.nan), levels, swings
 
 
 @dataclass(frozen=True)
