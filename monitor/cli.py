@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from monitor import __version__
 from monitor.cli_torsion import add_torsion_parser, run_torsion
@@ -119,6 +120,15 @@ def _build_parser() -> argparse.ArgumentParser:
     spectrum.add_argument("--block-cycles", type=int, default=1, help="cycles per averaged block (default 1)")
     spectrum.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
     spectrum.add_argument("--plot", metavar="FILE.png", help="also draw the spectra")
+    spectrum.add_argument(
+        "--speed-map",
+        type=int,
+        metavar="BINS",
+        help="also map order amplitudes against speed in BINS speed bins (run-ups)",
+    )
+    spectrum.add_argument(
+        "--map-plot", metavar="FILE.png", help="draw the order-speed maps (needs --speed-map)"
+    )
 
     imp = sub.add_parser(
         "import",
@@ -184,8 +194,11 @@ def _run_spectrum(args: argparse.Namespace) -> int:
                 f"engine {recording.engine_id!r} is not bundled: give --engine FILE.toml or --cycle"
             )
         revolutions = load_engine(source).cycle_revolutions
+    if args.map_plot and not args.speed_map:
+        raise ModelError("--map-plot needs --speed-map BINS")
     result = spectra(
         recording,
+        speed_bins=args.speed_map,
         cycle_revolutions=revolutions,
         channels=args.channel,
         samples_per_cycle=args.samples_per_cycle,
@@ -199,7 +212,7 @@ def _run_spectrum(args: argparse.Namespace) -> int:
         except ValueError:
             raise ModelError(f"--orders {args.orders!r}: expected comma-separated numbers") from None
     rpm = result.mean_speed * 30 / math.pi
-    document = {
+    document: dict[str, Any] = {
         "recording": {
             "engine_id": recording.engine_id,
             "start_time": recording.start_time,
@@ -233,7 +246,7 @@ def _run_spectrum(args: argparse.Namespace) -> int:
                 raise ModelError(f"--orders {off_grid}: not on the grid of this spectrum (steps of {step:g})")
             keep = np.isclose(spectrum.orders[:, None], np.asarray(listed)[None, :], atol=1e-9).any(axis=1)
         unit = result.units[name]
-        document["channels"][name] = {  # type: ignore[index]
+        document["channels"][name] = {
             "unit": unit,
             "blocks": spectrum.blocks,
             "orders": spectrum.orders[keep].tolist(),
@@ -254,11 +267,29 @@ def _run_spectrum(args: argparse.Namespace) -> int:
             strict=True,
         ):
             lines.append(f"{k:6.1f} {a:12.5g} {math.degrees(ph):8.1f} {sd:10.3g}")
+    for name, speed_map in result.speed_maps.items():
+        document.setdefault("speed_maps", {})[name] = {
+            "unit": result.units[name],
+            "speed_rpm": (speed_map.speed * 30 / math.pi).tolist(),
+            "cycles": speed_map.cycles.tolist(),
+            "orders": speed_map.orders.tolist(),
+            "amplitude": [
+                [None if not np.isfinite(v) else float(v) for v in row] for row in speed_map.amplitude
+            ],
+        }
+        lines.append(
+            f"{name}: order-speed map over {speed_map.speed.size} speed bins "
+            f"{speed_map.speed[0] * 30 / math.pi:.1f}-{speed_map.speed[-1] * 30 / math.pi:.1f} rpm"
+        )
     if args.json:
         json.dump(document, sys.stdout, indent=1)
         sys.stdout.write("\n")
     else:
         print("\n".join(lines))
+    if args.map_plot:
+        from monitor.plots import plot_speed_maps
+
+        print(f"plot written to {plot_speed_maps(result, args.map_plot)}", file=sys.stderr)
     if args.plot:
         from monitor.plots import plot_spectra
 

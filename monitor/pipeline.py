@@ -22,14 +22,21 @@ speed of the recording; a grid given too coarse for that is refused.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from monitor.recording import Channel, FormatError, Recording
-from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrum, order_spectrum, to_angle_domain
+from monitor.signal.angle_domain import (
+    AngleDomainSignal,
+    OrderSpectrum,
+    OrderSpeedMap,
+    order_spectrum,
+    order_speed_map,
+    to_angle_domain,
+)
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
 from monitor.signal.pulses import SignalError, detect_edges, repair_keyphasor
 from monitor.signal.toothwheel import decode_tooth_wheel
@@ -191,6 +198,8 @@ class SpectrumResult:
     mean_speed : float
         Mean crank speed over the analysed span [rad/s].
     cycle_revolutions : int
+    speed_maps : dict of str to OrderSpeedMap
+        Order amplitudes against speed per channel (run-ups), when asked for.
     """
 
     reference: AngleReference
@@ -198,6 +207,7 @@ class SpectrumResult:
     units: dict[str, str]
     mean_speed: float
     cycle_revolutions: int
+    speed_maps: dict[str, OrderSpeedMap] = field(default_factory=dict)
 
 
 def spectra(
@@ -210,6 +220,7 @@ def spectra(
     block_cycles: int = 1,
     interpolation_order: Literal[1, 3, 5] = 3,
     cycle_phase: float | None = None,
+    speed_bins: int | None = None,
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -230,6 +241,8 @@ def spectra(
         1, 3 or 5.
     cycle_phase : float, optional
         Four-stroke phase shift if known [rad].
+    speed_bins : int, optional
+        Also map every channel's order amplitudes against speed in this many bins (run-ups).
 
     Returns
     -------
@@ -265,6 +278,7 @@ def spectra(
     )
     result: dict[str, OrderSpectrum] = {}
     units: dict[str, str] = {}
+    maps: dict[str, OrderSpeedMap] = {}
     angle_map = reference.angle_map
     for name in wanted:
         channel = recording.channel(name)
@@ -288,6 +302,8 @@ def spectra(
         )
         result[name] = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
         units[name] = channel.unit
+        if speed_bins is not None:
+            maps[name] = order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
     # crank speed: the angle map's derivative on the same grid
     cycle = 2 * math.pi * cycle_revolutions
     first = math.ceil(angle_map.angles[0] / cycle)
@@ -309,4 +325,4 @@ def spectra(
         speed_spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=max(resolvable, 0.0))
         result[SPEED_CHANNEL] = speed_spectrum
         units[SPEED_CHANNEL] = "rad/s"
-    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions)
+    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps)

@@ -14,7 +14,7 @@ import numpy as np
 from monitor.crankshaft import EngineModel
 from monitor.model_orders import ModelOrders
 
-__all__ = ["plot_model_orders", "plot_spectra"]
+__all__ = ["plot_model_orders", "plot_spectra", "plot_speed_maps"]
 
 
 def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path) -> Path:
@@ -144,6 +144,53 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
         ax.grid(alpha=0.3, axis="y", which="both")
     axes[-1, 0].set_xlabel("order")
     fig.suptitle(title or "Order spectra")
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def plot_speed_maps(result: Any, path: str | Path) -> Path:
+    """Order amplitude against crank speed, one heat map per channel (log colour scale).
+
+    Parameters
+    ----------
+    result : monitor.pipeline.SpectrumResult
+        With ``speed_maps``.
+    path : str or Path
+        Output PNG.
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    names = list(result.speed_maps)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(
+        len(names), 1, figsize=(10, 3.2 * len(names) + 0.6), constrained_layout=True, squeeze=False
+    )
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        speed_map = result.speed_maps[name]
+        rpm = speed_map.speed * 30 / np.pi
+        values = np.where(speed_map.amplitude > 0, speed_map.amplitude, np.nan)[:, 1:]
+        finite = values[np.isfinite(values)]
+        top = float(finite.max()) if finite.size else 1.0
+        image = ax.pcolormesh(
+            speed_map.orders[1:],
+            rpm,
+            values,
+            shading="nearest",
+            norm=LogNorm(vmin=top * 1e-4, vmax=top),
+            cmap="viridis",
+        )
+        fig.colorbar(image, ax=ax, label=f"amplitude [{result.units[name]}]")
+        ax.set(xlabel="order", ylabel="crank speed [rpm]", title=name)
     fig.savefig(out, dpi=100)
     plt.close(fig)
     return out

@@ -203,3 +203,33 @@ def test_a_ttl_keyphasor_read_from_a_file_drives_the_spectrum(
     assert result.reference.source == "kp"
     for k, (a, _) in ORDERS.items():
         assert result.spectra["mb1-vertical"].magnitude[k] == pytest.approx(a, rel=5e-3)
+
+
+def test_cli_speed_map_of_a_recording(
+    tmp_path: Path, rng: np.random.Generator, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Order amplitudes against speed through the CLI: the synthetic orders are constant over speed."""
+    path = write_hdf5(_synthetic(rng), tmp_path / "r.h5")
+    assert (
+        main(
+            [
+                "spectrum",
+                str(path),
+                "--json",
+                "--speed-map",
+                "4",
+                "--max-order",
+                "8",
+                "--map-plot",
+                str(tmp_path / "map.png"),
+            ]
+        )
+        == 0
+    )
+    doc = json.loads(capsys.readouterr().out)
+    speed_map = doc["speed_maps"]["mb1-vertical"]
+    assert len(speed_map["speed_rpm"]) == 4 and sum(speed_map["cycles"]) > 10
+    filled = [row for row, n in zip(speed_map["amplitude"], speed_map["cycles"], strict=True) if n]
+    np.testing.assert_allclose([row[1] for row in filled], ORDERS[1][0], rtol=0.01)
+    assert (tmp_path / "map.png").read_bytes()[:4] == b"\x89PNG"
+    assert main(["spectrum", str(path), "--map-plot", str(tmp_path / "x.png")]) == 2
