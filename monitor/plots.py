@@ -17,6 +17,39 @@ from monitor.model_orders import ModelOrders
 __all__ = ["plot_model_orders", "plot_spectra", "plot_speed_maps"]
 
 
+def new_figure(
+    path: str | Path,
+    *,
+    rows: int = 1,
+    cols: int = 1,
+    size: tuple[float, float] = (10, 5.5),
+    squeeze: bool = True,
+) -> tuple[Any, Any, Path]:
+    """A figure for a PNG file (headless backend), its folder created if needed.
+
+    Returns ``(figure, axes, path)``; ``axes`` is as ``matplotlib.pyplot.subplots``
+    gives it (a single Axes for one panel unless ``squeeze=False``).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(rows, cols, figsize=size, constrained_layout=True, squeeze=squeeze)
+    return fig, axes, out
+
+
+def save_figure(fig: Any, out: Path, *, dpi: int = 110) -> Path:
+    """Write the figure to ``out`` and release it."""
+    import matplotlib.pyplot as plt
+
+    fig.savefig(out, dpi=dpi)
+    plt.close(fig)
+    return out
+
+
 def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path) -> Path:
     """Four panels: one cylinder's torque over the cycle, engine torque orders,
     inertia-force orders of one cylinder (log scale), and main-bearing force orders.
@@ -34,18 +67,11 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     engine = model.engine
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
     orders = result.orders[1:]
     width = 0.35 / engine.cycle_revolutions
 
-    fig, axes = plt.subplots(2, 2, figsize=(13, 8.5), constrained_layout=True)
+    fig, axes, out = new_figure(path, rows=2, cols=2, size=(13, 8.5))
     fig.suptitle(
         f"{engine.name}\n{result.speed_rpm:.1f} rpm, load {result.load:.2f}: predicted orders "
         f"({result.kinematics} kinematics, {result.rod_model} rod)"
@@ -94,9 +120,7 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
     ax.set(xlabel="order", ylabel="main bearing", title="Main-bearing force orders (vertical)")
     ax.set_yticks(range(1, engine.bearing_count + 1))
 
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out)
 
 
 def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
@@ -113,17 +137,8 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     names = list(result.spectra)
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(
-        len(names), 1, figsize=(11, 2.6 * len(names) + 0.8), constrained_layout=True, squeeze=False
-    )
+    fig, axes, out = new_figure(path, rows=len(names), size=(11, 2.6 * len(names) + 0.8), squeeze=False)
     for ax, name in zip(axes[:, 0], names, strict=True):
         spectrum = result.spectra[name]
         orders, amplitude = spectrum.orders[1:], spectrum.magnitude[1:]
@@ -144,9 +159,7 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
         ax.grid(alpha=0.3, axis="y", which="both")
     axes[-1, 0].set_xlabel("order")
     fig.suptitle(title or "Order spectra")
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=100)
 
 
 def plot_speed_maps(result: Any, path: str | Path) -> Path:
@@ -163,18 +176,10 @@ def plot_speed_maps(result: Any, path: str | Path) -> Path:
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    names = list(result.speed_maps)
+    fig, axes, out = new_figure(path, rows=len(names), size=(10, 3.2 * len(names) + 0.6), squeeze=False)
     from matplotlib.colors import LogNorm
 
-    names = list(result.speed_maps)
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(
-        len(names), 1, figsize=(10, 3.2 * len(names) + 0.6), constrained_layout=True, squeeze=False
-    )
     for ax, name in zip(axes[:, 0], names, strict=True):
         speed_map = result.speed_maps[name]
         rpm = speed_map.speed * 30 / np.pi
@@ -191,6 +196,4 @@ def plot_speed_maps(result: Any, path: str | Path) -> Path:
         )
         fig.colorbar(image, ax=ax, label=f"amplitude [{result.units[name]}]")
         ax.set(xlabel="order", ylabel="crank speed [rpm]", title=name)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=100)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from monitor.plots import new_figure, save_figure
 from monitor.torsion.shaft_line import CampbellData, ForcedResponse, Modes
 from monitor.torsion.variable_inertia import StabilityChart, TimeResponse
 
@@ -19,26 +19,6 @@ __all__ = [
     "plot_stability",
     "plot_time_response",
 ]
-
-
-def _figure(path: str | Path, *, size: tuple[float, float] = (10, 5.5)) -> tuple[Any, Any, Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=size, constrained_layout=True)
-    return fig, ax, out
-
-
-def _save(fig: Any, out: Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
 
 
 def plot_modes(modes: Modes, path: str | Path, *, count: int = 4, title: str = "") -> Path:
@@ -57,7 +37,7 @@ def plot_modes(modes: Modes, path: str | Path, *, count: int = 4, title: str = "
     -------
     Path
     """
-    fig, ax, out = _figure(path)
+    fig, ax, out = new_figure(path)
     x = np.arange(len(modes.node_names))
     for i in range(min(count, modes.frequencies.size)):
         shape = modes.shapes[:, i] / np.abs(modes.shapes[:, i]).max()
@@ -67,7 +47,7 @@ def plot_modes(modes: Modes, path: str | Path, *, count: int = 4, title: str = "
     ax.set(ylabel="relative twist [-]", title=title or "Torsional mode shapes")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_campbell(
@@ -88,7 +68,7 @@ def plot_campbell(
     -------
     Path
     """
-    fig, ax, out = _figure(path)
+    fig, ax, out = new_figure(path)
     lo, hi = data.speed_range_rpm
     rpm = np.array([0.0, hi])
     top = max(float(data.orders.max()) * hi / 60, float(data.frequencies_hz[:3].max(initial=0.0)) * 1.2)
@@ -112,7 +92,7 @@ def plot_campbell(
     )
     ax.legend(fontsize=8, loc="upper left")
     ax.grid(alpha=0.3)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_response(
@@ -135,7 +115,7 @@ def plot_response(
     -------
     Path
     """
-    fig, ax, out = _figure(path)
+    fig, ax, out = new_figure(path)
     rpm = response.speed * 30 / math.pi
     amplitude = np.abs(response.angle[node]) * 1e3
     strongest = np.argsort(amplitude.max(axis=0))[::-1][:top]
@@ -149,7 +129,7 @@ def plot_response(
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_stability(
@@ -169,7 +149,7 @@ def plot_stability(
     -------
     Path
     """
-    fig, ax, out = _figure(path)
+    fig, ax, out = new_figure(path)
     extent = (chart.r[0], chart.r[-1], chart.epsilon[0], chart.epsilon[-1])
     image = ax.imshow(
         np.where(chart.unstable, chart.growth_rate, np.nan),
@@ -191,7 +171,7 @@ def plot_stability(
         ylabel="epsilon (reciprocating share of inertia)",
         title="Instability of the variable-inertia crank (shaded: unstable)",
     )
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_time_response(response: TimeResponse, path: str | Path, *, title: str = "") -> Path:
@@ -208,11 +188,11 @@ def plot_time_response(response: TimeResponse, path: str | Path, *, title: str =
     -------
     Path
     """
-    fig, ax, out = _figure(path, size=(11, 4.5))
+    fig, ax, out = new_figure(path, size=(11, 4.5))
     ax.plot(response.tau / (2 * math.pi), response.gamma, lw=0.8)
     ax.set(xlabel="revolutions", ylabel="gamma [rad]", title=title or "Torsional response")
     ax.grid(alpha=0.3)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_axial(
@@ -236,7 +216,7 @@ def plot_axial(
     -------
     Path
     """
-    fig, ax, out = _figure(path)
+    fig, ax, out = new_figure(path)
     strongest = np.argsort(amplitude_um.max(axis=0))[::-1][:6]
     for j in sorted(strongest):
         ax.plot(speed_rpm, amplitude_um[:, j], label=f"order {orders[j]:g}")
@@ -244,4 +224,4 @@ def plot_axial(
     ax.set(xlabel="crank speed [rpm]", ylabel="axial amplitude [um]", title=title or "Axial vibration")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)
