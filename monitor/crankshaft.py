@@ -36,7 +36,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-import numpy.typing as npt
 
 from monitor.engine import Engine, read_pressure_trace
 from monitor.errors import DataQualityWarning, ModelError
@@ -51,6 +50,7 @@ from monitor.forces import (
 from monitor.gas import ParametricCycle, gas_force, resample_trace
 from monitor.kinematics import check_crank_speed
 from monitor.orders import cycle_grid
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "EngineModel",
@@ -58,8 +58,6 @@ __all__ = [
     "phase_shift",
 ]
 
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 GasModel = Literal["auto", "parametric", "measured", "none"]
 
 

@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import numpy.typing as npt
 from pydantic import (
     AfterValidator,
     BaseModel,
@@ -44,6 +43,7 @@ from pydantic import (
 )
 
 from monitor.errors import EngineDescriptionError
+from monitor.types import FloatArray
 
 __all__ = [
     "Bearings",
@@ -61,7 +61,6 @@ __all__ = [
     "parse_engine",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "recordings" / "engines"
 
 

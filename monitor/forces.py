@@ -62,6 +62,7 @@ from monitor.kinematics import (
     piston_x_derivatives_approx,
     rod_angle_derivatives,
 )
+from monitor.types import FloatArray
 
 __all__ = [
     "STANDARD_GRAVITY",
@@ -73,7 +74,6 @@ __all__ = [
     "crank_train_forces",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 RodModel = Literal["rigid", "two-mass"]
 KinematicsModel = Literal["exact", "approx"]
 

@@ -48,6 +48,7 @@ from scipy.interpolate import PchipInterpolator
 from monitor.engine import Combustion, Engine
 from monitor.errors import ModelError
 from monitor.kinematics import piston_displacement
+from monitor.types import FloatArray
 
 __all__ = [
     "ParametricCycle",
@@ -57,7 +58,6 @@ __all__ = [
     "resample_trace",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 
 #: Gauss-Legendre nodes for the heat-release integral (accurate to ~1e-12 for m >= 1).
 _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(48)

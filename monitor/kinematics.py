@@ -39,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import ModelError
+from monitor.types import FloatArray
 
 __all__ = [
     "check_crank_speed",
@@ -59,7 +60,6 @@ __all__ = [
     "rod_cg_acceleration",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 ArrayLike = npt.ArrayLike
 
 #: Largest crank speed accepted [rad/s] (about 955 000 rpm): far above any

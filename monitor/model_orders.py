@@ -23,16 +23,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import numpy.typing as npt
 
 from monitor.crankshaft import EngineModel, phase_shift
 from monitor.errors import ModelError
 from monitor.orders import order_coefficients
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["ModelOrders", "predict_orders"]
-
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 
 
 @dataclass(frozen=True)

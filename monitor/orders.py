@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import ModelError
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "OrderCoefficients",
@@ -41,9 +42,6 @@ __all__ = [
     "scaled_rfft",
     "synthesize",
 ]
-
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import MonitorError
+from monitor.types import FloatArray
 
 __all__ = [
     "KINDS",
@@ -39,7 +40,6 @@ __all__ = [
     "quality_spans",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 Kind = Literal["acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure"]
 
 KINDS: tuple[str, ...] = ("acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure")

@@ -12,18 +12,16 @@ import math
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from monitor import __version__
 from monitor.engine import Engine
 from monitor.model_orders import ModelOrders
+from monitor.types import ComplexArray
 
 __all__ = ["ORDERS_FORMAT", "model_orders_document", "model_orders_table"]
 
 ORDERS_FORMAT = "engine-monitor/model-orders"
 ORDERS_FORMAT_VERSION = 1
-
-ComplexArray = npt.NDArray[np.complex128]
 
 
 def _series(values: ComplexArray, scale: float) -> dict[str, list[float]]:

@@ -36,6 +36,7 @@ from scipy.signal import butter, sosfiltfilt
 from monitor.orders import scaled_rfft
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.pulses import SignalError
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "AngleDomainSignal",
@@ -45,9 +46,6 @@ __all__ = [
     "order_speed_map",
     "to_angle_domain",
 ]
-
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 
 
 @dataclass(frozen=True)

@@ -26,10 +26,9 @@ import numpy.typing as npt
 from scipy.interpolate import PchipInterpolator, make_interp_spline
 
 from monitor.signal.pulses import SignalError
+from monitor.types import FloatArray
 
 __all__ = ["AngleMap", "cycle_phase_from_cam", "cycle_phase_from_pressure"]
-
-FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)

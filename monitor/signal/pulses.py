@@ -24,6 +24,7 @@ import numpy.typing as npt
 from scipy.ndimage import median_filter
 
 from monitor.errors import MonitorError
+from monitor.types import FloatArray
 
 __all__ = [
     "EdgeDetection",
@@ -32,8 +33,6 @@ __all__ = [
     "detect_edges",
     "repair_keyphasor",
 ]
-
-FloatArray = npt.NDArray[np.float64]
 
 
 class SignalError(MonitorError, ValueError):

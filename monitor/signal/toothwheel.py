@@ -30,10 +30,9 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.signal.pulses import SignalError
+from monitor.types import FloatArray
 
 __all__ = ["ToothWheelDecoding", "decode_tooth_wheel", "tooth_spacing_errors"]
-
-FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)

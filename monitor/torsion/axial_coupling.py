@@ -51,6 +51,7 @@ import scipy.linalg
 
 from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "AxialResponse",
@@ -65,8 +66,6 @@ __all__ = [
     "rotate_flexibility",
 ]
 
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 
 #: Condition number of B_BB above which the condensation is skipped.
 CONDENSATION_LIMIT = 1e10

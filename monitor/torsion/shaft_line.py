@@ -49,6 +49,7 @@ import scipy.linalg
 
 from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "CampbellData",
@@ -65,9 +66,6 @@ __all__ = [
     "reciprocating_inertia",
     "shaft_line_of",
 ]
-
-FloatArray = npt.NDArray[np.float64]
-ComplexArray = npt.NDArray[np.complex128]
 
 
 @dataclass(frozen=True)

@@ -67,6 +67,7 @@ from scipy.integrate import solve_ivp
 
 from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.types import FloatArray
 
 __all__ = [
     "HarmonicExcitation",
@@ -84,7 +85,6 @@ __all__ = [
     "stability_chart",
 ]
 
-FloatArray = npt.NDArray[np.float64]
 Form = Literal["linear", "full"]
 Integrator = Literal["periodic", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
 
