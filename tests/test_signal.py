@@ -329,3 +329,14 @@ def test_run_up_map_leaves_out_what_the_filter_attenuated() -> None:
     assert reported.any() and not reported.all()  # the fast bins are left out, not shown attenuated
     np.testing.assert_allclose(result.amplitude[reported, 24], 1.0, rtol=1e-3)
     np.testing.assert_allclose(result.amplitude[result.cycles > 0, 4], 1.0, rtol=1e-3)
+
+
+def test_a_notched_top_stays_one_pulse_and_a_deep_split_makes_two() -> None:
+    """Hysteresis: a dip in a pulse's top that stays above the pulse's mid level is not a new pulse;
+    one that falls below it is."""
+    fs = 1000.0
+    pulse = np.concatenate([np.zeros(20), np.ones(10), np.full(3, 0.7), np.ones(10), np.zeros(20)])
+    split = np.concatenate([np.zeros(20), np.ones(10), np.full(3, 0.3), np.ones(10), np.zeros(20)])
+    assert detect_edges(np.tile(pulse, 5), fs).times.size == 5
+    assert detect_edges(np.tile(split, 5), fs).times.size == 10
+    assert detect_edges(np.tile(pulse, 5).astype(np.float32), fs).times.size == 5

@@ -1,8 +1,8 @@
 """Pulse edges with hysteresis and sub-sample timing, and keyphasor repair.
 
-Edges.  Every pulse gets its own threshold: pulses are found as peaks
-rising at least a minimum prominence above their surroundings (the
-hysteresis), and each is timed where it crosses the mid level between its
+Edges.  Every pulse gets its own threshold: pulses are found as tops
+rising at least a minimum prominence above the trough before them and
+falling as much after them (the hysteresis), and each is timed where it crosses the mid level between its
 own trough and its own peak, interpolated between the two samples around
 the crossing (sub-sample timing).  A variable-reluctance sensor whose
 amplitude falls with speed, and a single weak tooth beside strong ones
@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
+import numba
 import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import median_filter
@@ -72,7 +73,7 @@ def detect_edges(
     Parameters
     ----------
     signal : array_like, shape (n,)
-        Sensor waveform [V or the channel's unit].
+        Sensor waveform [V or the channel's unit]; float32 is used as it is (no copy).
     sample_rate : float
         [Hz].
     start_time : float, optional
@@ -82,8 +83,8 @@ def detect_edges(
     level : float, optional
         Where on the pulse the edge is timed, as a fraction from its trough to its peak [-].
     min_prominence : float, optional
-        Smallest rise of a pulse above its surroundings [signal unit]; it acts as
-        the hysteresis. Default: 5 % of the signal's peak-to-peak range.
+        Smallest rise of a pulse above its trough, and fall after its top [signal
+        unit]; it acts as the hysteresis. Default: 5 % of the signal's peak-to-peak range.
 
     Returns
     -------
@@ -96,123 +97,107 @@ def detect_edges(
 
     Notes
     -----
-    Candidate peaks are those whose prominence exceeds ``min_prominence``
-    (``scipy.signal.find_peaks``). A candidate starts a new pulse only if the
-    signal fell below the level of the pulse before it (hysteresis, measured
-    from the lowest of the preceding valleys); otherwise it belongs to it, so
-    a notched or noisy flat top stays one pulse. All of it is vectorised
-    (``reduceat`` over the stretches between candidates): a long recording
-    costs a few array passes. A pulse's level is ``valley + level (top - valley)`` with the valley
+    One pass over the samples (compiled with numba, a few nanoseconds per
+    sample) alternates between seeking a top and seeking a trough: a top is
+    confirmed when the signal has fallen ``min_prominence`` below it and
+    below the pulse's own level, a trough when the signal has risen
+    ``min_prominence`` above it. A notched or noisy flat top whose dips stay
+    above the pulse's level stays one pulse.
+    A pulse's level is ``trough + level (top - trough)`` with the trough
     before it (after it, for falling edges); the edge is where the signal
     crosses that level on the way up (down), interpolated linearly between
-    the two samples around the crossing. A pulse with its own threshold keeps
-    a weak tooth beside strong ones (the tooth after a tooth wheel's gap) and
+    the two samples around the crossing. A pulse with its own level keeps a
+    weak tooth beside strong ones (the tooth after a tooth wheel's gap) and
     follows an amplitude that falls with speed.
     """
-    from scipy.signal import find_peaks
-
-    x = np.asarray(signal, dtype=np.float64)
+    x = np.asarray(signal)
+    if x.dtype not in (np.float32, np.float64):
+        x = x.astype(np.float64)
     if x.ndim != 1 or x.size < 8:
         raise SignalError(f"signal has shape {x.shape}: expected a 1-D waveform of at least 8 samples")
-    if not np.all(np.isfinite(x)):
+    low_p, high_p = float(np.min(x)), float(np.max(x))
+    if not (np.isfinite(low_p) and np.isfinite(high_p)):
         bad = int(np.count_nonzero(~np.isfinite(x)))
         raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
     if not sample_rate > 0:
         raise SignalError(f"sample_rate = {sample_rate!r}: expected a positive rate [Hz]")
     if not 0 < level < 1:
         raise SignalError(f"level = {level!r}: expected a fraction between 0 and 1")
-    # the whole swing: a keyphasor's pulses can fill well under 1 % of the samples
-    low_p, high_p = float(np.min(x)), float(np.max(x))
     if not high_p > low_p:
         raise SignalError("signal is flat: no pulses to detect")
     prominence = 0.05 * (high_p - low_p) if min_prominence is None else float(min_prominence)
-    # the prominence search walks from each peak to a higher sample: with equal flat tops (a clipped
-    # or quantised pulse train) that is the whole record each time. Bound it to a few pulse spacings,
-    # estimated from the rising passages through a band around the middle of the swing.
-    spacing = _pulse_spacing(x, low_p, high_p)
-    window = int(min(x.size, max(8.0, 6.0 * spacing))) | 1
-    candidates, _ = find_peaks(x, prominence=prominence, wlen=window)
-    if candidates.size < 2:
-        raise SignalError(f"fewer than two pulses with prominence {prominence:.4g} found: check the channel")
-    times, levels, swings = _time_pulses(x, candidates, level, direction)
-    whole = np.isfinite(times)
-    if np.count_nonzero(whole) < 2:
-        raise SignalError("fewer than two whole pulses in the record")
-    return EdgeDetection(start_time + times[whole] / sample_rate, levels[whole], swings[whole])
+    if not prominence > 0:
+        raise SignalError(f"min_prominence = {min_prominence!r}: expected a positive height")
+    times, levels, swings = _timed_pulses(np.ascontiguousarray(x), prominence, level, direction == "rising")
+    if times.size < 2:
+        raise SignalError(
+            f"fewer than two whole pulses with prominence {prominence:.4g} found: check the channel"
+        )
+    return EdgeDetection(start_time + times / sample_rate, levels, swings)
 
 
-def _pulse_spacing(x: FloatArray, low: float, high: float) -> float:
-    """Median samples between rising passages through the band 40-60 % of the swing (noise-immune)."""
-    marks = np.zeros(x.size, dtype=np.int8)
-    marks[x > low + 0.6 * (high - low)] = 1
-    marks[x < low + 0.4 * (high - low)] = -1
-    last = np.where(marks != 0, np.arange(x.size), 0)
-    np.maximum.accumulate(last, out=last)
-    state = marks[last]
-    rising = np.flatnonzero((state[1:] == 1) & (state[:-1] == -1))
-    return float(np.median(np.diff(rising))) if rising.size >= 2 else float(x.size)
-
-
-def _segment_starts(lengths: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    return np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
-
-
-def _time_pulses(
-    x: FloatArray, candidates: npt.NDArray[np.int64], level: float, direction: str, window: int = 8
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Group candidate peaks into pulses (hysteresis) and time each pulse's edge, without Python loops.
-
-    The lowest sample between consecutive candidates is each candidate's valley. Candidate ``k``
-    joins the pulse before it unless the valley between them fell below that pulse's level,
-    measured from the lowest of the ``window`` preceding valleys (a notched or noisy top stays one
-    pulse). Each pulse's edge is the last sample below its level before its first candidate
-    (rising) or the first sample below it after its top (falling), interpolated between samples.
-    Returns edge times in samples (NaN where the record cuts the edge off), levels and swings.
-    """
-    n, m = x.size, candidates.size
-    bounds = np.concatenate([[0], candidates, [n - 1]]).astype(np.int64)
-    valley = np.minimum.reduceat(x, bounds[:-1])
-    stretch = np.diff(np.concatenate([bounds[:-1], [n]]))
-    owner = np.repeat(np.arange(m + 1), stretch)
-    index = np.arange(n)
-    valley_index = np.minimum.reduceat(np.where(x == valley[owner], index, n), bounds[:-1])
-    height = x[candidates]
-    base = valley[:-1].copy()
-    for shift in range(1, window):
-        base[shift:] = np.minimum(base[shift:], valley[:-1][:-shift])
-    previous_top = np.concatenate([[np.inf], height[:-1]])
-    mid = base + level * (np.minimum(previous_top, height) - base)
-    merged = np.zeros(m, dtype=bool)
-    merged[1:] = valley[1:m] >= mid[1:]
-    group = np.cumsum(~merged) - 1
-    first = np.flatnonzero(~merged)
-    last = np.concatenate([first[1:] - 1, [m - 1]])
-    top_height = np.maximum.reduceat(height, first)
-    top = np.minimum.reduceat(np.where(height == top_height[group], np.arange(m), m), first)
-    trough = valley_index[first] if direction == "rising" else valley_index[last + 1]
-    levels = x[trough] + level * (x[candidates[top]] - x[trough])
-    swings = x[candidates[top]] - x[trough]
-    if direction == "rising":
-        start, stop = trough, candidates[first]
-    else:
-        start, stop = candidates[top], valley_index[last + 1]
-    lengths = (stop - start + 1).astype(np.int64)
-    starts = _segment_starts(lengths)
-    pulse = np.repeat(np.arange(first.size), lengths)
-    positions = np.repeat(start - starts, lengths) + np.arange(int(lengths.sum()))
-    below = x[positions] < levels[pulse]
-    if direction == "rising":
-        j = np.maximum.reduceat(np.where(below, positions, -1), starts)
-        whole = j >= 0
-    else:
-        after = np.minimum.reduceat(np.where(below, positions, n + 1), starts)
-        whole = after <= n - 1
-        j = after - 1
-    j = np.where(whole, j, 0)
-    a = x[j] - levels
-    b = x[np.minimum(j + 1, n - 1)] - levels
-    fraction = np.where(a != b, a / np.where(a != b, a - b, 1.0), 0.0)
-    return np.where(whole, j + fraction, np.nan), levels, swings
+@numba.njit(cache=True, nogil=True)
+def _timed_pulses(
+    x: FloatArray, prominence: float, level: float, rising: bool
+) -> tuple[FloatArray, FloatArray, FloatArray]:  # pragma: no cover - compiled
+    """Tops and troughs by hysteresis, then each pulse's edge in samples (sub-sample), level and swing."""
+    n = x.size
+    extreme = np.empty(n // 2 + 2, dtype=np.int64)  # alternating troughs and tops
+    count = 0
+    seeking = 0  # 0: not yet known, 1: a top, -1: a trough
+    hi_i = lo_i = 0
+    for i in range(1, n):
+        v = x[i]
+        if v > x[hi_i]:
+            hi_i = i
+        if v < x[lo_i]:
+            lo_i = i
+        # a top is confirmed once the signal has fallen the hysteresis below it and below the
+        # pulse's own level (a notch above that level leaves the pulse whole)
+        if (
+            seeking >= 0
+            and v < x[hi_i] - prominence
+            and (count == 0 or v < x[extreme[count - 1]] + level * (x[hi_i] - x[extreme[count - 1]]))
+        ):
+            if seeking == 0:  # the record opens on a pulse: its trough is not in it
+                extreme[count] = -1
+                count += 1
+            extreme[count] = hi_i
+            count += 1
+            seeking, lo_i = -1, i
+        elif seeking <= 0 and v > x[lo_i] + prominence:
+            extreme[count] = lo_i
+            count += 1
+            seeking, hi_i = 1, i
+    if seeking == -1:  # the record ends falling from its last top: its trough is cut off
+        extreme[count] = -1
+        count += 1
+    pulses = count // 2
+    times = np.empty(pulses)
+    levels = np.empty(pulses)
+    swings = np.empty(pulses)
+    found = 0
+    for k in range(pulses):
+        trough_before, top = extreme[2 * k], extreme[2 * k + 1]
+        trough_after = extreme[2 * k + 2] if 2 * k + 2 < count else -1
+        trough = trough_before if rising else trough_after
+        if trough < 0:
+            continue
+        mark = x[trough] + level * (x[top] - x[trough])
+        if rising:
+            j = top - 1
+            while j > trough and x[j] >= mark:
+                j -= 1
+        else:
+            j = top
+            while j + 1 < trough and x[j + 1] >= mark:
+                j += 1
+        a, b = x[j] - mark, x[j + 1] - mark
+        times[found] = j + (a / (a - b) if a != b else 0.0)
+        levels[found] = mark
+        swings[found] = x[top] - x[trough]
+        found += 1
+    return times[:found], levels[:found], swings[:found]
 
 
 @dataclass(frozen=True)
