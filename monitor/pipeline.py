@@ -31,8 +31,10 @@ import numpy as np
 from monitor.recording import Channel, FormatError, Recording
 from monitor.signal.angle_domain import (
     AngleDomainSignal,
+    AngleGrid,
     OrderSpectrum,
     OrderSpeedMap,
+    angle_grid,
     order_spectrum,
     order_speed_map,
     to_angle_domain,
@@ -251,14 +253,11 @@ def spectra(
     if not (math.isfinite(max_order) and max_order > 0):
         raise SignalError(f"max_order = {max_order!r}: expected a positive order")
     reference = angle_reference(recording, cycle_revolutions=cycle_revolutions, cycle_phase=cycle_phase)
-    probe = reference.angle_map.speed_at(
-        np.linspace(reference.angle_map.times[0], reference.angle_map.times[-1], 2000)
-    )
-    speed_ratio = float(np.nanmax(probe) / np.nanmin(probe))
-    # the anti-alias cutoff (0.8 of the grid's Nyquist at the slowest speed) must leave max_order with
-    # its frequency at the fastest speed below 0.6 of the cutoff (Butterworth 8 forward and back:
-    # attenuation below 3e-4 there): N >= R (fastest / slowest) max_order / (0.6 * 0.8 * 0.5)
-    needed = cycle_revolutions * speed_ratio * max_order / 0.24
+    slowest, fastest = reference.angle_map.speed_range
+    speed_ratio = fastest / slowest
+    # the anti-alias filter passes up to 0.8 of the grid's Nyquist order at the slowest speed: max_order
+    # at the fastest speed must lie below that: N >= R (fastest / slowest) max_order / (0.8 * 0.5)
+    needed = cycle_revolutions * speed_ratio * max_order / 0.4
     if samples_per_cycle is None:
         samples_per_cycle = 2 ** math.ceil(math.log2(max(needed, 16)))
     elif samples_per_cycle < needed:
@@ -279,6 +278,7 @@ def spectra(
     result: dict[str, OrderSpectrum] = {}
     units: dict[str, str] = {}
     maps: dict[str, OrderSpeedMap] = {}
+    grids: dict[tuple[float, float], AngleGrid] = {}
     angle_map = reference.angle_map
     for name in wanted:
         channel = recording.channel(name)
@@ -291,14 +291,24 @@ def spectra(
                 f"channel {name!r} has unusable spans ({spans}{more}): "
                 "cut them out before computing its spectrum"
             )
+        rate = _rate(channel)
+        span = (channel.start_offset, channel.start_offset + (channel.data.shape[0] - 1) / rate)
+        if span not in grids:  # channels sampled at the same times share the grid's times
+            grids[span] = angle_grid(
+                angle_map,
+                *span,
+                samples_per_cycle=samples_per_cycle,
+                cycle_revolutions=cycle_revolutions,
+            )
         resampled = to_angle_domain(
             channel.data,
-            _rate(channel),
+            rate,
             angle_map,
             samples_per_cycle=samples_per_cycle,
             cycle_revolutions=cycle_revolutions,
             start_time=channel.start_offset,
             interpolation_order=interpolation_order,
+            grid=grids[span],
         )
         result[name] = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
         units[name] = channel.unit

@@ -175,6 +175,12 @@ class AngleMap:
         out[inside] = t0 + s
         return out.reshape(target.shape)
 
+    @cached_property
+    def speed_range(self) -> tuple[float, float]:
+        """Slowest and fastest mean speed between consecutive pulses [rad/s]."""
+        speed = np.diff(self.angles) / np.diff(self.times)
+        return float(speed.min()), float(speed.max())
+
     @property
     def mean_speed(self) -> float:
         """Mean angular speed over the mapped span [rad/s]."""
