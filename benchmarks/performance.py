@@ -136,10 +136,10 @@ def _child(task: str, path: str) -> None:
         for _ in range(4):  # one FFT pass per accelerometer
             np.fft.rfft(blocks, axis=-1)
     else:
-        from monitor.pipeline import read_recording, spectra
+        from monitor.pipeline import open_recording, spectra
 
-        recording = read_recording(path)
-        spectra(recording, cycle_revolutions=1, max_order=24, samples_per_cycle=SAMPLES_PER_CYCLE)
+        with open_recording(path) as recording:
+            spectra(recording, cycle_revolutions=1, max_order=24, samples_per_cycle=SAMPLES_PER_CYCLE)
     elapsed = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     print(json.dumps({"seconds": elapsed, "peak_bytes": peak}))

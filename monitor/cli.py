@@ -19,11 +19,14 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from monitor import __version__
 from monitor.cli_torsion import add_torsion_parser, run_torsion
 from monitor.errors import MonitorError
+
+if TYPE_CHECKING:
+    from monitor.recording import Recording
 
 __all__ = ["main"]
 
@@ -176,15 +179,21 @@ def _run_orders(args: argparse.Namespace) -> int:
 
 
 def _run_spectrum(args: argparse.Namespace) -> int:
+    from monitor.pipeline import open_recording
+
+    with open_recording(args.recording) as recording:
+        return _spectrum_of(recording, args)
+
+
+def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
     import math
 
     import numpy as np
 
     from monitor.engine import bundled_engines, load_engine
     from monitor.errors import ModelError
-    from monitor.pipeline import read_recording, spectra
+    from monitor.pipeline import spectra
 
-    recording = read_recording(args.recording)
     if args.cycle:
         revolutions = 1 if args.cycle == "two-stroke" else 2
     else:

@@ -21,7 +21,11 @@ speed of the recording; a grid given too coarse for that is refused.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -43,7 +47,14 @@ from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_
 from monitor.signal.pulses import SignalError, detect_edges, repair_keyphasor
 from monitor.signal.toothwheel import decode_tooth_wheel
 
-__all__ = ["AngleReference", "SpectrumResult", "angle_reference", "read_recording", "spectra"]
+__all__ = [
+    "AngleReference",
+    "SpectrumResult",
+    "angle_reference",
+    "open_recording",
+    "read_recording",
+    "spectra",
+]
 
 SPEED_CHANNEL = "crank speed"
 
@@ -72,6 +83,34 @@ def read_recording(path: str | Path) -> Recording:
 
         return read_mcap(source)
     raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
+
+
+@contextlib.contextmanager
+def open_recording(path: str | Path) -> Iterator[Recording]:
+    """Open a recording for analysis in bounded memory: waveform samples are read by slices.
+
+    HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`); an
+    MCAP file is read whole (:func:`monitor.io.mcap_io.read_mcap`).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Yields
+    ------
+    Recording
+        Valid while the context is open.
+    """
+    from monitor.io import HDF5_SIGNATURE, file_signature
+
+    source = Path(path)
+    if file_signature(source) == HDF5_SIGNATURE:
+        from monitor.io.hdf5 import open_hdf5
+
+        with open_hdf5(source) as recording:
+            yield recording
+    else:
+        yield read_recording(source)
 
 
 @dataclass(frozen=True)
@@ -223,6 +262,7 @@ def spectra(
     interpolation_order: Literal[1, 3, 5] = 3,
     cycle_phase: float | None = None,
     speed_bins: int | None = None,
+    workers: int | None = None,
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -245,6 +285,8 @@ def spectra(
         Four-stroke phase shift if known [rad].
     speed_bins : int, optional
         Also map every channel's order amplitudes against speed in this many bins (run-ups).
+    workers : int, optional
+        Threads computing channels in parallel; default: one per core.
 
     Returns
     -------
@@ -275,11 +317,9 @@ def spectra(
             if c.kind in ("acceleration", "velocity", "pressure", "speed") and not c.is_events
         ]
     )
-    result: dict[str, OrderSpectrum] = {}
-    units: dict[str, str] = {}
-    maps: dict[str, OrderSpeedMap] = {}
-    grids: dict[tuple[float, float], AngleGrid] = {}
     angle_map = reference.angle_map
+    grids: dict[tuple[float, float], AngleGrid] = {}
+    jobs: dict[str, tuple[Channel, AngleGrid]] = {}
     for name in wanted:
         channel = recording.channel(name)
         if channel.is_events:
@@ -295,36 +335,48 @@ def spectra(
         span = (channel.start_offset, channel.start_offset + (channel.data.shape[0] - 1) / rate)
         if span not in grids:  # channels sampled at the same times share the grid's times
             grids[span] = angle_grid(
-                angle_map,
-                *span,
-                samples_per_cycle=samples_per_cycle,
-                cycle_revolutions=cycle_revolutions,
+                angle_map, *span, samples_per_cycle=samples_per_cycle, cycle_revolutions=cycle_revolutions
             )
+        jobs[name] = (channel, grids[span])
+
+    def channel_spectrum(name: str) -> tuple[OrderSpectrum, OrderSpeedMap | None]:
+        channel, grid = jobs[name]
         resampled = to_angle_domain(
             channel.data,
-            rate,
+            _rate(channel),
             angle_map,
             samples_per_cycle=samples_per_cycle,
             cycle_revolutions=cycle_revolutions,
             start_time=channel.start_offset,
             interpolation_order=interpolation_order,
-            grid=grids[span],
+            grid=grid,
         )
-        result[name] = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
-        units[name] = channel.unit
-        if speed_bins is not None:
-            maps[name] = order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
-    # crank speed: the angle map's derivative on the same grid
-    cycle = 2 * math.pi * cycle_revolutions
-    first = math.ceil(angle_map.angles[0] / cycle)
-    last = math.floor(angle_map.angles[-1] / cycle)
-    if last - first >= 1:
-        grid = first * cycle + (cycle / samples_per_cycle) * np.arange((last - first) * samples_per_cycle)
-        speed = angle_map.speed_at(angle_map.time_at(grid))
+        spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
+        if speed_bins is None:
+            return spectrum, None
+        return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
+
+    def speed_spectrum() -> OrderSpectrum | None:
+        # crank speed: the angle map's derivative on the grid of its own whole cycles
+        try:
+            grid = angle_grid(
+                angle_map,
+                float(angle_map.times[0]),
+                float(angle_map.times[-1]),
+                samples_per_cycle=samples_per_cycle,
+                cycle_revolutions=cycle_revolutions,
+                known=list(grids.values()),
+            )
+        except SignalError:
+            return None
+        # the speed holds orders below pulses / 2 per revolution: a grid of 2 R pulses per cycle (a power
+        # of two) has its Nyquist order above them; a finer channel grid is thinned to it
+        wanted = 2 ** math.ceil(math.log2(max(8, 2 * cycle_revolutions * reference.pulses_per_revolution)))
+        stride = samples_per_cycle // wanted if samples_per_cycle % wanted == 0 else 1
         signal = AngleDomainSignal(
-            speed.reshape(last - first, samples_per_cycle),
-            first,
-            samples_per_cycle,
+            angle_map.speed_at(grid.times[::stride]).reshape(grid.cycles, samples_per_cycle // stride),
+            grid.first_cycle,
+            samples_per_cycle // stride,
             cycle_revolutions,
             None,
             3,
@@ -332,7 +384,19 @@ def spectra(
         # the map holds pulses_per_revolution samples of the speed per revolution: orders from
         # half of that up are not in it (a keyphasor gives the mean speed only)
         resolvable = min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9)
-        speed_spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=max(resolvable, 0.0))
-        result[SPEED_CHANNEL] = speed_spectrum
+        return order_spectrum(signal, block_cycles=block_cycles, max_order=max(resolvable, 0.0))
+
+    # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
+    count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
+    with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
+        speed_job = pool.submit(speed_spectrum)
+        channel_jobs = {name: pool.submit(channel_spectrum, name) for name in jobs}
+        outcomes = {name: job.result() for name, job in channel_jobs.items()}
+        speed = speed_job.result()
+    result = {name: spectrum for name, (spectrum, _) in outcomes.items()}
+    units = {name: jobs[name][0].unit for name in jobs}
+    maps = {name: m for name, (_, m) in outcomes.items() if m is not None}
+    if speed is not None:
+        result[SPEED_CHANNEL] = speed
         units[SPEED_CHANNEL] = "rad/s"
     return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps)

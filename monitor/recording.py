@@ -99,7 +99,8 @@ class Channel:
     unit : str
         Unit of ``data`` (one of :data:`UNITS` for the kind; "s" for event times).
     data : ndarray
-        Samples (waveform), or event times [s] (event channel).
+        Samples (waveform), or event times [s] (event channel). A channel opened
+        in a file (:func:`monitor.io.hdf5.open_hdf5`) holds a reader by slices instead.
     sample_rate : float or None
         [Hz]; None for an event channel.
     start_offset : float
@@ -208,8 +209,8 @@ class Channel:
         Pulse channels (keyphasor, tooth, cam) are not judged for clipping: a
         logic-level pulse sits at its rails by design.
         """
-        if self.is_events or self.sample_rate is None:
-            return self
+        if self.is_events or self.sample_rate is None or not isinstance(self.data, np.ndarray):
+            return self  # samples read by slices are checked as they are read
         limits = None if self.kind in ("keyphasor", "tooth", "cam") else self.range
         spans, mask = quality_spans(
             self.data, self.sample_rate, start_offset=self.start_offset, limits=limits
@@ -251,6 +252,10 @@ def quality_spans(
     x = np.asarray(data)
     mask = np.zeros(x.size, dtype=bool)
     spans: list[QualitySpan] = []
+    if x.size:  # the common case, clean samples inside the range, in two passes (NaN propagates)
+        lo, hi = float(np.min(x)), float(np.max(x))
+        if math.isfinite(lo) and math.isfinite(hi) and (limits is None or limits[0] < lo <= hi < limits[1]):
+            return spans, mask
 
     def runs(flags: npt.NDArray[np.bool_], reason: str, minimum: int = 1) -> None:
         if not flags.any():

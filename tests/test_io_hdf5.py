@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from monitor.io.hdf5 import read_hdf5, write_hdf5
+from monitor.io.hdf5 import open_hdf5, read_hdf5, write_hdf5
 from monitor.recording import Channel, FormatError, Recording, quality_spans
 
 
@@ -171,6 +171,11 @@ def test_a_flipped_byte_is_detected(tmp_path: Path, rng: np.random.Generator) ->
         fh.write(bytes([byte[0] ^ 0x10]))
     with pytest.raises(FormatError, match="channel 'mb3-vertical': checksum failure"):
         read_hdf5(path)
+    with open_hdf5(path) as opened:  # read by slices: the damaged chunk is met when it is read
+        samples = opened.channel("mb3-vertical").data
+        samples[: samples.shape[0] // 100]  # the first chunk is whole
+        with pytest.raises(FormatError, match="channel 'mb3-vertical': checksum failure"):
+            samples[:]
 
 
 def test_ni_waveform_attribute_names_are_accepted(tmp_path: Path) -> None:

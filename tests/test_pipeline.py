@@ -233,3 +233,36 @@ def test_cli_speed_map_of_a_recording(
     np.testing.assert_allclose([row[1] for row in filled], ORDERS[1][0], rtol=0.01)
     assert (tmp_path / "map.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["spectrum", str(path), "--map-plot", str(tmp_path / "x.png")]) == 2
+
+
+def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """open_recording reads HDF5 waveforms by slices (bounded memory): the numbers of reading it whole."""
+    from monitor.pipeline import open_recording
+
+    path = write_hdf5(_synthetic(rng), tmp_path / "r.h5")
+    whole = spectra(read_recording(path), cycle_revolutions=1, max_order=12).spectra
+    with open_recording(path) as recording:
+        assert not isinstance(recording.channel("mb1-vertical").data, np.ndarray)
+        sliced = spectra(recording, cycle_revolutions=1, max_order=12).spectra
+    for name, spectrum in whole.items():
+        np.testing.assert_allclose(sliced[name].amplitude, spectrum.amplitude, rtol=0, atol=1e-9)
+
+
+def test_bad_samples_met_while_reading_by_slices_are_refused_with_their_time(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    from monitor.pipeline import open_recording
+
+    recording = _synthetic(rng)
+    acc = recording.channels[0].data.copy()
+    acc[int(12.5 * FS) : int(12.5 * FS) + 3] = np.nan
+    bad = Recording(
+        recording.engine_id,
+        recording.start_time,
+        (Channel("mb1-vertical", "acceleration", "m/s^2", acc, FS), recording.channels[1]),
+    )
+    path = write_hdf5(bad, tmp_path / "nan.h5")
+    with open_recording(path) as opened, pytest.raises(FormatError, match=r"'mb1-vertical'.*nan 12\.500"):
+        spectra(opened, cycle_revolutions=1, max_order=12)

@@ -340,3 +340,52 @@ def test_a_notched_top_stays_one_pulse_and_a_deep_split_makes_two() -> None:
     assert detect_edges(np.tile(pulse, 5), fs).times.size == 5
     assert detect_edges(np.tile(split, 5), fs).times.size == 10
     assert detect_edges(np.tile(pulse, 5).astype(np.float32), fs).times.size == 5
+
+
+def test_speed_spline_by_windows_equals_the_global_spline() -> None:
+    """An hour of tooth pulses is splined in overlapping windows; the result is the one global quintic
+    spline's derivative (to round-off), in sorted and in shuffled order."""
+    from scipy.interpolate import make_interp_spline
+
+    rng = np.random.default_rng(3)
+    n = 40_000  # more than two windows
+    angles = np.arange(n) * (2 * math.pi / 60)
+    times = np.cumsum(1 / 750 * (1 + 0.05 * np.sin(angles / 7) + 1e-4 * rng.standard_normal(n)))
+    angle_map = AngleMap(times, angles)
+    query = np.sort(rng.uniform(times[0], times[-1], 20_000))
+    reference = make_interp_spline(times, angles, k=5).derivative()(query)
+    np.testing.assert_allclose(angle_map.speed_at(query), reference, rtol=1e-9)
+    shuffled = rng.permutation(query.size)
+    np.testing.assert_allclose(angle_map.speed_at(query[shuffled]), reference[shuffled], rtol=1e-9)
+
+
+def test_a_long_pulse_waveform_read_in_blocks_gives_the_edges_of_one_pass(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Blocks with context on both sides: every edge once, timed as in one pass over the whole record."""
+    from monitor.signal import pulses
+
+    fs = 20000.0
+    t = np.arange(400_000) / fs
+    angle = 2 * np.pi * 15 * (t + 0.02 * np.sin(2 * np.pi * 0.5 * t))  # teeth passing at about 15 Hz x 60
+    tooth = (np.sin(60 * angle) > 0.3).astype(np.float64) + 0.01 * np.sin(7 * t)
+    whole = detect_edges(tooth, fs, min_prominence=0.5)
+    monkeypatch.setattr(pulses, "_EDGE_BLOCK", 5000)
+    blocks = detect_edges(tooth, fs, min_prominence=0.5)
+    np.testing.assert_allclose(blocks.times, whole.times, rtol=0, atol=1e-6 / fs)  # round-off only
+
+
+@pytest.mark.parametrize("order", [1, 3, 5])
+def test_compiled_splines_are_scipys_splines(order: int) -> None:
+    """The compiled B-spline prefilter and evaluation against scipy.ndimage.map_coordinates (an
+    independent implementation) away from the ends, where the boundary rule no longer matters."""
+    from scipy.ndimage import map_coordinates
+
+    from monitor.signal.angle_domain import _interpolate, _spline_coefficients
+
+    rng = np.random.default_rng(order)
+    y = rng.standard_normal(5000)
+    q = np.sort(rng.uniform(40, 4960, 3000))
+    ours = np.empty(q.size)
+    _interpolate(_spline_coefficients(y, order), q, order, ours)
+    np.testing.assert_allclose(ours, map_coordinates(y, q[None, :], order=order), rtol=0, atol=1e-11)

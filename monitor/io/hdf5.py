@@ -20,15 +20,17 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import h5py
+import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, quality_spans
 
-__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "read_hdf5", "write_hdf5"]
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
 
 FORMAT_NAME = "engine-monitor recording"
 FORMAT_VERSION = 1
@@ -116,35 +118,142 @@ def read_hdf5(path: str | Path) -> Recording:
     FormatError
         Naming the channel (or the file) and the problem.
     """
-    source = Path(path)
+    with _open(Path(path)) as f:
+        return _recording(f, Path(path), lazy=False)
+
+
+@contextlib.contextmanager
+def open_hdf5(path: str | Path) -> Iterator[Recording]:
+    """Open a recording whose waveform channels stay in the file and are read by slices.
+
+    Everything but the waveform samples is read and validated at once; each
+    waveform channel's ``data`` is a :class:`Hdf5Samples`, which checks every
+    slice it reads (checksums, NaN, Inf, clipping against the stated range)
+    and refuses a bad one, naming the channel and the time. An hour-long
+    recording is analysed in bounded memory this way.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Yields
+    ------
+    Recording
+        Valid while the context is open.
+
+    Raises
+    ------
+    FormatError
+        As :func:`read_hdf5`.
+    """
+    with _open(Path(path)) as f:
+        yield _recording(f, Path(path), lazy=True)
+
+
+def _open(source: Path) -> h5py.File:
     if file_signature(source) != HDF5_SIGNATURE:
         raise FormatError(f"{source}: not an HDF5 file (no HDF5 signature at its start)")
     try:
-        f = h5py.File(source, "r")
+        return h5py.File(source, "r")
     except OSError as error:
         raise FormatError(f"{source}: damaged HDF5 file: {error}") from None
-    with f:
-        fmt = _text(f.attrs.get("format", ""))
-        if fmt != FORMAT_NAME:
-            raise FormatError(f"{source}: not an {FORMAT_NAME} (root attribute 'format' is {fmt!r})")
-        version = int(f.attrs.get("format_version", 0))
-        if version != FORMAT_VERSION:
+
+
+def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:
+    fmt = _text(f.attrs.get("format", ""))
+    if fmt != FORMAT_NAME:
+        raise FormatError(f"{source}: not an {FORMAT_NAME} (root attribute 'format' is {fmt!r})")
+    version = int(f.attrs.get("format_version", 0))
+    if version != FORMAT_VERSION:
+        raise FormatError(f"{source}: format_version {version} is not supported (expected {FORMAT_VERSION})")
+    for name in ("engine_id", "start_time"):
+        if name not in f.attrs:
+            raise FormatError(f"{source}: missing root attribute {name!r}")
+    _refuse_links(f, source)
+    if "channels" not in f or not isinstance(f["channels"], h5py.Group):
+        raise FormatError(f"{source}: missing the group 'channels'")
+    channels = [_read_channel(f["channels"], name, source, lazy=lazy) for name in f["channels"]]
+    return Recording(
+        engine_id=_text(f.attrs["engine_id"]),
+        start_time=_text(f.attrs["start_time"]),
+        channels=tuple(channels),
+        notes=_text(f.attrs.get("notes", "")),
+    )
+
+
+class Hdf5Samples:
+    """A waveform channel's samples in an open HDF5 file, read by slices and checked as they are read.
+
+    Parameters
+    ----------
+    dataset : h5py.Dataset
+    where : str
+        The file and channel, for messages.
+    sample_rate : float
+        [Hz].
+    start_offset : float
+        [s].
+    limits : (float, float) or None
+        Measuring range for the clipping check [the channel's unit]; None: not judged.
+    """
+
+    def __init__(
+        self,
+        dataset: h5py.Dataset,
+        where: str,
+        sample_rate: float,
+        start_offset: float,
+        limits: tuple[float, float] | None,
+    ) -> None:
+        self._dataset = dataset
+        self._where = where
+        self._rate = sample_rate
+        self._offset = start_offset
+        self._limits = limits
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self._dataset.shape)
+
+    @property
+    def ndim(self) -> int:
+        return len(self._dataset.shape)
+
+    @property
+    def size(self) -> int:
+        return int(self._dataset.size)
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return np.dtype(self._dataset.dtype)
+
+    def __len__(self) -> int:
+        return int(self._dataset.shape[0])
+
+    def __getitem__(self, index: slice) -> np.ndarray:
+        if not isinstance(index, slice) or index.step not in (None, 1):
+            raise TypeError("HDF5 samples are read by contiguous slices")
+        start, _, _ = index.indices(len(self))
+        try:
+            block = np.asarray(self._dataset[index])
+        except OSError as error:
             raise FormatError(
-                f"{source}: format_version {version} is not supported (expected {FORMAT_VERSION})"
-            )
-        for name in ("engine_id", "start_time"):
-            if name not in f.attrs:
-                raise FormatError(f"{source}: missing root attribute {name!r}")
-        _refuse_links(f, source)
-        if "channels" not in f or not isinstance(f["channels"], h5py.Group):
-            raise FormatError(f"{source}: missing the group 'channels'")
-        channels = [_read_channel(f["channels"], name, source) for name in f["channels"]]
-        return Recording(
-            engine_id=_text(f.attrs["engine_id"]),
-            start_time=_text(f.attrs["start_time"]),
-            channels=tuple(channels),
-            notes=_text(f.attrs.get("notes", "")),
+                f"{self._where}: checksum failure or damaged data ({error}); the file is corrupt"
+            ) from None
+        spans, _ = quality_spans(
+            block, self._rate, start_offset=self._offset + start / self._rate, limits=self._limits
         )
+        if spans:
+            first = spans[0]
+            raise FormatError(
+                f"{self._where}: unusable samples ({first.reason} {first.start:.3f}-{first.stop:.3f} s"
+                f"{', and more' if len(spans) > 1 else ''}): cut them out before analysing the channel"
+            )
+        return block
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        whole = self[:]
+        return whole if dtype is None else whole.astype(dtype)
 
 
 def _refuse_links(f: h5py.File, source: Path) -> None:
@@ -173,7 +282,7 @@ def _refuse_links(f: h5py.File, source: Path) -> None:
     visit(f, "")
 
 
-def _read_channel(group: h5py.Group, name: str, source: Path) -> Channel:
+def _read_channel(group: h5py.Group, name: str, source: Path, *, lazy: bool) -> Channel:
     ds = group[name]
     where = f"{source}: channel {name!r}"
     if not isinstance(ds, h5py.Dataset):
@@ -205,21 +314,27 @@ def _read_channel(group: h5py.Group, name: str, source: Path) -> Channel:
         if key in a:
             value = a[key]
             fields[key] = int(value) if key in ("teeth", "missing_teeth", "cylinder") else float(value)
-    try:
-        data = ds[()]
-    except OSError as error:
-        raise FormatError(
-            f"{where}: checksum failure or damaged data ({error}); the file is corrupt"
-        ) from None
-    if data.ndim != 1:
-        raise FormatError(f"{where}: data has shape {data.shape}, expected one dimension")
+    if ds.ndim != 1:
+        raise FormatError(f"{where}: data has shape {ds.shape}, expected one dimension")
     if rate is not None and "duration_s" in a:
         stated = float(a["duration_s"])
-        if abs(data.size / rate - stated) > 1.0 / rate:
+        if abs(ds.size / rate - stated) > 1.0 / rate:
             raise FormatError(
-                f"{where}: {data.size} samples at {rate:g} Hz last {data.size / rate:.6g} s, "
+                f"{where}: {ds.size} samples at {rate:g} Hz last {ds.size / rate:.6g} s, "
                 f"but duration_s says {stated:.6g} s"
             )
+    limits = (float(a["range_min"]), float(a["range_max"])) if "range_min" in a and "range_max" in a else None
+    data: Any
+    if lazy and rate is not None:
+        pulses = kind in ("keyphasor", "tooth", "cam")  # pulse channels sit at their rails by design
+        data = Hdf5Samples(ds, where, rate, offset, None if pulses else limits)
+    else:
+        try:
+            data = ds[()]
+        except OSError as error:
+            raise FormatError(
+                f"{where}: checksum failure or damaged data ({error}); the file is corrupt"
+            ) from None
     try:
         channel = Channel(
             name=name,
@@ -231,9 +346,7 @@ def _read_channel(group: h5py.Group, name: str, source: Path) -> Channel:
             location=_text(a.get("location", "")),
             direction=_text(a.get("direction", "")),
             fields=fields,
-            range=(float(a["range_min"]), float(a["range_max"]))
-            if "range_min" in a and "range_max" in a
-            else None,
+            range=limits,
         )
     except FormatError as error:
         raise FormatError(f"{source}: {error}") from None

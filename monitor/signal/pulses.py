@@ -16,8 +16,11 @@ inserted by interpolation, and every repair is reported.
 
 from __future__ import annotations
 
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numba
 import numpy as np
@@ -72,8 +75,10 @@ def detect_edges(
 
     Parameters
     ----------
-    signal : array_like, shape (n,)
-        Sensor waveform [V or the channel's unit]; float32 is used as it is (no copy).
+    signal : array_like or sliceable, shape (n,)
+        Sensor waveform [V or the channel's unit]; float32 is used as it is (no
+        copy). A long waveform (an array or anything with ``shape`` and slicing,
+        such as an h5py dataset) is read in blocks of 2^20 samples.
     sample_rate : float
         [Hz].
     start_time : float, optional
@@ -84,7 +89,8 @@ def detect_edges(
         Where on the pulse the edge is timed, as a fraction from its trough to its peak [-].
     min_prominence : float, optional
         Smallest rise of a pulse above its trough, and fall after its top [signal
-        unit]; it acts as the hysteresis. Default: 5 % of the signal's peak-to-peak range.
+        unit]; it acts as the hysteresis. Default: 5 % of the signal's peak-to-peak range
+        (of each block's, on a long waveform: it follows a slowly changing amplitude).
 
     Returns
     -------
@@ -110,30 +116,70 @@ def detect_edges(
     weak tooth beside strong ones (the tooth after a tooth wheel's gap) and
     follows an amplitude that falls with speed.
     """
-    x = np.asarray(signal)
-    if x.dtype not in (np.float32, np.float64):
-        x = x.astype(np.float64)
-    if x.ndim != 1 or x.size < 8:
-        raise SignalError(f"signal has shape {x.shape}: expected a 1-D waveform of at least 8 samples")
-    low_p, high_p = float(np.min(x)), float(np.max(x))
-    if not (np.isfinite(low_p) and np.isfinite(high_p)):
-        bad = int(np.count_nonzero(~np.isfinite(x)))
-        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    source: Any = (
+        signal if hasattr(signal, "shape") and hasattr(signal, "__getitem__") else np.asarray(signal)
+    )
+    if len(source.shape) != 1 or source.shape[0] < 8:
+        raise SignalError(
+            f"signal has shape {tuple(source.shape)}: expected a 1-D waveform of at least 8 samples"
+        )
     if not sample_rate > 0:
         raise SignalError(f"sample_rate = {sample_rate!r}: expected a positive rate [Hz]")
     if not 0 < level < 1:
         raise SignalError(f"level = {level!r}: expected a fraction between 0 and 1")
-    if not high_p > low_p:
-        raise SignalError("signal is flat: no pulses to detect")
-    prominence = 0.05 * (high_p - low_p) if min_prominence is None else float(min_prominence)
-    if not prominence > 0:
+    if min_prominence is not None and not min_prominence > 0:
         raise SignalError(f"min_prominence = {min_prominence!r}: expected a positive height")
-    times, levels, swings = _timed_pulses(np.ascontiguousarray(x), prominence, level, direction == "rising")
+    n = int(source.shape[0])
+    rising = direction == "rising"
+    if n <= _EDGE_BLOCK:
+        times, levels, swings, prominence = _block_edges(source[:], min_prominence, level, rising)
+    else:
+        # blocks with context on both sides; each keeps the edges inside its own span. The hysteresis
+        # state is the whole record's again after a pulse or two of context: take several spacings
+        first, _, _, prominence = _block_edges(source[:_EDGE_BLOCK], min_prominence, level, rising)
+        spacing = float(np.median(np.diff(first))) if first.size > 2 else _EDGE_BLOCK / 8
+        context = int(min(_EDGE_BLOCK // 4, max(1024, 8 * spacing)))
+
+        def block(a: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+            lo = max(0, a - context)
+            part = _block_edges(source[lo : min(n, a + _EDGE_BLOCK + context)], min_prominence, level, rising)
+            keep = (part[0] + lo >= a) & (part[0] + lo < a + _EDGE_BLOCK)
+            return part[0][keep] + lo, part[1][keep], part[2][keep]
+
+        with ThreadPoolExecutor(
+            max_workers=os.cpu_count() or 1
+        ) as pool:  # the compiled pass releases the GIL
+            parts = list(pool.map(block, range(0, n, _EDGE_BLOCK)))
+        times, levels, swings = (np.concatenate([p[i] for p in parts]) for i in range(3))
+    if prominence == 0.0 and times.size == 0:
+        raise SignalError("signal is flat: no pulses to detect")
     if times.size < 2:
         raise SignalError(
             f"fewer than two whole pulses with prominence {prominence:.4g} found: check the channel"
         )
     return EdgeDetection(start_time + times / sample_rate, levels, swings)
+
+
+_EDGE_BLOCK = 1 << 20  # samples per block of a long pulse waveform (4 MB of float32)
+
+
+def _block_edges(
+    block: npt.ArrayLike, min_prominence: float | None, level: float, rising: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+    """Edges of one block in samples from its start, levels, swings, and the prominence used."""
+    x = np.asarray(block)
+    if x.dtype not in (np.float32, np.float64):
+        x = x.astype(np.float64)
+    low_p, high_p = float(np.min(x)), float(np.max(x))
+    if not (math.isfinite(low_p) and math.isfinite(high_p)):
+        bad = int(np.count_nonzero(~np.isfinite(x)))
+        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    if not high_p > low_p:  # flat: no pulse here
+        empty = np.empty(0)
+        return empty, empty, empty, 0.0
+    prominence = 0.05 * (high_p - low_p) if min_prominence is None else float(min_prominence)
+    times, levels, swings = _timed_pulses(np.ascontiguousarray(x), prominence, level, rising)
+    return times, levels, swings, prominence
 
 
 @numba.njit(cache=True, nogil=True)

@@ -128,11 +128,10 @@ def decode_tooth_wheel(
         )
     threshold = missing + 0.5 if gap_ratio is None else gap_ratio
     per_rev = teeth - missing
-    times = list(t)
+    arr = t
     inserted: list[float] = []
     removed: list[float] = []
     while True:
-        arr = np.asarray(times)
         gaps = _find_gaps(arr, threshold)
         if gaps.size < 2:
             raise SignalError(
@@ -167,7 +166,7 @@ def decode_tooth_wheel(
                     f"revolution starting at t = {arr[start]:.6g} s is one tooth short, but neither an "
                     "interval inside it nor its gaps is long enough to show where"
                 )
-            times.insert(position, float(new))
+            arr = np.insert(arr, position, new)  # rare: a copy per repair
             inserted.append(float(new))
         elif counts[k] == per_rev + 1:  # a spurious edge: drop the one that leaves the most even spacing
             segment = arr[start - 1 : stop + 1]
@@ -176,14 +175,12 @@ def decode_tooth_wheel(
                 key=lambda j: float(np.std(np.diff(np.delete(segment, j))[1:-1])),
             )
             removed.append(float(segment[best]))
-            del times[start - 1 + best]
+            arr = np.delete(arr, start - 1 + best)
         else:
             raise SignalError(
                 f"revolution starting at t = {arr[start]:.6g} s has {counts[k]} edges: expected {per_rev} "
                 f"for a {teeth}-{missing} wheel (one lost or one extra tooth can be repaired, not more)"
             )
-    arr = np.asarray(times)
-    gaps = _find_gaps(arr, threshold)
     index = np.empty(arr.size, dtype=np.int64)
     revolution = np.empty(arr.size, dtype=np.int64)
     first = int(gaps[0])
