@@ -89,8 +89,9 @@ def read_recording(path: str | Path) -> Recording:
 def open_recording(path: str | Path) -> Iterator[Recording]:
     """Open a recording for analysis in bounded memory: waveform samples are read by slices.
 
-    HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`); an
-    MCAP file is read whole (:func:`monitor.io.mcap_io.read_mcap`).
+    HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`), an
+    indexed MCAP file's are read topic by topic (:func:`monitor.io.mcap_io.open_mcap`;
+    a file without its index, or cut short, is read whole).
 
     Parameters
     ----------
@@ -101,16 +102,22 @@ def open_recording(path: str | Path) -> Iterator[Recording]:
     Recording
         Valid while the context is open.
     """
-    from monitor.io import HDF5_SIGNATURE, file_signature
+    from monitor.io import HDF5_SIGNATURE, MCAP_MAGIC, file_signature
 
     source = Path(path)
-    if file_signature(source) == HDF5_SIGNATURE:
+    head = file_signature(source)
+    if head == HDF5_SIGNATURE:
         from monitor.io.hdf5 import open_hdf5
 
         with open_hdf5(source) as recording:
             yield recording
+    elif head == MCAP_MAGIC:
+        from monitor.io.mcap_io import open_mcap
+
+        with open_mcap(source) as recording:
+            yield recording
     else:
-        yield read_recording(source)
+        yield read_recording(source)  # refuses it with the reason
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ __all__ = [
     "QualitySpan",
     "Recording",
     "quality_spans",
+    "refuse_unusable",
 ]
 
 Kind = Literal["acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure"]
@@ -282,6 +283,43 @@ def quality_spans(
         runs(finite & (x <= limits[0]), "clipped", clip_run)
     spans.sort(key=lambda s: s.start)
     return spans, mask
+
+
+def refuse_unusable(
+    where: str,
+    block: npt.ArrayLike,
+    sample_rate: float,
+    *,
+    start_offset: float = 0.0,
+    limits: tuple[float, float] | None = None,
+) -> None:
+    """Refuse a slice of a channel read from a file that holds NaN, Inf or clipped samples.
+
+    Parameters
+    ----------
+    where : str
+        The file and channel, for the message.
+    block : array_like
+        The samples read [the channel's unit].
+    sample_rate : float
+        [Hz].
+    start_offset : float, optional
+        Time of the slice's first sample [s].
+    limits : (float, float), optional
+        The measuring range [the channel's unit] (None: clipping not judged).
+
+    Raises
+    ------
+    FormatError
+        Naming the first unusable span and its time.
+    """
+    spans, _ = quality_spans(block, sample_rate, start_offset=start_offset, limits=limits)
+    if spans:
+        first = spans[0]
+        raise FormatError(
+            f"{where}: unusable samples ({first.reason} {first.start:.3f}-{first.stop:.3f} s"
+            f"{', and more' if len(spans) > 1 else ''}): cut them out before analysing the channel"
+        )
 
 
 @dataclass(frozen=True)

@@ -176,3 +176,66 @@ def test_real_files_agree_with_their_own_statistics(name: str) -> None:
     if name == "keelson-empty.mcap":
         assert listing.total == 0
     _ = io
+
+
+def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """Chunks are per channel (a reader of one topic decompresses only its own), and open_mcap serves
+    every sample of every channel by slices, equal to reading the file whole."""
+    from mcap.reader import make_reader
+
+    from monitor.io.mcap_io import McapSamples, open_mcap
+
+    original = _recording(rng)
+    path = write_mcap(original, tmp_path / "r.mcap", chunk_size=8 * 1024)
+    with open(path, "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None and len(summary.chunk_indexes) > len(original.channels)
+    assert all(len(c.message_index_offsets) == 1 for c in summary.chunk_indexes)
+    with open_mcap(path) as opened:
+        for channel in original.channels:
+            data = opened.channel(channel.name).data
+            if channel.is_events:
+                np.testing.assert_array_equal(data, channel.data)
+                continue
+            assert isinstance(data, McapSamples)
+            n = channel.data.size
+            pieces = [data[a : a + 700] for a in range(0, n, 500)]  # overlapping, forward
+            np.testing.assert_array_equal(np.concatenate([p[:500] for p in pieces]), channel.data)
+            np.testing.assert_array_equal(data[10:20], channel.data[10:20])  # backwards: starts again
+
+
+def test_damage_met_while_reading_by_slices_names_the_channel(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    from monitor.io.mcap_io import open_mcap
+
+    path = write_mcap(_recording(rng), tmp_path / "r.mcap", compression="none")
+    with open(path, "rb") as fh:
+        from mcap.reader import make_reader
+
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    topic = {c.id: c.topic for c in summary.channels.values()}
+    chunk = next(
+        c for c in summary.chunk_indexes if topic[next(iter(c.message_index_offsets))] == "/mb3-vertical"
+    )
+    data = bytearray(path.read_bytes())
+    data[chunk.chunk_start_offset + chunk.chunk_length // 2] ^= 0x01
+    damaged = tmp_path / "bad.mcap"
+    damaged.write_bytes(bytes(data))
+    with open_mcap(damaged) as opened, pytest.raises(FormatError, match="'mb3-vertical': checksum failure"):
+        opened.channel("mb3-vertical").data[:]
+
+
+def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.random.Generator) -> None:
+    from monitor.io.mcap_io import open_mcap
+
+    original = _recording(rng)
+    path = write_mcap(original, tmp_path / "r.mcap", chunk_size=16 * 1024)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with open_mcap(cut) as opened:
+        assert opened.truncated
+        assert isinstance(opened.channels[0].data, np.ndarray)

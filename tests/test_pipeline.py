@@ -235,13 +235,15 @@ def test_cli_speed_map_of_a_recording(
     assert main(["spectrum", str(path), "--map-plot", str(tmp_path / "x.png")]) == 2
 
 
+@pytest.mark.parametrize("suffix", ["h5", "mcap"])
 def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
-    tmp_path: Path, rng: np.random.Generator
+    tmp_path: Path, rng: np.random.Generator, suffix: str
 ) -> None:
-    """open_recording reads HDF5 waveforms by slices (bounded memory): the numbers of reading it whole."""
+    """open_recording reads waveforms by slices (bounded memory): the numbers of reading the file whole."""
     from monitor.pipeline import open_recording
 
-    path = write_hdf5(_synthetic(rng), tmp_path / "r.h5")
+    write = write_hdf5 if suffix == "h5" else write_mcap
+    path = write(_synthetic(rng), tmp_path / f"r.{suffix}")
     whole = spectra(read_recording(path), cycle_revolutions=1, max_order=12).spectra
     with open_recording(path) as recording:
         assert not isinstance(recording.channel("mb1-vertical").data, np.ndarray)

@@ -28,7 +28,7 @@ import h5py
 import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, quality_spans
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, refuse_unusable
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
 
@@ -240,15 +240,13 @@ class Hdf5Samples:
             raise FormatError(
                 f"{self._where}: checksum failure or damaged data ({error}); the file is corrupt"
             ) from None
-        spans, _ = quality_spans(
-            block, self._rate, start_offset=self._offset + start / self._rate, limits=self._limits
+        refuse_unusable(
+            self._where,
+            block,
+            self._rate,
+            start_offset=self._offset + start / self._rate,
+            limits=self._limits,
         )
-        if spans:
-            first = spans[0]
-            raise FormatError(
-                f"{self._where}: unusable samples ({first.reason} {first.start:.3f}-{first.stop:.3f} s"
-                f"{', and more' if len(spans) > 1 else ''}): cut them out before analysing the channel"
-            )
         return block
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:

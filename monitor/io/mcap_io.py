@@ -13,10 +13,16 @@ little-endian float32 array; the blocks are encoded and decoded here at
 that level (``numpy.frombuffer``, no per-sample work), which the tests check
 against the official protobuf decoder.
 
-Reading.  The file is streamed record by record with CRC validation, which
-serves indexed and unindexed files alike; a file cut short is read up to
-its last whole chunk and the result says so (``truncated``); a CRC or
-decompression failure is a checksum failure naming the chunk.
+Layout.  Each chunk holds one channel: a window of about ``chunk_size``
+bytes of it, the windows of all channels in turn, so that a reader of one
+topic decompresses that topic's chunks only.
+
+Reading.  :func:`read_mcap` streams the file record by record with CRC
+validation, which serves indexed and unindexed files alike; a file cut
+short is read up to its last whole chunk and the result says so
+(``truncated``); a CRC or decompression failure is a checksum failure.
+:func:`open_mcap` reads an indexed file topic by topic, forward in time, in
+bounded memory (the analysis of an hour-long recording).
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from typing import Any, Literal
 
 import numpy as np
 from mcap.exceptions import EndOfFile, McapError
+from mcap.reader import make_reader
 from mcap.records import Channel as McapChannel
 from mcap.records import Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader
@@ -42,14 +49,16 @@ from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, refuse_unusable
 
 __all__ = [
     "McapListing",
+    "McapSamples",
     "decode_block",
     "encode_event_block",
     "encode_sample_block",
     "list_mcap",
+    "open_mcap",
     "read_mcap",
     "schema_descriptor_set",
     "write_mcap",
@@ -262,7 +271,8 @@ def write_mcap(
     compression : {"zstd", "lz4", "none"}
         Chunk compression.
     chunk_size : int, optional
-        Target uncompressed chunk size [bytes].
+        Target uncompressed chunk size [bytes]. Each chunk holds one channel: a
+        window of about this size of it, the windows of all channels in turn.
 
     Returns
     -------
@@ -313,8 +323,20 @@ def write_mcap(
                     metadata=_channel_metadata(c),
                 )
                 blocks.extend(_blocks(c, channel_id, order, block_seconds, start_ns))
-            blocks.sort(key=lambda b: (b[0], b[1]))
-            for sequence, (time_ns, _, channel_id, payload) in enumerate(blocks):
+            # one channel per chunk, a window of about chunk_size bytes of it: a reader of one topic
+            # decompresses that topic's chunks only
+            rates = [
+                c.data.dtype.itemsize * float(c.sample_rate or 0)
+                for c in recording.channels
+                if not c.is_events
+            ]
+            window_ns = max(block_seconds, chunk_size / max(rates, default=1.0)) * 1e9
+            blocks.sort(key=lambda b: (int((b[0] - start_ns) // window_ns), b[1], b[0]))
+            group = None
+            for sequence, (time_ns, order, channel_id, payload) in enumerate(blocks):
+                if (int((time_ns - start_ns) // window_ns), order) != group:
+                    writer.flush()  # finishes the chunk in progress, if any
+                    group = (int((time_ns - start_ns) // window_ns), order)
                 writer.add_message(
                     channel_id=channel_id,
                     log_time=time_ns,
@@ -451,17 +473,8 @@ def read_mcap(path: str | Path) -> Recording:
             if channel is not None and schemas.get(channel.schema_id) in (SAMPLE_SCHEMA, EVENT_SCHEMA):
                 start, _, values = decode_block(record.data)
                 blocks[record.channel_id].append((start, values))
-    if recording_meta is None or recording_meta.get("format") != FORMAT_NAME:
-        raise FormatError(
-            f"{source}: not an {FORMAT_NAME} (no 'recording' metadata record naming the format)"
-        )
-    if recording_meta.get("format_version") != str(FORMAT_VERSION):
-        raise FormatError(
-            f"{source}: format_version {recording_meta.get('format_version')!r} is not supported"
-        )
-    for name in ("engine_id", "start_time"):
-        if not recording_meta.get(name):
-            raise FormatError(f"{source}: the 'recording' metadata has no {name!r}")
+    _check_recording_metadata(source, recording_meta)
+    assert recording_meta is not None
     result = []
     for channel_id, channel in channels.items():
         if schemas.get(channel.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):
@@ -481,15 +494,24 @@ def read_mcap(path: str | Path) -> Recording:
     )
 
 
+def _check_recording_metadata(source: Path, recording_meta: dict[str, str] | None) -> None:
+    if recording_meta is None or recording_meta.get("format") != FORMAT_NAME:
+        raise FormatError(
+            f"{source}: not an {FORMAT_NAME} (no 'recording' metadata record naming the format)"
+        )
+    if recording_meta.get("format_version") != str(FORMAT_VERSION):
+        raise FormatError(
+            f"{source}: format_version {recording_meta.get('format_version')!r} is not supported"
+        )
+    for name in ("engine_id", "start_time"):
+        if not recording_meta.get(name):
+            raise FormatError(f"{source}: the 'recording' metadata has no {name!r}")
+
+
 def _assemble(
     source: Path, channel: McapChannel, parts: list[tuple[float, np.ndarray]], truncated: bool
 ) -> Channel:
-    meta = dict(channel.metadata)
-    name = channel.topic.lstrip("/")
-    where = f"{source}: channel {name!r}"
-    for key in ("kind", "unit", "representation", "dtype"):
-        if key not in meta:
-            raise FormatError(f"{where}: missing channel metadata {key!r}")
+    meta = _metadata(source, channel)
     events = meta["representation"] == "events"
     rate = None if events else float(meta.get("sample_rate_hz", "nan"))
     parts.sort(key=lambda p: p[0])
@@ -500,24 +522,43 @@ def _assemble(
         for start, values in parts:  # blocks must follow each other without gaps or overlaps
             if abs(start - expected) > 0.5 / rate:  # type: ignore[operator]
                 raise FormatError(
-                    f"{where}: a block starts at {start:.9g} s, expected {expected:.9g} s "
-                    "(missing or repeated block)"
+                    f"{source}: channel {channel.topic.lstrip('/')!r}: a block starts at {start:.9g} s, "
+                    f"expected {expected:.9g} s (missing or repeated block)"
                 )
             expected = start + values.size / rate  # type: ignore[operator]
     stated = int(meta.get("samples", data.size))
     if data.size != stated and not (truncated and data.size < stated):
-        raise FormatError(f"{where}: {data.size} samples in its blocks, but its metadata says {stated}")
+        raise FormatError(
+            f"{source}: channel {channel.topic.lstrip('/')!r}: {data.size} samples in its blocks, but its "
+            f"metadata says {stated}"
+        )
+    return _channel(source, channel, meta, data).checked()
+
+
+def _metadata(source: Path, channel: McapChannel) -> dict[str, str]:
+    meta = dict(channel.metadata)
+    for key in ("kind", "unit", "representation", "dtype"):
+        if key not in meta:
+            raise FormatError(
+                f"{source}: channel {channel.topic.lstrip('/')!r}: missing channel metadata {key!r}"
+            )
+    return meta
+
+
+def _channel(source: Path, channel: McapChannel, meta: dict[str, str], data: Any) -> Channel:
     fields: dict[str, float | int | str] = {}
     for key in KIND_FIELDS.get(meta["kind"], {}):
         if key in meta:
             fields[key] = int(meta[key]) if key in _INTEGER_FIELDS else float(meta[key])
     try:
-        result = Channel(
-            name=name,
+        return Channel(
+            name=channel.topic.lstrip("/"),
             kind=meta["kind"],
             unit=meta["unit"],
             data=data,
-            sample_rate=rate,
+            sample_rate=None
+            if meta["representation"] == "events"
+            else float(meta.get("sample_rate_hz", "nan")),
             start_offset=float(meta.get("start_offset_s", "0")),
             location=meta.get("location", ""),
             direction=meta.get("direction", ""),
@@ -526,7 +567,206 @@ def _assemble(
         )
     except FormatError as error:
         raise FormatError(f"{source}: {error}") from None
-    return result.checked()
+
+
+@contextlib.contextmanager
+def open_mcap(path: str | Path) -> Iterator[Recording]:
+    """Open a recording whose waveform channels are read by slices, topic by topic, CRCs checked.
+
+    An indexed file (with its summary) is read through the official reader's
+    index: each waveform channel's ``data`` is a :class:`McapSamples`, which
+    decompresses only its own topic's chunks as the analysis moves forward
+    in time, so an hour-long recording needs little memory. A file without a
+    summary (unindexed, or cut short) is read whole by :func:`read_mcap`.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Yields
+    ------
+    Recording
+        Valid while the context is open.
+
+    Raises
+    ------
+    FormatError
+        As :func:`read_mcap`; damage met later, while reading, names the channel.
+    """
+    source = Path(path)
+    if file_signature(source) != MCAP_MAGIC:
+        raise FormatError(f"{source}: not an MCAP file (no MCAP magic at its start)")
+    with open(source, "rb") as fh:
+        try:
+            reader = make_reader(fh, validate_crcs=True)
+            summary = reader.get_summary()
+            recording_meta = next(
+                (dict(m.metadata) for m in reader.iter_metadata() if m.name == "recording"), None
+            )
+        except Exception:  # no usable summary (unindexed, cut short): stream the whole file instead
+            summary = None
+    if summary is None or not summary.chunk_indexes:
+        yield read_mcap(source)
+        return
+    _check_recording_metadata(source, recording_meta)
+    assert recording_meta is not None
+    opened: list[McapSamples] = []
+    try:
+        channels = []
+        for channel in summary.channels.values():
+            schema = summary.schemas.get(channel.schema_id)
+            if schema is None or schema.name not in (SAMPLE_SCHEMA, EVENT_SCHEMA):
+                raise FormatError(
+                    f"{source}: topic {channel.topic!r} has schema "
+                    f"{schema.name if schema else None!r}, not one of this format's"
+                )
+            meta = _metadata(source, channel)
+            if meta["representation"] == "events":
+                parts = [decode_block(m.data)[::2] for m in McapSamples.messages(source, channel.topic)]
+                channels.append(_assemble(source, channel, [(p[0], p[1]) for p in parts], False))
+                continue
+            samples = McapSamples(source, channel.topic, meta)
+            opened.append(samples)
+            channels.append(_channel(source, channel, meta, samples))
+        order = recording_meta.get("channels", "").split(",")
+        channels.sort(key=lambda c: order.index(c.name) if c.name in order else len(order))
+        yield Recording(
+            engine_id=recording_meta["engine_id"],
+            start_time=recording_meta["start_time"],
+            notes=recording_meta.get("notes", ""),
+            channels=tuple(channels),
+        )
+    finally:
+        for samples in opened:
+            samples.close()
+
+
+class McapSamples:
+    """A waveform channel of an indexed MCAP recording, read forward by slices and checked as read.
+
+    Slices are served from a buffer that moves forward with them; a slice
+    that starts before the buffer restarts the topic from its first block.
+    Every block must start where the one before ended.
+
+    Parameters
+    ----------
+    source : Path
+        The MCAP file.
+    topic : str
+        The channel's topic.
+    meta : dict of str to str
+        The channel's MCAP metadata (sample rate, start offset, sample count, dtype, range).
+    """
+
+    def __init__(self, source: Path, topic: str, meta: dict[str, str]) -> None:
+        self._source = source
+        self._topic = topic
+        self._where = f"{source}: channel {topic.lstrip('/')!r}"
+        self._rate = float(meta.get("sample_rate_hz", "nan"))
+        self._offset = float(meta.get("start_offset_s", "0"))
+        self._dtype = np.dtype(meta["dtype"])
+        if "samples" not in meta:
+            raise FormatError(f"{self._where}: missing channel metadata 'samples'")
+        self._size = int(meta["samples"])
+        pulses = meta["kind"] in ("keyphasor", "tooth", "cam")  # pulse channels sit at their rails by design
+        self._limits = (
+            (float(meta["range_min"]), float(meta["range_max"]))
+            if "range_min" in meta and not pulses
+            else None
+        )
+        self._messages: Iterator[Any] | None = None
+        self._buffer = np.empty(0, self._dtype)
+        self._start = 0  # sample index of the buffer's first sample
+        self._expected = 0  # sample index of the next block's first sample
+
+    @staticmethod
+    def messages(source: Path, topic: str) -> Iterator[Any]:
+        """The messages of one topic in log-time order, CRCs checked, errors named."""
+        where = f"{source}: channel {topic.lstrip('/')!r}"
+        try:
+            with open(source, "rb") as fh:
+                for _, _, message in make_reader(fh, validate_crcs=True).iter_messages(topics=[topic]):
+                    yield message
+        except CRCValidationError as error:
+            raise FormatError(f"{where}: checksum failure: {error}") from None
+        except McapError as error:
+            raise FormatError(f"{where}: damaged MCAP file: {error}") from None
+        except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
+            if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
+                raise FormatError(
+                    f"{where}: checksum failure: a chunk does not decompress ({error})"
+                ) from None
+            raise
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self._size,)
+
+    @property
+    def ndim(self) -> int:
+        return 1
+
+    @property
+    def size(self) -> int:
+        return self._size
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return self._dtype
+
+    def __len__(self) -> int:
+        return self._size
+
+    def close(self) -> None:
+        """Stop reading (closes the file)."""
+        if self._messages is not None:
+            self._messages.close()  # type: ignore[attr-defined]
+            self._messages = None
+
+    def _next_block(self) -> np.ndarray:
+        assert self._messages is not None
+        message = next(self._messages, None)
+        if message is None:
+            raise FormatError(
+                f"{self._where}: its blocks end after {self._expected} samples, but its metadata says "
+                f"{self._size}"
+            )
+        start, _, values = decode_block(message.data)
+        if abs(start - (self._offset + self._expected / self._rate)) > 0.5 / self._rate:
+            raise FormatError(
+                f"{self._where}: a block starts at {start:.9g} s, expected "
+                f"{self._offset + self._expected / self._rate:.9g} s (missing or repeated block)"
+            )
+        self._expected += values.size
+        return values.astype(self._dtype, copy=False)
+
+    def __getitem__(self, index: slice) -> np.ndarray:
+        if not isinstance(index, slice) or index.step not in (None, 1):
+            raise TypeError("MCAP samples are read by contiguous slices")
+        a, b, _ = index.indices(self._size)
+        b = max(a, b)
+        if self._messages is None or a < self._start:
+            self.close()
+            self._messages = self.messages(self._source, self._topic)
+            self._buffer, self._start, self._expected = np.empty(0, self._dtype), 0, 0
+        pieces = [self._buffer[max(0, a - self._start) :]]
+        held = self._start + self._buffer.size
+        while held < b:
+            block = self._next_block()
+            if held + block.size > a:
+                pieces.append(block[max(0, a - held) :])
+            held += block.size
+        self._buffer = np.concatenate(pieces) if len(pieces) > 1 else pieces[0]  # from sample a on
+        self._start = a
+        out = self._buffer[: b - a]
+        refuse_unusable(
+            self._where, out, self._rate, start_offset=self._offset + a / self._rate, limits=self._limits
+        )
+        return out
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        whole = self[:]
+        return whole if dtype is None else whole.astype(dtype)
 
 
 # -------------------------------------------------------------------------------- third-party files
