@@ -10,7 +10,12 @@ else it must be given.
 
 Crank speed.  The angle map's derivative, resampled to the angle domain,
 gives the speed-fluctuation orders (``crank speed`` in the spectra,
-[rad/s]); they are what the torque orders of the model predict.  A map
+[rad/s]); they are what the torque orders of the model predict.  The
+angular-vibration orders (``crank angular vibration``, [rad]) are those of
+the crank's angle lead over a uniform rotation at each cycle's own mean
+speed, ``theta - Omega_c (t(theta) - t_c)``: the integral over the cycle of
+``1 - Omega_c / omega(theta)``, integrated order by order (divided by
+``i k``), with no small-fluctuation approximation.  A map
 made of ``P`` pulses per revolution resolves speed orders below ``P / 2``
 only: a tooth wheel gives them, a keyphasor alone gives the mean speed.
 
@@ -57,6 +62,7 @@ __all__ = [
 ]
 
 SPEED_CHANNEL = "crank speed"
+ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -241,7 +247,9 @@ class SpectrumResult:
     ----------
     reference : AngleReference
     spectra : dict of str to OrderSpectrum
-        By channel name; ``"crank speed"`` is the speed fluctuation [rad/s].
+        By channel name; ``"crank speed"`` is the speed fluctuation [rad/s],
+        ``"crank angular vibration"`` the crank's angle lead over a uniform
+        rotation at each cycle's mean speed [rad].
     units : dict of str to str
     mean_speed : float
         Mean crank speed over the analysed span [rad/s].
@@ -363,7 +371,7 @@ def spectra(
             return spectrum, None
         return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
 
-    def speed_spectrum() -> OrderSpectrum | None:
+    def crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
         # crank speed: the angle map's derivative on the grid of its own whole cycles
         try:
             grid = angle_grid(
@@ -380,30 +388,43 @@ def spectra(
         # of two) has its Nyquist order above them; a finer channel grid is thinned to it
         wanted = 2 ** math.ceil(math.log2(max(8, 2 * cycle_revolutions * reference.pulses_per_revolution)))
         stride = samples_per_cycle // wanted if samples_per_cycle % wanted == 0 else 1
-        signal = AngleDomainSignal(
-            angle_map.speed_at(grid.times[::stride]).reshape(grid.cycles, samples_per_cycle // stride),
-            grid.first_cycle,
-            samples_per_cycle // stride,
-            cycle_revolutions,
-            None,
-            3,
-        )
+        m = samples_per_cycle // stride
+        speed = angle_map.speed_at(grid.times[::stride]).reshape(grid.cycles, m)
         # the map holds pulses_per_revolution samples of the speed per revolution: orders from
         # half of that up are not in it (a keyphasor gives the mean speed only)
-        resolvable = min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9)
-        return order_spectrum(signal, block_cycles=block_cycles, max_order=max(resolvable, 0.0))
+        resolvable = max(min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9), 0.0)
+
+        def spectrum_of(values: np.ndarray) -> OrderSpectrum:
+            signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, 3)
+            return order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
+
+        # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
+        # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k)
+        slowness = 1.0 / speed
+        g = spectrum_of(1.0 - slowness / slowness.mean(axis=1, keepdims=True))
+        factor = np.zeros(g.orders.size)
+        factor[1:] = 1.0 / g.orders[1:]
+        lead = OrderSpectrum(
+            g.orders,
+            -1j * factor * g.amplitude,
+            factor * g.magnitude_mean,
+            factor * g.magnitude_std,
+            g.blocks,
+            g.block_cycles,
+        )
+        return spectrum_of(speed), lead
 
     # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
     with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
-        speed_job = pool.submit(speed_spectrum)
+        crank_job = pool.submit(crank_spectra)
         channel_jobs = {name: pool.submit(channel_spectrum, name) for name in jobs}
         outcomes = {name: job.result() for name, job in channel_jobs.items()}
-        speed = speed_job.result()
+        crank = crank_job.result()
     result = {name: spectrum for name, (spectrum, _) in outcomes.items()}
     units = {name: jobs[name][0].unit for name in jobs}
     maps = {name: m for name, (_, m) in outcomes.items() if m is not None}
-    if speed is not None:
-        result[SPEED_CHANNEL] = speed
-        units[SPEED_CHANNEL] = "rad/s"
+    if crank is not None:
+        result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
+        units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
     return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps)

@@ -268,3 +268,21 @@ def test_bad_samples_met_while_reading_by_slices_are_refused_with_their_time(
     path = write_hdf5(bad, tmp_path / "nan.h5")
     with open_recording(path) as opened, pytest.raises(FormatError, match=r"'mb1-vertical'.*nan 12\.500"):
         spectra(opened, cycle_revolutions=1, max_order=12)
+
+
+def test_crank_angular_vibration_from_a_tooth_wheel() -> None:
+    """The crank's lead over a uniform rotation at each revolution's mean speed, computed independently
+    from the fine trajectory of the test's speed law (t(a) by quadrature, per revolution, FFT), against
+    the pipeline's; to first order it is the speed's order amplitude over k times the mean speed."""
+    result = spectra(_speed_recording("tooth"), cycle_revolutions=1, max_order=12)
+    vibration = result.spectra["crank angular vibration"]
+    assert result.units["crank angular vibration"] == "rad"
+    w0 = 104 * math.pi / 30
+    a = np.linspace(0, 2 * math.pi, 4096 + 1)
+    w = w0 * (1 + 0.02 * np.cos(7 * a) + 0.01 * np.cos(2 * a + 1))  # every revolution is alike
+    t = cumulative_trapezoid(1 / w, a, initial=0.0)
+    lead = a[:-1] - (2 * math.pi / t[-1]) * t[:-1]
+    expected = np.fft.rfft(lead) * 2 / lead.size
+    for k in (2, 7):
+        assert abs(vibration.amplitude[k] - expected[k]) < 2e-3 * abs(expected[k])
+    assert abs(vibration.amplitude[7]) == pytest.approx(0.02 / 7, rel=0.03)  # first order in 0.02

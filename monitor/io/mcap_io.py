@@ -32,6 +32,7 @@ import contextlib
 import os
 import struct
 import tempfile
+import threading
 from collections import defaultdict
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -678,6 +679,7 @@ class McapSamples:
         self._buffer = np.empty(0, self._dtype)
         self._start = 0  # sample index of the buffer's first sample
         self._expected = 0  # sample index of the next block's first sample
+        self._lock = threading.Lock()
 
     @staticmethod
     def messages(source: Path, topic: str) -> Iterator[Any]:
@@ -743,7 +745,10 @@ class McapSamples:
     def __getitem__(self, index: slice) -> np.ndarray:
         if not isinstance(index, slice) or index.step not in (None, 1):
             raise TypeError("MCAP samples are read by contiguous slices")
-        a, b, _ = index.indices(self._size)
+        with self._lock:  # one reader of the topic, whichever thread asks
+            return self._slice(*index.indices(self._size)[:2])
+
+    def _slice(self, a: int, b: int) -> np.ndarray:
         b = max(a, b)
         if self._messages is None or a < self._start:
             self.close()

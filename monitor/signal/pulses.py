@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import math
 import os
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -140,16 +141,25 @@ def detect_edges(
         spacing = float(np.median(np.diff(first))) if first.size > 2 else _EDGE_BLOCK / 8
         context = int(min(_EDGE_BLOCK // 4, max(1024, 8 * spacing)))
 
-        def block(a: int) -> tuple[FloatArray, FloatArray, FloatArray]:
-            lo = max(0, a - context)
-            part = _block_edges(source[lo : min(n, a + _EDGE_BLOCK + context)], min_prominence, level, rising)
-            keep = (part[0] + lo >= a) & (part[0] + lo < a + _EDGE_BLOCK)
-            return part[0][keep] + lo, part[1][keep], part[2][keep]
+        def keep(a: int, lo: int, part: tuple[FloatArray, FloatArray, FloatArray, float]) -> None:
+            inside = (part[0] + lo >= a) & (part[0] + lo < a + _EDGE_BLOCK)
+            parts.append((part[0][inside] + lo, part[1][inside], part[2][inside]))
 
-        with ThreadPoolExecutor(
-            max_workers=os.cpu_count() or 1
-        ) as pool:  # the compiled pass releases the GIL
-            parts = list(pool.map(block, range(0, n, _EDGE_BLOCK)))
+        # read in order here (a reader by slices moves forward), find the edges in parallel threads (the
+        # compiled pass releases the GIL), a few blocks in flight
+        workers = os.cpu_count() or 1
+        parts: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+        pending: deque[tuple[int, int, Future[tuple[FloatArray, FloatArray, FloatArray, float]]]] = deque()
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            for a in range(0, n, _EDGE_BLOCK):
+                lo = max(0, a - context)
+                x = np.asarray(source[lo : min(n, a + _EDGE_BLOCK + context)])
+                pending.append((a, lo, pool.submit(_block_edges, x, min_prominence, level, rising)))
+                if len(pending) > workers:
+                    done = pending.popleft()
+                    keep(done[0], done[1], done[2].result())
+            for a, lo, job in pending:
+                keep(a, lo, job.result())
         times, levels, swings = (np.concatenate([p[i] for p in parts]) for i in range(3))
     if prominence == 0.0 and times.size == 0:
         raise SignalError("signal is flat: no pulses to detect")
