@@ -389,3 +389,17 @@ def test_compiled_splines_are_scipys_splines(order: int) -> None:
     ours = np.empty(q.size)
     _interpolate(_spline_coefficients(y, order), q, order, ours)
     np.testing.assert_allclose(ours, map_coordinates(y, q[None, :], order=order), rtol=0, atol=1e-11)
+
+
+def test_order_spectrum_in_chunks_equals_the_direct_statistics() -> None:
+    """More blocks than one chunk: the mean, the magnitudes' mean and spread equal numpy's on all."""
+    from monitor.orders import scaled_rfft
+    from monitor.signal.angle_domain import AngleDomainSignal
+
+    rng = np.random.default_rng(11)
+    values = rng.standard_normal((10_001, 32)) + 3 * np.cos(2 * np.pi * 2 * np.arange(32) / 32)
+    spectrum = order_spectrum(AngleDomainSignal(values, 0, 32, 1, None, 3), max_order=8)
+    direct = scaled_rfft(values)[:, :9]
+    np.testing.assert_allclose(spectrum.amplitude, direct.mean(axis=0), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(spectrum.magnitude_mean, np.abs(direct).mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(spectrum.magnitude_std, np.abs(direct).std(axis=0, ddof=1), rtol=1e-10)

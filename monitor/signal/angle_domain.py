@@ -335,13 +335,12 @@ def to_angle_domain(
     decimation = fir.decimation if fir is not None else 1
     lead = fir.lead if fir is not None else 0  # input sample of the first filtered sample
     margin = lead + _SPLINE_MARGIN * decimation
-    position = (grid.times - start_time) * sample_rate  # in input samples
-    values = np.empty(position.size)
+    values = np.empty(grid.times.size)
     cycle_seconds = (grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1) * grid.samples_per_cycle
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
-    for g0 in range(0, position.size, step):
-        where = position[g0 : g0 + step]
+    for g0 in range(0, grid.times.size, step):
+        where = (grid.times[g0 : g0 + step] - start_time) * sample_rate  # in input samples
         a = math.floor(where[0]) - margin
         b = math.ceil(where[-1]) + margin + 1
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
@@ -514,17 +513,29 @@ def order_spectrum(
         raise SignalError(f"block_cycles = {block_cycles!r}: expected 1..{n_cycles} (cycles in the signal)")
     blocks = n_cycles // block_cycles
     data = signal.values[: blocks * block_cycles].reshape(blocks, block_cycles * n)
-    spectra = scaled_rfft(data)
     resolution = 1.0 / (block_cycles * signal.cycle_revolutions)
-    orders = resolution * np.arange(spectra.shape[-1], dtype=np.float64)
-    keep = orders <= (max_order if max_order is not None else orders[-1]) + 1e-12
-    spectra = spectra[:, keep]
-    magnitudes = np.abs(spectra)
+    orders = resolution * np.arange(block_cycles * n // 2 + 1, dtype=np.float64)
+    keep = int(np.count_nonzero(orders <= (max_order if max_order is not None else orders[-1]) + 1e-12))
+    # a few thousand blocks at a time (bounded memory): sums of the complex amplitudes and of the
+    # magnitudes, and the magnitudes' squared deviations combined by Chan's rule
+    total = np.zeros(keep, dtype=np.complex128)
+    mean, squares, count = np.zeros(keep), np.zeros(keep), 0
+    for b0 in range(0, blocks, 4096):
+        spectra = scaled_rfft(data[b0 : b0 + 4096])[:, :keep]
+        magnitudes = np.abs(spectra)
+        total += spectra.sum(axis=0)
+        part_mean = magnitudes.mean(axis=0)
+        part_squares = ((magnitudes - part_mean) ** 2).sum(axis=0)
+        part = magnitudes.shape[0]
+        delta = part_mean - mean
+        squares += part_squares + delta**2 * count * part / (count + part)
+        mean += delta * part / (count + part)
+        count += part
     return OrderSpectrum(
-        orders=orders[keep],
-        amplitude=spectra.mean(axis=0),
-        magnitude_mean=magnitudes.mean(axis=0),
-        magnitude_std=magnitudes.std(axis=0, ddof=1) if blocks > 1 else np.zeros(int(keep.sum())),
+        orders=orders[:keep],
+        amplitude=total / blocks,
+        magnitude_mean=mean,
+        magnitude_std=np.sqrt(squares / (blocks - 1)) if blocks > 1 else np.zeros(keep),
         blocks=blocks,
         block_cycles=block_cycles,
     )

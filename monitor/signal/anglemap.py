@@ -182,7 +182,7 @@ class AngleMap:
         flat = np.ascontiguousarray(target.ravel())
         out = np.empty(flat.shape)
         slack = 1e-12 * (abs(self.angles[0]) + abs(self.angles[-1]))  # round-off at the span's ends
-        coefficients = np.ascontiguousarray(self._forward.c.T)  # cubic on each piece, powers of (t - t0)
+        coefficients = self._forward.c  # the cubic of each piece, powers of (t - t0): shape (4, pieces)
         workers = min(os.cpu_count() or 1, max(1, flat.size // (1 << 20)))
         bounds = np.linspace(0, flat.size, workers + 1).astype(np.int64)
         with ThreadPoolExecutor(max_workers=workers) as pool:  # the compiled loop releases the GIL
@@ -298,7 +298,7 @@ def cycle_phase_from_cam(angle_map: AngleMap, cam_times: npt.ArrayLike, *, cam_a
 def _invert(
     c: FloatArray, times: FloatArray, angles: FloatArray, target: FloatArray, slack: float, out: FloatArray
 ) -> None:  # pragma: no cover - compiled
-    """Solve ``c[i] (t - t_i) = angle`` on each angle's piece ``i`` (monotone cubic), NaN outside the span."""
+    """Solve ``c[:, i] (t - t_i) = angle`` on the piece ``i`` of each angle (monotone cubic); NaN outside."""
     last = angles.size - 1
     i = 0
     for p in range(target.size):
@@ -313,7 +313,7 @@ def _invert(
             else:
                 i = min(max(np.searchsorted(angles, a, side="right") - 1, 0), last - 1)
         h = times[i + 1] - times[i]
-        c0, c1, c2, c3 = c[i, 0], c[i, 1], c[i, 2], c[i, 3] - a
+        c0, c1, c2, c3 = c[0, i], c[1, i], c[2, i], c[3, i] - a
         lo, hi = 0.0, h
         s = (a - angles[i]) / (angles[i + 1] - angles[i]) * h
         for _ in range(100):
