@@ -300,7 +300,8 @@ def _invert(
 ) -> None:  # pragma: no cover - compiled
     """Solve ``c[:, i] (t - t_i) = angle`` on the piece ``i`` of each angle (monotone cubic); NaN outside."""
     last = angles.size - 1
-    i = 0
+    i, solved = 0, -1  # the piece, and the one of the last solution (its angle, offset and slope)
+    a_before = s_before = slope_before = 0.0
     for p in range(target.size):
         a = target[p]
         if not (angles[0] - slack <= a <= angles[last] + slack):
@@ -315,7 +316,10 @@ def _invert(
         h = times[i + 1] - times[i]
         c0, c1, c2, c3 = c[0, i], c[1, i], c[2, i], c[3, i] - a
         lo, hi = 0.0, h
-        s = (a - angles[i]) / (angles[i + 1] - angles[i]) * h
+        if solved == i and slope_before > 0.0:  # sorted targets: a step from the last solution
+            s = min(max(s_before + (a - a_before) / slope_before, 0.0), h)
+        else:
+            s = (a - angles[i]) / (angles[i + 1] - angles[i]) * h
         for _ in range(100):
             value = ((c0 * s + c1) * s + c2) * s + c3
             if value == 0.0:
@@ -333,3 +337,5 @@ def _invert(
                 break
             s = step
         out[p] = times[i] + s
+        solved, a_before, s_before = i, a, s
+        slope_before = (3.0 * c0 * s + 2.0 * c1) * s + c2
