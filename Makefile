@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
-.PHONY: demo test lint typecheck bench lock clean
+.PHONY: demo test lint typecheck bench bench-performance lock clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -31,6 +31,11 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.accuracy_vs_time
 
+## bench-performance: speed and memory on a generated one-hour recording (several minutes, 4 GB of
+## temporary disk; installs the peer rota-order into .venv-peers/ on first use); rewrites docs/performance.md
+bench-performance: $(STAMP)
+	$(BIN)/python -m benchmarks.performance --minutes 60
+
 ## lock: re-pin constraints.txt to the newest versions that satisfy pyproject.toml
 lock:
 	rm -rf .lock-venv
@@ -41,4 +46,4 @@ lock:
 	rm -rf .lock-venv
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .mypy_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) .venv-peers $(OUT) .pytest_cache .mypy_cache .ruff_cache .hypothesis
