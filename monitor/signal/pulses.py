@@ -222,7 +222,9 @@ def _timed_pulses(
             count += 1
             seeking, lo_i = -1, i
         elif seeking <= 0 and v > x[lo_i] + prominence:
-            extreme[count] = lo_i
+            # a record that opens already rising (by more than 1 % of the hysteresis in its first step)
+            # has not shown its first pulse's trough: that pulse is cut off
+            extreme[count] = lo_i if lo_i > 0 or x[1] - x[0] <= 0.01 * prominence else -1
             count += 1
             seeking, hi_i = 1, i
     if seeking == -1:  # the record ends falling from its last top: its trough is cut off
