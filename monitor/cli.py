@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from monitor import __version__
@@ -142,6 +143,20 @@ def _build_parser() -> argparse.ArgumentParser:
     imp.add_argument("source", metavar="SOURCE", help=".mf4/.mdf or .tdms file")
     imp.add_argument("--map", required=True, metavar="MAP.toml", help="channel-mapping file")
     imp.add_argument("-o", "--output", required=True, metavar="OUT.h5|OUT.mcap", help="recording to write")
+
+    sim = sub.add_parser(
+        "simulate",
+        help="simulate a scene into a recording (only the effects the scene names)",
+        description="Simulate a scene (TOML: engine, operating point, sensors, effects) into an "
+        "HDF5 or MCAP recording with its ground truth; or print the truth of a simulated recording. "
+        "Scenes: recordings/scenes/; effects: monitor.scene.effects.",
+    )
+    sim.add_argument("scene", nargs="?", metavar="SCENE.toml", help="the scene to simulate")
+    sim.add_argument("-o", "--output", metavar="OUT.h5|OUT.mcap", help="recording to write")
+    sim.add_argument("--seed", type=int, help="noise seed (default: the scene's); same seed, same file")
+    sim.add_argument(
+        "--truth", metavar="RECORDING", help="print the ground truth stored in a simulated recording (JSON)"
+    )
 
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
@@ -307,12 +322,57 @@ def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_import(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+def _write_recording(recording: Recording, output: str) -> Path:
+    """Write to .h5 or .mcap by the file's suffix."""
     from monitor.io.hdf5 import write_hdf5
-    from monitor.io.imports import import_mdf, import_tdms, load_mapping
     from monitor.io.mcap_io import write_mcap
+    from monitor.recording import FormatError
+
+    target = Path(output)
+    if target.suffix.lower() in (".h5", ".hdf5"):
+        return write_hdf5(recording, target)
+    if target.suffix.lower() == ".mcap":
+        return write_mcap(recording, target)
+    raise FormatError(f"{target}: expected an .h5 or .mcap output file")
+
+
+def _run_simulate(args: argparse.Namespace) -> int:
+    import time
+
+    from monitor.errors import ModelError
+    from monitor.pipeline import open_recording
+    from monitor.scene import load_scene, simulate
+
+    if args.truth:
+        with open_recording(args.truth) as recording:
+            if not recording.truth:
+                raise ModelError(f"{args.truth}: not a simulated recording (it holds no ground truth)")
+            print(json.dumps(json.loads(recording.truth), indent=2, sort_keys=True))
+        return 0
+    if not args.scene or not args.output:
+        raise ModelError("simulate needs SCENE.toml and -o OUT.h5|OUT.mcap (or --truth RECORDING)")
+    scene = load_scene(args.scene)
+    start = time.perf_counter()
+
+    def progress(fraction: float) -> None:
+        if sys.stderr.isatty():
+            bar = "#" * round(30 * fraction)
+            print(f"\rsimulating [{bar:30s}] {100 * fraction:3.0f} %", end="", file=sys.stderr, flush=True)
+
+    simulation = simulate(scene, seed=args.seed, progress=progress)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    output = _write_recording(simulation.recording, args.output)
+    print(
+        f"{scene.duration_s:g} s simulated in {time.perf_counter() - start:.2f} s "
+        f"(effects: {', '.join(simulation.evaluated) or 'none'}); recording written to {output}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _run_import(args: argparse.Namespace) -> int:
+    from monitor.io.imports import import_mdf, import_tdms, load_mapping
     from monitor.recording import FormatError
 
     mapping = load_mapping(args.map)
@@ -324,13 +384,7 @@ def _run_import(args: argparse.Namespace) -> int:
         recording = import_mdf(source, mapping)
     else:
         raise FormatError(f"{source}: unknown source type {suffix!r}; expected .tdms, .mf4 or .mdf")
-    output = Path(args.output)
-    if output.suffix.lower() in (".h5", ".hdf5"):
-        write_hdf5(recording, output)
-    elif output.suffix.lower() == ".mcap":
-        write_mcap(recording, output)
-    else:
-        raise FormatError(f"{output}: expected an .h5 or .mcap output file")
+    output = _write_recording(recording, args.output)
     for c in recording.channels:
         spans = f", {len(c.quality)} unusable span(s) masked" if c.quality else ""
         print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples{spans}")
@@ -371,6 +425,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "torsion": run_torsion,
         "spectrum": _run_spectrum,
         "import": _run_import,
+        "simulate": _run_simulate,
     }
     try:
         return handlers[args.command](args)

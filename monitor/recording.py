@@ -336,6 +336,9 @@ class Recording:
     notes : str
     truncated : bool
         True if the file ended early and was read up to its last whole block.
+    truth : str
+        For a simulated recording, what the simulation put into it (JSON; see
+        :mod:`monitor.scene`); "" for a measured one.
     """
 
     engine_id: str
@@ -343,6 +346,7 @@ class Recording:
     channels: tuple[Channel, ...]
     notes: str = ""
     truncated: bool = False
+    truth: str = ""
 
     def __post_init__(self) -> None:
         from datetime import datetime

@@ -66,6 +66,8 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
             f.attrs["engine_id"] = recording.engine_id
             f.attrs["start_time"] = recording.start_time
             f.attrs["notes"] = recording.notes
+            if recording.truth:
+                f.attrs["truth"] = recording.truth
             group = f.create_group("channels", track_order=True)
             for c in recording.channels:
                 if c.is_events:
@@ -178,6 +180,7 @@ def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:
         start_time=_text(f.attrs["start_time"]),
         channels=tuple(channels),
         notes=_text(f.attrs.get("notes", "")),
+        truth=_text(f.attrs.get("truth", "")),
     )
 
 

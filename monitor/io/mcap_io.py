@@ -315,6 +315,8 @@ def write_mcap(
                     "channels": ",".join(c.name for c in recording.channels),
                 },
             )
+            if recording.truth:
+                writer.add_metadata("truth", {"json": recording.truth})
             blocks = []
             for order, c in enumerate(recording.channels):
                 channel_id = writer.register_channel(
@@ -459,6 +461,7 @@ def read_mcap(path: str | Path) -> Recording:
     channels: dict[int, McapChannel] = {}
     blocks: dict[int, list[tuple[float, np.ndarray]]] = defaultdict(list)
     recording_meta: dict[str, str] | None = None
+    truth = ""
     truncated = False
     for record in _records(source):
         if record is None:
@@ -469,6 +472,8 @@ def read_mcap(path: str | Path) -> Recording:
             channels[record.id] = record
         elif isinstance(record, Metadata) and record.name == "recording":
             recording_meta = dict(record.metadata)
+        elif isinstance(record, Metadata) and record.name == "truth":
+            truth = dict(record.metadata).get("json", "")
         elif isinstance(record, Message):
             channel = channels.get(record.channel_id)
             if channel is not None and schemas.get(channel.schema_id) in (SAMPLE_SCHEMA, EVENT_SCHEMA):
@@ -492,6 +497,7 @@ def read_mcap(path: str | Path) -> Recording:
         notes=recording_meta.get("notes", ""),
         channels=tuple(c for _, c in result),
         truncated=truncated,
+        truth=truth,
     )
 
 
@@ -601,9 +607,8 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
         try:
             reader = make_reader(fh, validate_crcs=True)
             summary = reader.get_summary()
-            recording_meta = next(
-                (dict(m.metadata) for m in reader.iter_metadata() if m.name == "recording"), None
-            )
+            metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+            recording_meta = metadata.get("recording")
         except Exception:  # no usable summary (unindexed, cut short): stream the whole file instead
             summary = None
     if summary is None or not summary.chunk_indexes:
@@ -636,6 +641,7 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
             start_time=recording_meta["start_time"],
             notes=recording_meta.get("notes", ""),
             channels=tuple(channels),
+            truth=metadata.get("truth", {}).get("json", ""),
         )
     finally:
         for samples in opened:

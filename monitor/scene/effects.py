@@ -1,0 +1,237 @@
+"""The effects a scene can name: what each takes, what it needs and what it gives.
+
+An effect is named in the scene's ``[effects]`` table with its parameters
+(an empty table takes the defaults). Effects are of four groups:
+
+- sources (``inertia``, ``gas``, ``unbalance``) give forces and torques;
+- responses (``crank_speed``, ``bearing_vibration``) turn them into what a
+  sensor measures, and need a source;
+- faults (``misfire``, ``weak_cylinder``, ``leaking_cylinder``) change a
+  source;
+- sensor effects (``noise``) change the channels.
+
+Dependencies are resolved from what the scene names, never added silently:
+a response without a source of what it needs, or a fault without the source
+it changes, is refused with a message that says what to add. An effect that
+is not named is not evaluated at all (the simulator asks :func:`named` before
+computing anything).
+
+Quantities: ``torque`` (the engine's torque orders), ``bearing_force`` (the
+main-bearing force orders), ``cylinder_pressure``, ``crank_speed`` (the
+speed fluctuation), ``bearing_acceleration`` (the accelerometer signals).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+if TYPE_CHECKING:
+    from monitor.scene.model import Scene
+
+__all__ = ["EFFECTS", "Effect", "check_effects", "named"]
+
+
+class _Params(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class InertiaParams(_Params):
+    """Inertia forces of the moving parts (pistons, rods, throw unbalance)."""
+
+    kinematics: Literal["exact", "approx"] = "exact"
+    rod_model: Literal["rigid", "two-mass"] = "rigid"
+
+
+class GasParams(_Params):
+    """Gas forces from the cylinder pressure (measured trace or parametric cycle)."""
+
+    model: Literal["auto", "parametric", "measured"] = "auto"
+
+
+class UnbalanceParams(_Params):
+    """An extra rotating unbalance on one crank throw (first order)."""
+
+    throw: Annotated[int, Field(ge=1, description="crank throw (cylinder number)")]
+    kgm: Annotated[float, Field(gt=0, description="mass times radius [kg m]")]
+    angle_deg: float = Field(default=0.0, description="ahead of the throw's crank pin [deg]")
+
+
+class CrankSpeedParams(_Params):
+    """Crank-speed fluctuation of the crankshaft as one rigid body (below the first torsional mode)."""
+
+    model: Literal["rigid"] = "rigid"
+
+
+class Mode(_Params):
+    """One structural mode between a main bearing's force and its accelerometer.
+
+    ``a / F = gain w^2 / (w_n^2 - w^2 + 2 i zeta w_n w)``: ``gain`` is the
+    acceleration per force far above the mode (one over the modal mass).
+    """
+
+    frequency_hz: Annotated[float, Field(gt=0)]
+    damping: Annotated[float, Field(gt=0, lt=1, description="fraction of critical")]
+    gain: Annotated[float, Field(gt=0, description="[m/s^2 per N]")]
+
+
+class BearingVibrationParams(_Params):
+    """Accelerations at main-bearing sensors from the bearing forces through a few modes."""
+
+    modes: list[Mode] = Field(min_length=1)
+
+
+class MisfireParams(_Params):
+    """Cylinders without combustion: they are motored (compression and expansion only)."""
+
+    cylinders: list[Annotated[int, Field(ge=1)]] = Field(min_length=1)
+
+
+class WeakCylinderParams(_Params):
+    """A cylinder whose combustion gives a fraction of the others' heat release."""
+
+    cylinder: Annotated[int, Field(ge=1)]
+    scale: Annotated[float, Field(ge=0, le=1, description="fraction of the normal heat release")]
+
+
+class LeakingCylinderParams(_Params):
+    """A cylinder that loses charge: its compression (charge) pressure is a fraction of the others'."""
+
+    cylinder: Annotated[int, Field(ge=1)]
+    compression: Annotated[float, Field(gt=0, le=1, description="fraction of the normal charge pressure")]
+
+
+class NoiseParams(_Params):
+    """Gaussian noise on the named sensors: RMS in each channel's unit."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """An effect a scene may name.
+
+    Attributes
+    ----------
+    name : str
+    group : str
+        "source", "response", "fault" or "sensor".
+    params : type
+        The pydantic model of its parameters.
+    gives : tuple of str
+        Quantities it produces.
+    needs : tuple of str
+        Quantities it needs from another named effect.
+    changes : str
+        The source a fault changes ("" if none).
+    """
+
+    name: str
+    group: str
+    params: type[BaseModel]
+    gives: tuple[str, ...] = ()
+    needs: tuple[str, ...] = ()
+    changes: str = ""
+
+
+EFFECTS: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        Effect("inertia", "source", InertiaParams, gives=("torque", "bearing_force")),
+        Effect("gas", "source", GasParams, gives=("torque", "bearing_force", "cylinder_pressure")),
+        Effect("unbalance", "source", UnbalanceParams, gives=("bearing_force",)),
+        Effect("crank_speed", "response", CrankSpeedParams, gives=("crank_speed",), needs=("torque",)),
+        Effect(
+            "bearing_vibration",
+            "response",
+            BearingVibrationParams,
+            gives=("bearing_acceleration",),
+            needs=("bearing_force",),
+        ),
+        Effect("misfire", "fault", MisfireParams, changes="gas"),
+        Effect("weak_cylinder", "fault", WeakCylinderParams, changes="gas"),
+        Effect("leaking_cylinder", "fault", LeakingCylinderParams, changes="gas"),
+        Effect("noise", "sensor", NoiseParams),
+    )
+}
+
+
+def named(scene: Scene, name: str) -> BaseModel | None:
+    """The validated parameters of an effect if the scene names it, else None.
+
+    Parameters
+    ----------
+    scene : Scene
+    name : str
+        An effect name (a key of :data:`EFFECTS`).
+
+    Returns
+    -------
+    pydantic model or None
+    """
+    if name not in scene.effects:
+        return None
+    return EFFECTS[name].params.model_validate(scene.effects[name])
+
+
+def check_effects(scene: Scene, *, origin: str = "scene") -> None:
+    """Refuse unknown effects, bad parameters and effects named without their inputs.
+
+    Parameters
+    ----------
+    scene : Scene
+    origin : str, optional
+        Where the scene came from, for messages.
+
+    Raises
+    ------
+    SceneError
+    """
+    from monitor.scene.model import SceneError
+
+    unknown = sorted(set(scene.effects) - set(EFFECTS))
+    if unknown:
+        raise SceneError(
+            f"{origin}: unknown effect(s) {', '.join(unknown)}; known effects: {', '.join(sorted(EFFECTS))}"
+        )
+    for name, data in scene.effects.items():
+        try:
+            EFFECTS[name].params.model_validate(data)
+        except ValidationError as error:
+            problems = []
+            for problem in error.errors():
+                where = ".".join(str(p) for p in problem["loc"])
+                text = "unknown field" if problem["type"] == "extra_forbidden" else problem["msg"]
+                fields = ", ".join(EFFECTS[name].params.model_fields)
+                problems.append(
+                    f"{where}: {text}"
+                    + (f" (fields: {fields})" if problem["type"] == "extra_forbidden" else "")
+                )
+            raise SceneError(f"{origin}: effect {name!r}: " + "; ".join(problems)) from None
+    given = {q for n in scene.effects for q in EFFECTS[n].gives}
+    for name in scene.effects:
+        effect = EFFECTS[name]
+        for quantity in effect.needs:
+            if quantity not in given:
+                sources = sorted(e.name for e in EFFECTS.values() if quantity in e.gives)
+                raise SceneError(
+                    f"{origin}: effect {name!r} needs a {quantity.replace('_', ' ')}: add one of "
+                    f"{', '.join(sources)} to [effects]"
+                )
+        if effect.changes and effect.changes not in scene.effects:
+            raise SceneError(
+                f"{origin}: effect {name!r} changes {effect.changes!r}: add {effect.changes} to [effects]"
+            )
+    noise = named(scene, "noise")
+    if noise is not None:
+        sensors = {s.name for s in scene.sensors}
+        for key, value in (noise.model_extra or {}).items():
+            if key not in sensors:
+                raise SceneError(
+                    f"{origin}: effect 'noise' names sensor {key!r}, which the scene does not have; "
+                    f"sensors: {', '.join(sorted(sensors))}"
+                )
+            if not isinstance(value, int | float) or value < 0:
+                raise SceneError(f"{origin}: effect 'noise': {key} = {value!r}: expected an RMS >= 0")
