@@ -186,3 +186,31 @@ def test_cli_simulates_and_prints_the_truth(tmp_path: Path, capsys: pytest.Captu
     assert truth["seed"] == 3 and truth["engine"] == "zubaydi-1cyl-2stroke"
     assert main(["simulate", str(scene)]) == 2
     assert "needs SCENE.toml and -o" in capsys.readouterr().err
+
+
+def test_a_velocity_sensor_reads_the_acceleration_integrated_in_mm_per_s() -> None:
+    sensors = [
+        {
+            "name": "a",
+            "kind": "acceleration",
+            "location": "main bearing 2",
+            "direction": "vertical",
+            "sample_rate_hz": 5120.0,
+        },
+        {
+            "name": "v",
+            "kind": "velocity",
+            "location": "main bearing 2",
+            "direction": "vertical",
+            "sample_rate_hz": 5120.0,
+        },
+    ]
+    truth = simulate(_scene({"inertia": {}, "gas": {}, "bearing_vibration": MODES}, sensors=sensors)).truth
+    a, v = truth["expected_orders"]["a"], truth["expected_orders"]["v"]
+    omega = 104.0 * math.pi / 30
+    assert v["unit"] == "mm/s"
+    for k in (1, 7, 14):
+        assert v["amplitude"][k] == pytest.approx(1e3 * a["amplitude"][k] / (k * omega), rel=1e-9)
+        assert math.remainder(v["phase_deg"][k] - a["phase_deg"][k] + 90.0, 360.0) == pytest.approx(
+            0, abs=1e-9
+        )

@@ -465,19 +465,29 @@ def _channel(
         grid = np.append(sources.grid, cycle)
         trace = np.append(sources.pressure[c - 1], sources.pressure[c - 1][0])
         values = np.interp(own, grid, trace) / 1e5  # [bar]
-    else:  # acceleration
+    else:  # acceleration [m/s^2] or velocity [mm/s] at a main bearing
         values = np.zeros(n)
         params = named(scene, "bearing_vibration")
         if isinstance(params, BearingVibrationParams) and sources is not None and sources.bearing is not None:
             a, b, orders = _bearing_response(sensor, engine, sources, params)
             speed = crank.speed(t)
+
+            def measured(w: FloatArray) -> ComplexArray:
+                """Per unit of bearing force, at the orders' frequencies for mean speed(s) w."""
+                frequency = np.multiply.outer(w, orders)  # [rad/s]
+                transfer = _transfer(params, frequency / (2 * np.pi))
+                if sensor.kind == "velocity":  # the acceleration integrated, order by order, in mm/s
+                    transfer = np.where(
+                        frequency > 0, 1e3 * transfer / (1j * np.where(frequency > 0, frequency, 1)), 0
+                    )
+                return np.asarray(transfer)
+
             for lo in range(0, n, _BLOCK):
                 w = speed[lo : lo + _BLOCK]
                 force = a + np.multiply.outer(w**2, b)  # (block, n_orders)
-                response = force * _transfer(params, np.multiply.outer(w, orders) / (2 * np.pi))
-                values[lo : lo + _BLOCK] = _synthesise(response, orders, angle[lo : lo + _BLOCK])
+                values[lo : lo + _BLOCK] = _synthesise(force * measured(w), orders, angle[lo : lo + _BLOCK])
             w_mean = float(np.mean(speed))
-            at_mean = (a + w_mean**2 * b) * _transfer(params, orders * w_mean / (2 * np.pi))
+            at_mean = (a + w_mean**2 * b) * measured(np.array(w_mean))
             expected[sensor.name] = {
                 "orders": orders.tolist(),
                 "amplitude": np.abs(at_mean).tolist(),
