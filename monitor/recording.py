@@ -253,6 +253,10 @@ def quality_spans(
     x = np.asarray(data)
     mask = np.zeros(x.size, dtype=bool)
     spans: list[QualitySpan] = []
+    if limits is not None:  # a sample stored at a limit (in float32, say) counts as at it
+        slack = 4 * float(np.finfo(x.dtype if x.dtype.kind == "f" else np.float64).eps)
+        slack *= max(abs(limits[0]), abs(limits[1]))
+        limits = (limits[0] + slack, limits[1] - slack)
     if x.size:  # the common case, clean samples inside the range, in two passes (NaN propagates)
         lo, hi = float(np.min(x)), float(np.max(x))
         if math.isfinite(lo) and math.isfinite(hi) and (limits is None or limits[0] < lo <= hi < limits[1]):

@@ -47,7 +47,7 @@ MODES = {"modes": [{"frequency_hz": 300.0, "damping": 0.05, "gain": 1e-6}]}
     [
         ({"misfires": {}}, r"unknown effect\(s\) misfires; known effects: .*misfire"),
         ({"gas": {"modle": "parametric"}}, r"effect 'gas': modle: unknown field \(fields: model\)"),
-        ({"crank_speed": {}}, r"'crank_speed' needs a torque: add one of gas, inertia"),
+        ({"crank_speed": {}}, r"'crank_speed' needs a torque: add one of external_torque, gas, inertia"),
         ({"bearing_vibration": MODES}, r"'bearing_vibration' needs a bearing force: add one of gas, inertia"),
         ({"inertia": {}, "misfire": {"cylinders": [4]}}, r"'misfire' changes 'gas': add gas"),
         ({"noise": {"mb9": 0.1}}, r"names sensor 'mb9', which the scene does not have"),
@@ -214,3 +214,113 @@ def test_a_velocity_sensor_reads_the_acceleration_integrated_in_mm_per_s() -> No
         assert math.remainder(v["phase_deg"][k] - a["phase_deg"][k] + 90.0, 360.0) == pytest.approx(
             0, abs=1e-9
         )
+
+
+def _sensors(*extra: dict) -> list[dict]:  # type: ignore[type-arg]
+    return [
+        {
+            "name": "mb2-vertical",
+            "kind": "acceleration",
+            "location": "main bearing 2",
+            "direction": "vertical",
+            "sample_rate_hz": 10240.0,
+        },
+        {
+            "name": "mb5-vertical",
+            "kind": "acceleration",
+            "location": "main bearing 5",
+            "direction": "vertical",
+            "sample_rate_hz": 10240.0,
+        },
+        *extra,
+    ]
+
+
+def test_an_external_torque_alone_drives_the_crank_speed() -> None:
+    """A blade-order torque (order 4) and nothing else: the crank speed shows order 4 as the rigid body
+    turns it, and the truth states it; no cylinder model is built."""
+    scene = _scene(
+        {
+            "external_torque": {"orders": [{"order": 4, "amplitude_nm": 5e5, "phase_deg": 30}]},
+            "crank_speed": {},
+        },
+        sensors=[{"name": "tooth", "kind": "tooth", "representation": "events"}],
+    )
+    simulation = simulate(scene)
+    assert simulation.evaluated == ("external_torque", "crank_speed")
+    truth = simulation.truth["expected_orders"]["crank speed"]["amplitude"]
+    speed = spectra(simulation.recording, cycle_revolutions=1, max_order=12).spectra["crank speed"]
+    assert speed.magnitude[4] == pytest.approx(truth[4], rel=0.01)
+    omega = 104 * math.pi / 30
+    from monitor.engine import bundled_engines, load_engine
+    from monitor.torsion.shaft_line import shaft_line_of
+
+    inertia = sum(n.inertia for n in shaft_line_of(load_engine(bundled_engines()["man-b-w-7k98mc"])).nodes)
+    assert truth[4] == pytest.approx(5e5 / (4 * inertia * omega), rel=0.01)  # first order: T / (k J Omega)
+    assert max(speed.magnitude[k] for k in (1, 2, 3, 5, 6, 7)) < 1e-3 * speed.magnitude[4]
+
+
+def test_a_worn_bearing_raises_the_higher_orders_at_its_own_sensor() -> None:
+    base = {"inertia": {}, "gas": {}, "bearing_vibration": MODES}
+    worn = {**base, "worn_bearing": {"bearing": 2, "severity": 0.5}}
+    level = {}
+    for label, effects in (("base", base), ("worn", worn)):
+        simulation = simulate(
+            _scene(effects, sensors=_sensors({"name": "tooth", "kind": "tooth", "representation": "events"}))
+        )
+        result = spectra(simulation.recording, cycle_revolutions=1, max_order=60)
+        level[label] = {
+            n: float(np.sum(result.spectra[n].magnitude[30:61])) for n in ("mb2-vertical", "mb5-vertical")
+        }
+    assert "mb2-vertical knocks" in simulation.truth["expected_orders"]
+    assert level["worn"]["mb2-vertical"] > 5 * level["base"]["mb2-vertical"]
+    assert level["worn"]["mb5-vertical"] == pytest.approx(level["base"]["mb5-vertical"], rel=1e-6)
+
+
+def test_sensor_faults_are_put_in_and_found_by_the_pipeline(tmp_path: Path) -> None:
+    """Keyphasor dropouts and extras (repaired, counted), tooth-spacing errors (recovered per tooth),
+    a clipped channel (reported with its spans on reading), a gain error (the orders scaled)."""
+    from monitor.signal.pulses import detect_edges
+    from monitor.signal.toothwheel import decode_tooth_wheel, tooth_spacing_errors
+
+    effects = {
+        "inertia": {},
+        "gas": {},
+        "bearing_vibration": MODES,
+        "keyphasor_faults": {"sensor": "kp", "dropouts": 2, "extras": 1},
+        "tooth_spacing_errors": {"sensor": "tooth", "rms_deg": 0.1},
+        "clipping": {"sensor": "mb5-vertical", "limit": 2e-5},
+        "gain_error": {"sensor": "mb2-vertical", "gain": 1.2},
+    }
+    sensors = _sensors(
+        {"name": "kp", "kind": "keyphasor", "sample_rate_hz": 10240.0},
+        {"name": "tooth", "kind": "tooth", "sample_rate_hz": 51200.0},
+    )
+    simulation = simulate(_scene(effects, sensors=sensors))
+    recording = read_recording(write_hdf5(simulation.recording, tmp_path / "faults.h5"))
+    kp_only = type(recording)(
+        recording.engine_id, recording.start_time, tuple(c for c in recording.channels if c.name != "tooth")
+    )
+    reference = spectra(kp_only, cycle_revolutions=1, max_order=4, channels=[]).reference
+    assert reference.source == "kp" and reference.repairs == 3
+    tooth = recording.channel("tooth")
+    decoding = decode_tooth_wheel(detect_edges(tooth.data, tooth.sample_rate).times, teeth=60, missing=2)
+    truth = np.radians(simulation.truth["expected_orders"]["tooth tooth errors"]["error_deg"][:58])
+    truth = truth - truth[0]
+    truth -= truth.mean()
+    np.testing.assert_allclose(tooth_spacing_errors(decoding), truth, atol=np.radians(0.005))
+    assert (
+        recording.channel("mb5-vertical").quality
+        and recording.channel("mb5-vertical").quality[0].reason == "clipped"
+    )
+    # the gain, on the orders through a clean keyphasor (the tooth errors would blur the angle map)
+    clean = simulate(
+        _scene(
+            {k: v for k, v in effects.items() if k not in ("keyphasor_faults", "tooth_spacing_errors")},
+            sensors=sensors[:3],
+        )
+    )
+    gained = spectra(clean.recording, cycle_revolutions=1, max_order=12, channels=["mb2-vertical"])
+    expected = np.asarray(clean.truth["expected_orders"]["mb2-vertical"]["amplitude"][:13])
+    big = expected > 0.05 * expected.max()
+    np.testing.assert_allclose(gained.spectra["mb2-vertical"].magnitude[big], 1.2 * expected[big], rtol=0.01)

@@ -3,12 +3,14 @@
 An effect is named in the scene's ``[effects]`` table with its parameters
 (an empty table takes the defaults). Effects are of four groups:
 
-- sources (``inertia``, ``gas``, ``unbalance``) give forces and torques;
+- sources (``inertia``, ``gas``, ``unbalance``, ``external_torque``) give
+  forces and torques;
 - responses (``crank_speed``, ``bearing_vibration``) turn them into what a
   sensor measures, and need a source;
 - faults (``misfire``, ``weak_cylinder``, ``leaking_cylinder``) change a
-  source;
-- sensor effects (``noise``) change the channels.
+  source; ``worn_bearing`` adds knocks where its bearing's load is least;
+- sensor effects (``noise``, ``keyphasor_faults``, ``tooth_spacing_errors``,
+  ``clipping``, ``gain_error``) change the channels.
 
 Dependencies are resolved from what the scene names, never added silently:
 a response without a source of what it needs, or a fault without the source
@@ -109,6 +111,65 @@ class NoiseParams(_Params):
     model_config = ConfigDict(extra="allow", frozen=True)
 
 
+class TorqueOrder(_Params):
+    """One order of an external harmonic torque on the crankshaft."""
+
+    order: Annotated[float, Field(gt=0)]
+    amplitude_nm: Annotated[float, Field(ge=0, description="peak [N m]")]
+    phase_deg: float = 0.0
+
+
+class ExternalTorqueParams(_Params):
+    """A harmonic torque from outside the cylinders (a propeller's blade order, a generator's)."""
+
+    orders: list[TorqueOrder] = Field(min_length=1)
+
+
+class WornBearingParams(_Params):
+    """A main bearing with too much clearance: the journal knocks where its load is least.
+
+    At each local minimum of the bearing load's magnitude below its cycle mean
+    (where the load turns and the journal crosses its clearance), the bearing's
+    sensors get a decaying ring at ``ring_hz`` of ``severity`` peak acceleration
+    [m/s^2] (a third of it at the neighbouring bearings): the higher orders
+    rise at the worn bearing.
+    """
+
+    bearing: Annotated[int, Field(ge=1)]
+    severity: Annotated[float, Field(gt=0, description="peak acceleration of one knock [m/s^2]")]
+    ring_hz: Annotated[float, Field(gt=0)] = 2000.0
+    decay_ms: Annotated[float, Field(gt=0)] = 2.0
+
+
+class KeyphasorFaultsParams(_Params):
+    """Lost and spurious keyphasor pulses (at seeded revolutions)."""
+
+    sensor: str
+    dropouts: Annotated[int, Field(ge=0)] = 0
+    extras: Annotated[int, Field(ge=0)] = 0
+
+
+class ToothSpacingParams(_Params):
+    """Tooth-wheel teeth off their nominal angles: a fixed, seeded error per tooth (RMS, degrees)."""
+
+    sensor: str
+    rms_deg: Annotated[float, Field(gt=0, lt=1)]
+
+
+class ClippingParams(_Params):
+    """A channel clipped at its measuring range (the range is stated in the recording)."""
+
+    sensor: str
+    limit: Annotated[float, Field(gt=0, description="symmetric limit, the channel's unit")]
+
+
+class GainErrorParams(_Params):
+    """A sensor whose sensitivity is off by a factor."""
+
+    sensor: str
+    gain: Annotated[float, Field(gt=0)]
+
+
 @dataclass(frozen=True)
 class Effect:
     """An effect a scene may name.
@@ -153,7 +214,13 @@ EFFECTS: dict[str, Effect] = {
         Effect("misfire", "fault", MisfireParams, changes="gas"),
         Effect("weak_cylinder", "fault", WeakCylinderParams, changes="gas"),
         Effect("leaking_cylinder", "fault", LeakingCylinderParams, changes="gas"),
+        Effect("external_torque", "source", ExternalTorqueParams, gives=("torque",)),
+        Effect("worn_bearing", "fault", WornBearingParams, needs=("bearing_force",)),
         Effect("noise", "sensor", NoiseParams),
+        Effect("keyphasor_faults", "sensor", KeyphasorFaultsParams),
+        Effect("tooth_spacing_errors", "sensor", ToothSpacingParams),
+        Effect("clipping", "sensor", ClippingParams),
+        Effect("gain_error", "sensor", GainErrorParams),
     )
 }
 
@@ -223,6 +290,22 @@ def check_effects(scene: Scene, *, origin: str = "scene") -> None:
         if effect.changes and effect.changes not in scene.effects:
             raise SceneError(
                 f"{origin}: effect {name!r} changes {effect.changes!r}: add {effect.changes} to [effects]"
+            )
+    kinds = {s.name: s.kind for s in scene.sensors}
+    for name, wanted in (
+        ("keyphasor_faults", ("keyphasor",)),
+        ("tooth_spacing_errors", ("tooth",)),
+        ("clipping", ("acceleration", "velocity", "pressure")),
+        ("gain_error", ("acceleration", "velocity", "pressure")),
+    ):
+        params = named(scene, name)
+        if params is None:
+            continue
+        target = params.sensor  # type: ignore[attr-defined]
+        if kinds.get(target) not in wanted:
+            raise SceneError(
+                f"{origin}: effect {name!r}: sensor {target!r} is not a {' or '.join(wanted)} sensor of the "
+                f"scene; sensors: {', '.join(f'{n} ({k})' for n, k in kinds.items())}"
             )
     noise = named(scene, "noise")
     if noise is not None:

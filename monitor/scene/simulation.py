@@ -40,18 +40,25 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from pydantic import BaseModel
 
 from monitor.engine import Engine, bundled_engines, load_engine
 from monitor.recording import Channel, Recording
 from monitor.scene.effects import (
     BearingVibrationParams,
+    ClippingParams,
+    ExternalTorqueParams,
+    GainErrorParams,
     GasParams,
     InertiaParams,
+    KeyphasorFaultsParams,
     LeakingCylinderParams,
     MisfireParams,
     NoiseParams,
+    ToothSpacingParams,
     UnbalanceParams,
     WeakCylinderParams,
+    WornBearingParams,
     named,
 )
 from monitor.scene.model import Scene, SceneError, Sensor
@@ -144,14 +151,21 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     inertia = named(scene, "inertia")
     gas = named(scene, "gas")
     unbalance = named(scene, "unbalance")
+    external = named(scene, "external_torque")
+    n = engine.cylinders
     if inertia is None and gas is None and unbalance is None:
-        return None
+        if external is None:
+            return None
+        evaluated.append("external_torque")
+        orders = np.arange(round(MAX_ORDER * engine.cycle_revolutions) + 1) / engine.cycle_revolutions
+        speed_free = np.zeros(orders.size, dtype=np.complex128)
+        torque = _Orders(orders, _external_torque(external, orders), speed_free)
+        return _Sources(orders, torque=torque, gas_scale=[1.0] * n, charge_scale=[1.0] * n)
     from monitor.crankshaft import EngineModel, GasModel
     from monitor.forces import crank_train_forces
     from monitor.gas import gas_force
     from monitor.orders import order_coefficients
 
-    n = engine.cylinders
     gas_scale, charge_scale = [1.0] * n, [1.0] * n
     for effect, params in (
         ("misfire", named(scene, "misfire")),
@@ -257,15 +271,34 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     bearing = _Orders(
         orders, np.einsum("bc,cko->bko", share, throw_a), np.einsum("bc,cko->bko", share, throw_b)
     )
+    if external is not None:
+        evaluated.append("external_torque")
+        torque = _Orders(orders, torque.a + _external_torque(external, orders), torque.b)
     return _Sources(
         orders,
-        torque=torque if (inertia is not None or gas is not None) else None,
+        torque=torque if (inertia is not None or gas is not None or external is not None) else None,
         bearing=bearing,
         pressure=pressure,
         grid=model.crank_angle,
         gas_scale=gas_scale,
         charge_scale=charge_scale,
     )
+
+
+def _external_torque(params: BaseModel, orders: FloatArray) -> ComplexArray:
+    """The external torque's coefficients on the grid of orders (speed-independent) [N m]."""
+    assert isinstance(params, ExternalTorqueParams)
+    out = np.zeros(orders.size, dtype=np.complex128)
+    for item in params.orders:
+        i = int(np.argmin(np.abs(orders - item.order)))
+        if abs(orders[i] - item.order) > 1e-9:
+            step = orders[1] - orders[0]
+            raise SceneError(
+                f"effect 'external_torque': order {item.order:g} is not a multiple of {step:g} "
+                f"(the engine's cycle) or above {orders[-1]:g}"
+            )
+        out[i] += item.amplitude_nm * np.exp(1j * math.radians(item.phase_deg))
+    return out
 
 
 def _rigid_inertia(engine: Engine) -> float:
@@ -431,14 +464,22 @@ def _channel(
             first = math.radians(sensor.first_tooth_angle_deg)
             k = np.arange(math.ceil(-first / step), math.floor((last - first) / step) + 1)
             k = k[np.mod(k, sensor.teeth) < sensor.teeth - sensor.missing_teeth]
-            angles = first + k * step
+            angles = (
+                first
+                + k * step
+                + _tooth_errors(scene, sensor, seed, index, expected)[np.mod(k, sensor.teeth)]
+            )
         else:
             period = 2 * math.pi * (R if sensor.kind == "cam" else 1)
             offset = math.radians(sensor.cam_angle_deg if sensor.kind == "cam" else sensor.pulse_angle_deg)
             angles = offset + period * np.arange(
                 math.ceil(-offset / period), math.floor((last - offset) / period) + 1
             )
-        times = crank.time_at(angles[angles >= 0])
+            if sensor.kind == "keyphasor":
+                dropped, extra = _keyphasor_faults(scene, sensor, angles, seed, index, expected)
+                angles = np.sort(np.concatenate([np.delete(angles, dropped), extra]))
+        angles = angles[(angles >= 0) & (angles <= last)]
+        times = crank.time_at(angles)
         return Channel(sensor.name, sensor.kind, "s", times, None, location=sensor.location, fields=fields)
     fs = sensor.sample_rate_hz
     n = round(scene.duration_s * fs)
@@ -446,14 +487,27 @@ def _channel(
     angle = crank.angle_at(t)
     if sensor.kind == "tooth":
         position = (angle - math.radians(sensor.first_tooth_angle_deg)) / math.radians(pitch_deg)
-        present = np.mod(np.floor(position + 1.0 / 6.0), sensor.teeth) < sensor.teeth - sensor.missing_teeth
-        values = _pulses(position, present)
+        tooth = np.floor(position + 1.0 / 6.0).astype(np.int64)
+        errors = _tooth_errors(scene, sensor, seed, index, expected)
+        position = position - errors[np.mod(tooth, sensor.teeth)] / math.radians(pitch_deg)
+        values = _pulses(position, np.mod(tooth, sensor.teeth) < sensor.teeth - sensor.missing_teeth)
     elif sensor.kind in ("keyphasor", "cam"):
         # one pulse per period (20 deg of crank angle long), its mid level crossed rising at its angle
         periods = 18 * (R if sensor.kind == "cam" else 1)
         offset = math.radians(sensor.cam_angle_deg if sensor.kind == "cam" else sensor.pulse_angle_deg)
         position = (angle - offset) / math.radians(20.0)
-        values = _pulses(position, np.mod(np.floor(position + 1.0 / 6.0), periods) == 0)
+        slot = np.floor(position + 1.0 / 6.0).astype(np.int64)
+        present = np.mod(slot, periods) == 0
+        if sensor.kind == "keyphasor":
+            nominal = offset + 2 * math.pi * np.arange(math.ceil(angle[-1] / (2 * math.pi)) + 1)
+            dropped, extra = _keyphasor_faults(scene, sensor, nominal, seed, index, expected)
+            present &= ~np.isin(slot // periods, dropped)
+        values = _pulses(position, present)
+        if sensor.kind == "keyphasor":
+            for angle_x in extra:  # a spurious pulse: the same shape at another angle
+                near = np.abs(angle - angle_x) < math.radians(20.0)
+                local = (angle[near] - angle_x) / math.radians(20.0)
+                values[near] = np.maximum(values[near], _pulses(local, np.floor(local + 1.0 / 6.0) == 0))
     elif sensor.kind == "pressure":
         if sources is None or sources.pressure is None or sources.grid is None:
             raise SceneError(f"sensor {sensor.name!r} measures cylinder pressure: add the effect 'gas'")
@@ -495,11 +549,22 @@ def _channel(
                 "unit": sensor.unit,
                 "speed_rpm": w_mean * 30 / math.pi,
             }
+        worn = named(scene, "worn_bearing")
+        if isinstance(worn, WornBearingParams) and sources is not None and sources.bearing is not None:
+            values = values + _knocks(worn, sensor, engine, sources, crank, t, expected)
+    gain = named(scene, "gain_error")
+    if isinstance(gain, GainErrorParams) and gain.sensor == sensor.name:
+        values = values * gain.gain
     noise = named(scene, "noise")
     if isinstance(noise, NoiseParams):
         rms = float((noise.model_extra or {}).get(sensor.name, 0.0))
         if rms > 0:
             values = values + rms * np.random.default_rng([seed, index]).standard_normal(n)
+    measuring_range = sensor.range
+    clipping = named(scene, "clipping")
+    if isinstance(clipping, ClippingParams) and clipping.sensor == sensor.name:
+        values = np.clip(values, -clipping.limit, clipping.limit)
+        measuring_range = (-clipping.limit, clipping.limit)
     return Channel(
         sensor.name,
         sensor.kind,
@@ -509,8 +574,99 @@ def _channel(
         location=sensor.location,
         direction=sensor.direction,
         fields=fields,
-        range=sensor.range,
+        range=measuring_range,
     )
+
+
+def _tooth_errors(
+    scene: Scene, sensor: Sensor, seed: int, index: int, expected: dict[str, Any]
+) -> FloatArray:
+    """Each tooth's angle error [rad] (zeros unless the scene names tooth_spacing_errors for it)."""
+    params = named(scene, "tooth_spacing_errors")
+    if not isinstance(params, ToothSpacingParams) or params.sensor != sensor.name:
+        return np.zeros(sensor.teeth)
+    errors = np.random.default_rng([seed, index, 1]).standard_normal(sensor.teeth)
+    errors = math.radians(params.rms_deg) * (errors - errors.mean()) / errors.std()
+    expected[f"{sensor.name} tooth errors"] = {"error_deg": np.degrees(errors).tolist()}
+    return errors
+
+
+def _keyphasor_faults(
+    scene: Scene, sensor: Sensor, angles: FloatArray, seed: int, index: int, expected: dict[str, Any]
+) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """Indices of dropped pulses among ``angles`` and the angles of spurious ones [rad] (seeded)."""
+    params = named(scene, "keyphasor_faults")
+    if not isinstance(params, KeyphasorFaultsParams) or params.sensor != sensor.name:
+        return np.zeros(0, dtype=np.int64), np.zeros(0)
+    rng = np.random.default_rng([seed, index, 2])
+    inner = np.arange(3, max(3, angles.size - 3))  # not at the ends of the record
+    if params.dropouts + params.extras > inner.size // 3:
+        raise SceneError(
+            f"effect 'keyphasor_faults': {params.dropouts} dropouts and {params.extras} extras in "
+            f"{angles.size} revolutions: at most one fault in three revolutions"
+        )
+    chosen = rng.choice(inner[::3], size=params.dropouts + params.extras, replace=False)
+    dropped = np.sort(chosen[: params.dropouts])
+    extra = angles[np.sort(chosen[params.dropouts :])] + rng.uniform(0.3, 0.7, params.extras) * 2 * math.pi
+    expected[f"{sensor.name} faults"] = {
+        "dropped_pulse_angles_deg": np.degrees(angles[dropped]).tolist(),
+        "extra_pulse_angles_deg": np.degrees(extra).tolist(),
+    }
+    return dropped, extra
+
+
+def _knocks(
+    params: WornBearingParams,
+    sensor: Sensor,
+    engine: Engine,
+    sources: _Sources,
+    crank: _Crank,
+    t: FloatArray,
+    expected: dict[str, Any],
+) -> FloatArray:
+    """Decaying rings where the worn bearing's load is least (local minima of its magnitude)."""
+    b = sensor.bearing
+    if b is None or abs(b - params.bearing) > 1 or sensor.direction not in ("vertical", "horizontal"):
+        return np.zeros(t.size)
+    if not 1 <= params.bearing <= engine.bearing_count:
+        raise SceneError(
+            f"effect 'worn_bearing': bearing {params.bearing} does not exist "
+            f"(the engine has {engine.bearing_count})"
+        )
+    assert sources.bearing is not None
+    R = engine.cycle_revolutions
+    w = float(np.mean(crank.speed(t)))
+    force = (
+        sources.bearing.a[params.bearing - 1] + w**2 * sources.bearing.b[params.bearing - 1]
+    )  # (2, orders)
+    cycle = 2 * math.pi * R
+    grid: FloatArray = np.arange(4096 * R, dtype=np.float64) * (cycle / (4096 * R))
+    magnitude = np.hypot(
+        _synthesise(force[0], sources.orders, grid), _synthesise(force[1], sources.orders, grid)
+    )
+    # the journal crosses its clearance where the load is least: the local minima of its magnitude
+    # below the cycle's mean
+    low = (magnitude < np.roll(magnitude, 1)) & (magnitude <= np.roll(magnitude, -1))
+    low &= magnitude < magnitude.mean()
+    reversals = grid[low] if low.any() else grid[[int(np.argmin(magnitude))]]
+    expected[f"{sensor.name} knocks"] = {
+        "bearing": params.bearing,
+        "knock_angles_deg": np.degrees(reversals).tolist(),
+    }
+    scale = params.severity * (1.0 if b == params.bearing else 1.0 / 3.0)
+    last = crank.angle_at(t[-1:])[0]
+    starts = (reversals[None, :] + cycle * np.arange(math.ceil(last / cycle) + 1)[:, None]).ravel()
+    times = crank.time_at(starts[starts <= last])
+    out = np.zeros(t.size)
+    fs = 1.0 / (t[1] - t[0])
+    span = int(5e-3 * params.decay_ms * fs) + 1  # five decay times
+    for start in times:
+        i0 = math.ceil(start * fs)
+        local = t[i0 : i0 + span] - start
+        out[i0 : i0 + span] += (
+            scale * np.exp(-local / (1e-3 * params.decay_ms)) * np.sin(2 * np.pi * params.ring_hz * local)
+        )
+    return out
 
 
 def simulate(
