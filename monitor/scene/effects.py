@@ -62,9 +62,17 @@ class UnbalanceParams(_Params):
 
 
 class CrankSpeedParams(_Params):
-    """Crank-speed fluctuation of the crankshaft as one rigid body (below the first torsional mode)."""
+    """Crank-speed fluctuation at the tooth wheel.
 
-    model: Literal["rigid"] = "rigid"
+    ``rigid``: the crankshaft as one rigid body (below the first torsional
+    mode), by its energy balance. ``shaft_line``: the steady forced response
+    of the engine's shaft-line model (:mod:`monitor.torsion.shaft_line`) to
+    each cylinder's torque orders at the local mean speed, read at the
+    tooth-wheel element (``[shaft_line] tooth_wheel``, else the outermost
+    free-end element): resonances, a run-up through a critical speed.
+    """
+
+    model: Literal["rigid", "shaft_line"] = "rigid"
 
 
 class Mode(_Params):
@@ -120,9 +128,14 @@ class TorqueOrder(_Params):
 
 
 class ExternalTorqueParams(_Params):
-    """A harmonic torque from outside the cylinders (a propeller's blade order, a generator's)."""
+    """A harmonic torque from outside the cylinders (a propeller's blade order, a generator's).
+
+    With the shaft-line crank-speed model it acts on the element ``element``
+    (default: the last driven-end element, the propeller or generator).
+    """
 
     orders: list[TorqueOrder] = Field(min_length=1)
+    element: str | None = None
 
 
 class WornBearingParams(_Params):

@@ -47,6 +47,7 @@ from monitor.recording import Channel, Recording
 from monitor.scene.effects import (
     BearingVibrationParams,
     ClippingParams,
+    CrankSpeedParams,
     ExternalTorqueParams,
     GainErrorParams,
     GasParams,
@@ -144,6 +145,8 @@ class _Sources:
     grid: FloatArray | None = None
     gas_scale: list[float] = field(default_factory=list)
     charge_scale: list[float] = field(default_factory=list)
+    cylinder_torque: _Orders | None = None  # shape (n_cylinders, n_orders): each throw's own
+    external: ComplexArray | None = None  # the external torque's orders (speed-independent)
 
 
 def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | None:
@@ -159,8 +162,9 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
         evaluated.append("external_torque")
         orders = np.arange(round(MAX_ORDER * engine.cycle_revolutions) + 1) / engine.cycle_revolutions
         speed_free = np.zeros(orders.size, dtype=np.complex128)
-        torque = _Orders(orders, _external_torque(external, orders), speed_free)
-        return _Sources(orders, torque=torque, gas_scale=[1.0] * n, charge_scale=[1.0] * n)
+        outside = _external_torque(external, orders)
+        torque = _Orders(orders, outside, speed_free)
+        return _Sources(orders, torque=torque, gas_scale=[1.0] * n, charge_scale=[1.0] * n, external=outside)
     from monitor.crankshaft import EngineModel, GasModel
     from monitor.forces import crank_train_forces
     from monitor.gas import gas_force
@@ -271,12 +275,18 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     bearing = _Orders(
         orders, np.einsum("bc,cko->bko", share, throw_a), np.einsum("bc,cko->bko", share, throw_b)
     )
+    has_cylinders = inertia is not None or gas is not None
+    per_cylinder = _Orders(orders, coefficients[:, 0, 0], coefficients[:, 1, 0]) if has_cylinders else None
+    external_torque: ComplexArray | None = None
     if external is not None:
         evaluated.append("external_torque")
-        torque = _Orders(orders, torque.a + _external_torque(external, orders), torque.b)
+        external_torque = _external_torque(external, orders)
+        torque = _Orders(orders, torque.a + external_torque, torque.b)
     return _Sources(
         orders,
-        torque=torque if (inertia is not None or gas is not None or external is not None) else None,
+        cylinder_torque=per_cylinder,
+        external=external_torque,
+        torque=torque if (has_cylinders or external is not None) else None,
         bearing=bearing,
         pressure=pressure,
         grid=model.crank_angle,
@@ -299,6 +309,90 @@ def _external_torque(params: BaseModel, orders: FloatArray) -> ComplexArray:
             )
         out[i] += item.amplitude_nm * np.exp(1j * math.radians(item.phase_deg))
     return out
+
+
+def _shaft_line_lead(
+    scene: Scene,
+    engine: Engine,
+    sources: _Sources,
+    angle: FloatArray,
+    omega_mean: FloatArray,
+    expected: dict[str, Any],
+) -> FloatArray:
+    """The tooth wheel's angle lead over the mean rotation, from the shaft line's forced response [rad].
+
+    Tabulated on a grid of mean speeds over the trend (241 for a run-up: a resonance is sharp) and
+    interpolated linearly in speed; order by order ``Re Theta_k exp(i k theta)`` (first order in it).
+    """
+    from monitor.torsion.shaft_line import shaft_line_of
+
+    if engine.shaft_line is None:
+        raise SceneError(f"crank_speed (shaft_line) needs the [shaft_line] of engine {engine.id!r}")
+    line = shaft_line_of(engine)
+    wheel = engine.shaft_line.tooth_wheel or line.node_names[0]
+    probe = line.index(wheel)
+    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
+    external = named(scene, "external_torque")
+    where = None
+    if isinstance(external, ExternalTorqueParams):
+        default = (
+            engine.shaft_line.driven_end[-1].name if engine.shaft_line.driven_end else line.node_names[-1]
+        )
+        name = external.element or default
+        if name not in line.node_names:
+            raise SceneError(
+                f"effect 'external_torque': element {name!r} is not on the shaft line; elements: "
+                f"{', '.join(line.node_names)}"
+            )
+        where = line.index(name)
+    lo, hi = float(omega_mean.min()), float(omega_mean.max())
+    speeds = np.array([lo]) if hi - lo <= 1e-9 * hi else np.linspace(lo, hi, 241)
+    k = sources.orders
+    table = np.zeros((speeds.size, k.size), dtype=np.complex128)
+    for i, w in enumerate(speeds):
+        torque = np.zeros((len(line.nodes), k.size), dtype=np.complex128)
+        if sources.cylinder_torque is not None:
+            torque[throws] = sources.cylinder_torque.at(w)
+        if where is not None and sources.external is not None:
+            torque[where] += sources.external
+        for j in np.flatnonzero(k > 0):
+            table[i, j] = line.harmonic_response(float(k[j] * w), torque[:, j])[0][probe]
+    lead = np.zeros(angle.size)
+    for start in range(0, angle.size, _BLOCK):
+        part = slice(start, start + _BLOCK)
+        if speeds.size == 1:
+            coefficients = table[0]
+        else:
+            position = np.clip((omega_mean[part] - lo) / (hi - lo) * (speeds.size - 1), 0, speeds.size - 1)
+            below = np.minimum(position.astype(np.int64), speeds.size - 2)
+            weight = (position - below)[:, None]
+            coefficients = (1 - weight) * table[below] + weight * table[below + 1]
+        lead[part] = _synthesise(coefficients, k, angle[part])
+    start_speed = float(omega_mean[0])
+    at_start = np.array(
+        [
+            np.interp(start_speed, speeds, table[:, j].real)
+            + 1j * np.interp(start_speed, speeds, table[:, j].imag)
+            for j in range(k.size)
+        ]
+    )
+    fluctuation = 1j * k * start_speed * at_start
+    fluctuation[0] = start_speed
+    expected["crank speed"] = {
+        "orders": k.tolist(),
+        "amplitude": np.abs(fluctuation).tolist(),
+        "phase_deg": np.degrees(np.angle(fluctuation)).tolist(),
+        "unit": "rad/s",
+        "speed_rpm": start_speed * 30 / math.pi,
+        "element": wheel,
+        "resonance_table": {
+            "speed_rpm": (speeds * 30 / math.pi).tolist(),
+            "angle_rad_by_order": {
+                f"{o:g}": np.abs(table[:, j]).tolist() for j, o in enumerate(k) if o > 0 and o <= 12
+            },
+        },
+    }
+    return lead
 
 
 def _rigid_inertia(engine: Engine) -> float:
@@ -345,7 +439,14 @@ def _crank(
     angle = np.linspace(0.0, coarse_a[-1], count)
     omega_mean = np.interp(np.interp(angle, coarse_a, coarse_t), coarse_t, coarse_w)
     omega = omega_mean
-    if named(scene, "crank_speed") is not None:
+    crank_speed = named(scene, "crank_speed")
+    if isinstance(crank_speed, CrankSpeedParams) and crank_speed.model == "shaft_line":
+        evaluated.append("crank_speed")
+        assert sources is not None
+        lead = _shaft_line_lead(scene, engine, sources, angle, omega_mean, expected)
+        time = np.interp(angle - lead, coarse_a, coarse_t)
+        return _Crank(angle, time, lambda t: mean(np.asarray(t, dtype=np.float64)))
+    if crank_speed is not None:
         evaluated.append("crank_speed")
         assert sources is not None and sources.torque is not None  # check_effects saw to a torque source
         inertia = _rigid_inertia(engine)
@@ -702,8 +803,16 @@ def simulate(
         channels.append(_channel(sensor, i, scene, engine, crank, sources, seed, expected))
         if progress is not None:
             progress((i + 1) / len(scene.sensors))
-    for name in ("bearing_vibration", "noise"):
-        if name in scene.effects:
+    for name in (
+        "bearing_vibration",
+        "worn_bearing",
+        "noise",
+        "keyphasor_faults",
+        "tooth_spacing_errors",
+        "clipping",
+        "gain_error",
+    ):
+        if name in scene.effects:  # applied channel by channel above
             evaluated.append(name)
     truth = {
         "engine": engine.id,
