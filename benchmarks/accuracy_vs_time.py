@@ -265,6 +265,10 @@ def main() -> None:
     from benchmarks.angle_domain import sections as angle_domain_sections
 
     angle_domain = angle_domain_sections()
+    print("scenes ...", flush=True)
+    from benchmarks.scenes import sections as scene_sections
+
+    scenes = scene_sections()
     figure(trunc, grid)
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
@@ -321,6 +325,7 @@ def main() -> None:
         "",
         *torsion,
         *angle_domain,
+        *scenes,
         f"Benchmark run time: {time.perf_counter() - start:.0f} s.",
         "",
     ]

@@ -412,6 +412,52 @@ def _synthesise(coefficients: ComplexArray, orders: FloatArray, angle: FloatArra
 
 
 @dataclass(frozen=True)
+class _CycleTable:
+    """``Re sum_k C_k(w) exp(i k theta)`` tabulated over a cycle (2^16 points per revolution) at a few
+    mean speeds.
+
+    Evaluated per sample by linear interpolation in angle (error below 1e-5 of the sum of the order
+    magnitudes, for orders up to 36; tested against the direct sum) and in speed between the tabulated
+    speeds: a cost per sample that does not grow with the number of orders.
+    """
+
+    values: FloatArray  # (n_speeds, points + 1), the first point repeated at the end
+    speeds: FloatArray
+    cycle: float
+
+    @classmethod
+    def of(
+        cls, coefficients: ComplexArray, orders: FloatArray, revolutions: int, speeds: FloatArray
+    ) -> _CycleTable:
+        points = (1 << 16) * revolutions
+        harmonics = np.rint(orders * revolutions).astype(np.int64)  # per cycle
+        spectrum = np.zeros((speeds.size, points // 2 + 1), dtype=np.complex128)
+        spectrum[:, harmonics] = coefficients * (points / 2)
+        spectrum[:, 0] = (
+            coefficients[:, harmonics == 0].real.sum(axis=1) * points if (harmonics == 0).any() else 0
+        )
+        table = np.fft.irfft(spectrum, n=points, axis=-1)
+        return cls(np.concatenate([table, table[:, :1]], axis=1), speeds, 2 * math.pi * revolutions)
+
+    def at(self, angle: FloatArray, speed: FloatArray) -> FloatArray:
+        points = self.values.shape[1] - 1
+        where = np.mod(angle, self.cycle) * (points / self.cycle)
+        i = np.minimum(where.astype(np.int64), points - 1)
+        frac = where - i
+        if self.speeds.size == 1:
+            row = self.values[0]
+            return np.asarray(row[i] * (1 - frac) + row[i + 1] * frac)
+        position = np.clip((speed - self.speeds[0]) / (self.speeds[-1] - self.speeds[0]), 0, 1) * (
+            self.speeds.size - 1
+        )
+        j = np.minimum(position.astype(np.int64), self.speeds.size - 2)
+        g = position - j
+        low = self.values[j, i] * (1 - frac) + self.values[j, i + 1] * frac
+        high = self.values[j + 1, i] * (1 - frac) + self.values[j + 1, i + 1] * frac
+        return np.asarray(low * (1 - g) + high * g)
+
+
+@dataclass(frozen=True)
 class _Crank:
     """The crank's angle-time table: angles on a fine grid and the times they are reached."""
 
@@ -637,10 +683,12 @@ def _channel(
                     )
                 return np.asarray(transfer)
 
-            for lo in range(0, n, _BLOCK):
-                w = speed[lo : lo + _BLOCK]
-                force = a + np.multiply.outer(w**2, b)  # (block, n_orders)
-                values[lo : lo + _BLOCK] = _synthesise(force * measured(w), orders, angle[lo : lo + _BLOCK])
+            lo_w, hi_w = float(speed.min()), float(speed.max())
+            nodes = np.array([lo_w]) if hi_w - lo_w <= 1e-9 * hi_w else np.linspace(lo_w, hi_w, 65)
+            table = _CycleTable.of(
+                (a[None, :] + np.multiply.outer(nodes**2, b)) * measured(nodes), orders, R, nodes
+            )
+            values = table.at(angle, speed)
             w_mean = float(np.mean(speed))
             at_mean = (a + w_mean**2 * b) * measured(np.array(w_mean))
             expected[sensor.name] = {
