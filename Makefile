@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
-.PHONY: demo test lint typecheck bench bench-performance lock clean
+.PHONY: demo test lint typecheck bench bench-performance samples lock clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -35,6 +35,18 @@ bench: $(STAMP)
 ## temporary disk; installs the peer rota-order into .venv-peers/ on first use); rewrites docs/performance.md
 bench-performance: $(STAMP)
 	$(BIN)/python -m benchmarks.performance --minutes 60
+
+## samples: regenerate the small recordings in recordings/samples/ from their scenes (deterministic)
+SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3
+samples: $(STAMP)
+	@mkdir -p recordings/samples
+	@for item in $(SAMPLES); do \
+		name=$${item%%:*}; seconds=$${item##*:}; \
+		$(BIN)/engine-monitor simulate recordings/scenes/$$name.toml --duration $$seconds \
+			-o recordings/samples/$$name.h5 || exit 1; \
+		$(BIN)/engine-monitor simulate --truth recordings/samples/$$name.h5 \
+			> recordings/samples/$$name.expected.json || exit 1; \
+	done
 
 ## lock: re-pin constraints.txt to the newest versions that satisfy pyproject.toml
 lock:

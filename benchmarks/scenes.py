@@ -25,6 +25,13 @@ SENSORS = [
     },
     {"name": "tooth", "kind": "tooth", "sample_rate_hz": 10240.0},
     {"name": "keyphasor", "kind": "keyphasor", "representation": "events"},
+    {
+        "name": "free-end-axial",
+        "kind": "acceleration",
+        "location": "free end",
+        "direction": "axial",
+        "sample_rate_hz": 10240.0,
+    },
 ]
 EFFECTS: list[tuple[str, dict[str, Any]]] = [
     ("none (crank angle and sensors only)", {}),
@@ -40,6 +47,7 @@ EFFECTS: list[tuple[str, dict[str, Any]]] = [
         {"inertia": {}, "gas": {}, "crank_speed": {"model": "shaft_line"}},
     ),
     ("bearing_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "bearing_vibration": MODES}),
+    ("axial_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "axial_vibration": {}}),
     (
         "worn_bearing (with inertia, gas, bearing_vibration)",
         {
@@ -111,10 +119,10 @@ def sections() -> list[str]:
     return [
         "## What a simulated minute costs",
         "",
-        f"The 7K98MC at 104 rpm, {SECONDS:g} s: an accelerometer on main bearing 2 and an analog tooth "
-        "wheel at 10.24 kHz, a keyphasor as events. Each effect alone, with the inputs it needs named "
-        "beside it (as a scene must name them); an effect that is not named is not evaluated, so the "
-        "cost of a scene follows what it names. Best of three runs.",
+        f"The 7K98MC at 104 rpm, {SECONDS:g} s: an accelerometer on main bearing 2, an axial one at the "
+        "free end and an analog tooth wheel at 10.24 kHz, a keyphasor as events. Each effect alone, "
+        "with the inputs it needs named beside it (as a scene must name them); an effect that is not "
+        "named is not evaluated, so the cost of a scene follows what it names. Best of three runs.",
         "",
         *rows,
         "",

@@ -155,6 +155,9 @@ def _build_parser() -> argparse.ArgumentParser:
     sim.add_argument("-o", "--output", metavar="OUT.h5|OUT.mcap", help="recording to write")
     sim.add_argument("--seed", type=int, help="noise seed (default: the scene's); same seed, same file")
     sim.add_argument(
+        "--duration", type=_positive_float, metavar="S", help="simulate only the first S seconds of the scene"
+    )
+    sim.add_argument(
         "--truth", metavar="RECORDING", help="print the ground truth stored in a simulated recording (JSON)"
     )
 
@@ -352,6 +355,8 @@ def _run_simulate(args: argparse.Namespace) -> int:
     if not args.scene or not args.output:
         raise ModelError("simulate needs SCENE.toml and -o OUT.h5|OUT.mcap (or --truth RECORDING)")
     scene = load_scene(args.scene)
+    if args.duration is not None:
+        scene = scene.model_copy(update={"duration_s": min(scene.duration_s, args.duration)})
     start = time.perf_counter()
 
     def progress(fraction: float) -> None:

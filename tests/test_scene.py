@@ -385,3 +385,56 @@ def test_the_tabulated_cycle_equals_the_direct_sum_of_orders(revolutions: int) -
     direct = _synthesise(base[None, :] * (1 + 0.3 * (speed[:, None] - 5.0)), orders, angle)
     bound = np.abs(coefficients).sum(axis=1).max()
     np.testing.assert_allclose(table.at(angle, speed), direct, rtol=0, atol=1e-5 * bound)
+
+
+SAMPLES = sorted((SCENES.parent / "samples").glob("*.h5"))
+
+
+@pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.stem)
+def test_the_committed_sample_recordings_are_what_their_scenes_give(path: Path) -> None:
+    """recordings/samples/ (written by `make samples`): every sample equals a fresh simulation of its
+    scene, sample for sample, and its expected-summary file is the truth stored in it."""
+    stored = read_recording(path)
+    expected = json.loads(path.with_suffix(".expected.json").read_text(encoding="utf-8"))
+    assert json.loads(stored.truth) == expected
+    scene = load_scene(SCENES / f"{path.stem}.toml").model_copy(update={"duration_s": expected["duration_s"]})
+    fresh = simulate(scene, seed=expected["seed"]).recording
+    for channel in fresh.channels:
+        np.testing.assert_array_equal(stored.channel(channel.name).data, channel.data)
+
+
+def test_there_are_committed_samples() -> None:
+    assert len(SAMPLES) >= 3
+    assert sum(p.stat().st_size for p in SAMPLES) < 8e6  # a few MB in all
+
+
+def test_axial_vibration_follows_the_coupled_model_and_is_recovered() -> None:
+    """An axial accelerometer at the free end: its orders equal -(k w)^2 times the axial displacement of
+    journal 1 from engine_axial_response (the torque orders there come from predict_orders, another
+    route than the scene's cylinder-by-cylinder sum), and the pipeline recovers them."""
+    from monitor.engine import bundled_engines, load_engine
+    from monitor.torsion.axial_coupling import engine_axial_response
+
+    sensors = [
+        {
+            "name": "axial",
+            "kind": "acceleration",
+            "location": "free end",
+            "direction": "axial",
+            "sample_rate_hz": 5120.0,
+        },
+        {"name": "tooth", "kind": "tooth", "representation": "events"},
+    ]
+    simulation = simulate(_scene({"inertia": {}, "gas": {}, "axial_vibration": {}}, sensors=sensors))
+    assert simulation.evaluated == ("inertia", "gas", "axial_vibration")
+    truth = simulation.truth["expected_orders"]["axial"]
+    omega = 104 * math.pi / 30
+    reference = engine_axial_response(
+        load_engine(bundled_engines()["man-b-w-7k98mc"]), [omega], load=1.0, max_order=14
+    )
+    for k in (1, 7, 14):
+        expected = -((k * omega) ** 2) * reference.axial[0, 0, k - 1]
+        assert truth["amplitude"][k] == pytest.approx(abs(expected), rel=1e-6)
+    measured = spectra(simulation.recording, cycle_revolutions=1, max_order=14).spectra["axial"]
+    big = np.asarray(truth["amplitude"][:15]) > 0.01 * max(truth["amplitude"][:15])
+    np.testing.assert_allclose(measured.magnitude[big], np.asarray(truth["amplitude"][:15])[big], rtol=0.01)

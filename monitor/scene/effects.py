@@ -5,8 +5,8 @@ An effect is named in the scene's ``[effects]`` table with its parameters
 
 - sources (``inertia``, ``gas``, ``unbalance``, ``external_torque``) give
   forces and torques;
-- responses (``crank_speed``, ``bearing_vibration``) turn them into what a
-  sensor measures, and need a source;
+- responses (``crank_speed``, ``bearing_vibration``, ``axial_vibration``)
+  turn them into what a sensor measures, and need a source;
 - faults (``misfire``, ``weak_cylinder``, ``leaking_cylinder``) change a
   source; ``worn_bearing`` adds knocks where its bearing's load is least;
 - sensor effects (``noise``, ``keyphasor_faults``, ``tooth_spacing_errors``,
@@ -73,6 +73,15 @@ class CrankSpeedParams(_Params):
     """
 
     model: Literal["rigid", "shaft_line"] = "rigid"
+
+
+class AxialVibrationParams(_Params):
+    """Axial vibration of the crankshaft from its torque through the torsional-axial coupling (paper 001).
+
+    Read by sensors with direction "axial" at "main bearing N" (journal N) or
+    "free end" (journal 1), as acceleration [m/s^2] or velocity [mm/s]; needs the
+    engine's ``[shaft_line.axial]`` data.
+    """
 
 
 class Mode(_Params):
@@ -217,6 +226,13 @@ EFFECTS: dict[str, Effect] = {
         Effect("gas", "source", GasParams, gives=("torque", "bearing_force", "cylinder_pressure")),
         Effect("unbalance", "source", UnbalanceParams, gives=("bearing_force",)),
         Effect("crank_speed", "response", CrankSpeedParams, gives=("crank_speed",), needs=("torque",)),
+        Effect(
+            "axial_vibration",
+            "response",
+            AxialVibrationParams,
+            gives=("axial_acceleration",),
+            needs=("torque",),
+        ),
         Effect(
             "bearing_vibration",
             "response",

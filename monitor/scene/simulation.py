@@ -395,6 +395,35 @@ def _shaft_line_lead(
     return lead
 
 
+def _axial_orders(sensor: Sensor, engine: Engine, sources: _Sources, speeds: FloatArray) -> ComplexArray:
+    """Axial acceleration [m/s^2] (velocity [mm/s]) orders of the sensor's journal at each mean speed."""
+    from monitor.torsion.axial_coupling import AxialTorsionalCrankshaft
+
+    if engine.shaft_line is None or engine.shaft_line.axial is None:
+        raise SceneError(f"axial_vibration needs the [shaft_line.axial] data of engine {engine.id!r}")
+    journal = 1 if sensor.location.lower() == "free end" else sensor.bearing
+    if journal is None or not 1 <= journal <= engine.cylinders + 1:
+        raise SceneError(
+            f"sensor {sensor.name!r}: an axial sensor is at 'free end' or 'main bearing N' "
+            f"(N = 1..{engine.cylinders + 1})"
+        )
+    assert sources.cylinder_torque is not None
+    shaft = AxialTorsionalCrankshaft.of_engine(engine)
+    k = sources.orders
+    out = np.zeros((speeds.size, k.size), dtype=np.complex128)
+    for i, w in enumerate(speeds):
+        torque = sources.cylinder_torque.at(float(w))  # (n_cylinders, n_orders)
+        for j in np.flatnonzero(k > 0):
+            nodal = np.zeros(shaft.n_nodes, dtype=np.complex128)
+            nodal[1 : 2 * engine.cylinders : 2] = torque[:, j]
+            displacement = shaft.harmonic_response(float(k[j] * w), torque=nodal).axial[2 * (journal - 1)]
+            frequency = k[j] * w
+            out[i, j] = -(frequency**2) * displacement
+            if sensor.kind == "velocity":
+                out[i, j] = 1e3 * out[i, j] / (1j * frequency)
+    return out
+
+
 def _rigid_inertia(engine: Engine) -> float:
     from monitor.torsion.shaft_line import shaft_line_of
 
@@ -666,6 +695,27 @@ def _channel(
         grid = np.append(sources.grid, cycle)
         trace = np.append(sources.pressure[c - 1], sources.pressure[c - 1][0])
         values = np.interp(own, grid, trace) / 1e5  # [bar]
+    elif sensor.direction == "axial":  # axial acceleration [m/s^2] or velocity [mm/s] of a journal
+        values = np.zeros(n)
+        if (
+            named(scene, "axial_vibration") is not None
+            and sources is not None
+            and sources.cylinder_torque is not None
+        ):
+            speed = crank.speed(t)
+            lo_w, hi_w = float(speed.min()), float(speed.max())
+            nodes = np.array([lo_w]) if hi_w - lo_w <= 1e-9 * hi_w else np.linspace(lo_w, hi_w, 33)
+            coefficients = _axial_orders(sensor, engine, sources, nodes)
+            values = _CycleTable.of(coefficients, sources.orders, R, nodes).at(angle, speed)
+            w_mean = float(np.mean(speed))
+            at_mean = _axial_orders(sensor, engine, sources, np.array([w_mean]))[0]
+            expected[sensor.name] = {
+                "orders": sources.orders.tolist(),
+                "amplitude": np.abs(at_mean).tolist(),
+                "phase_deg": np.degrees(np.angle(at_mean)).tolist(),
+                "unit": sensor.unit,
+                "speed_rpm": w_mean * 30 / math.pi,
+            }
     else:  # acceleration [m/s^2] or velocity [mm/s] at a main bearing
         values = np.zeros(n)
         params = named(scene, "bearing_vibration")
@@ -853,6 +903,7 @@ def simulate(
             progress((i + 1) / len(scene.sensors))
     for name in (
         "bearing_vibration",
+        "axial_vibration",
         "worn_bearing",
         "noise",
         "keyphasor_faults",
