@@ -418,24 +418,29 @@ def _records(path: Path) -> Iterator[Any]:
     if file_signature(path) != MCAP_MAGIC:
         raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
     try:
-        with open(path, "rb") as fh:
+        with open(path, "rb") as fh, _damage_named(str(path)):
             reader = StreamReader(fh, validate_crcs=True)
             try:
                 yield from reader.records
             except EndOfFile:
                 yield None  # cut short
-            except CRCValidationError as error:
-                raise FormatError(f"{path}: checksum failure: {error}") from None
-            except McapError as error:
-                raise FormatError(f"{path}: damaged MCAP file: {error}") from None
-            except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
-                if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
-                    raise FormatError(
-                        f"{path}: checksum failure: a chunk does not decompress ({error})"
-                    ) from None
-                raise
     except OSError as error:
         raise FormatError(f"{path}: cannot read: {error}") from None
+
+
+@contextlib.contextmanager
+def _damage_named(where: str) -> Iterator[None]:
+    """A CRC, record or decompression failure while reading, as a FormatError naming ``where``."""
+    try:
+        yield
+    except CRCValidationError as error:
+        raise FormatError(f"{where}: checksum failure: {error}") from None
+    except McapError as error:
+        raise FormatError(f"{where}: damaged MCAP file: {error}") from None
+    except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
+        if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
+            raise FormatError(f"{where}: checksum failure: a chunk does not decompress ({error})") from None
+        raise
 
 
 def read_mcap(path: str | Path) -> Recording:
@@ -690,21 +695,9 @@ class McapSamples:
     @staticmethod
     def messages(source: Path, topic: str) -> Iterator[Any]:
         """The messages of one topic in log-time order, CRCs checked, errors named."""
-        where = f"{source}: channel {topic.lstrip('/')!r}"
-        try:
-            with open(source, "rb") as fh:
-                for _, _, message in make_reader(fh, validate_crcs=True).iter_messages(topics=[topic]):
-                    yield message
-        except CRCValidationError as error:
-            raise FormatError(f"{where}: checksum failure: {error}") from None
-        except McapError as error:
-            raise FormatError(f"{where}: damaged MCAP file: {error}") from None
-        except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
-            if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
-                raise FormatError(
-                    f"{where}: checksum failure: a chunk does not decompress ({error})"
-                ) from None
-            raise
+        with open(source, "rb") as fh, _damage_named(f"{source}: channel {topic.lstrip('/')!r}"):
+            for _, _, message in make_reader(fh, validate_crcs=True).iter_messages(topics=[topic]):
+                yield message
 
     @property
     def shape(self) -> tuple[int, ...]:
