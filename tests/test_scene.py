@@ -481,3 +481,16 @@ def test_every_misfire_scene_is_recovered(name: str) -> None:
     top = truth[1:].max()
     big = truth[1:] > 0.01 * top
     np.testing.assert_allclose(speed.magnitude[1:][big], truth[1:][big], rtol=0.02, atol=5e-3 * top)
+
+
+def test_a_healthy_seven_cylinder_engine_turns_with_the_firing_orders_only() -> None:
+    """Seven equal cylinders evenly fired: their torques cancel except at multiples of order 7, so the
+    truth holds nothing else, and the tooth wheel's speed shows nothing else above 2e-3 of order 7
+    (2e-6 of the mean speed: the floor of simulation and analysis together)."""
+    simulation = simulate(load_scene(SCENES / "7k98mc-baseline.toml"))
+    truth = np.asarray(simulation.truth["expected_orders"]["crank speed"]["amplitude"][:22])
+    speed = spectra(simulation.recording, cycle_revolutions=1, max_order=21).spectra["crank speed"].magnitude
+    others = np.array([k for k in range(1, 22) if k % 7])
+    assert np.all(truth[others] < 1e-9 * truth[7])
+    assert np.all(speed[others] < 2e-3 * speed[7])
+    assert np.all(speed[others] < 2e-6 * speed[0])

@@ -153,8 +153,8 @@ class WornBearingParams(_Params):
     At each local minimum of the bearing load's magnitude below its cycle mean
     (where the load turns and the journal crosses its clearance), the bearing's
     sensors get a decaying ring at ``ring_hz`` of ``severity`` peak acceleration
-    [m/s^2] (a third of it at the neighbouring bearings): the higher orders
-    rise at the worn bearing.
+    [m/s^2] (a third of it at the neighbouring bearings; a velocity sensor reads
+    the ring's velocity): the higher orders rise at the worn bearing.
     """
 
     bearing: Annotated[int, Field(ge=1)]

@@ -859,12 +859,15 @@ def _knocks(
     out = np.zeros(t.size)
     fs = 1.0 / (t[1] - t[0])
     span = int(5e-3 * params.decay_ms * fs) + 1  # five decay times
+    omega = 2 * np.pi * params.ring_hz
     for start in times:
         i0 = math.ceil(start * fs)
         local = t[i0 : i0 + span] - start
-        out[i0 : i0 + span] += (
-            scale * np.exp(-local / (1e-3 * params.decay_ms)) * np.sin(2 * np.pi * params.ring_hz * local)
-        )
+        envelope = scale * np.exp(-local / (1e-3 * params.decay_ms))
+        if sensor.kind == "velocity":  # the ring's velocity [mm/s] (the decay is slow against the ring)
+            out[i0 : i0 + span] -= 1e3 * envelope * np.cos(omega * local) / omega
+        else:
+            out[i0 : i0 + span] += envelope * np.sin(omega * local)
     return out
 
 
