@@ -46,6 +46,10 @@ EFFECTS: list[tuple[str, dict[str, Any]]] = [
         "crank_speed shaft_line (with inertia, gas)",
         {"inertia": {}, "gas": {}, "crank_speed": {"model": "shaft_line"}},
     ),
+    (
+        "crank_speed variable_inertia (with inertia, gas)",
+        {"inertia": {}, "gas": {}, "crank_speed": {"model": "variable_inertia"}},
+    ),
     ("bearing_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "bearing_vibration": MODES}),
     ("axial_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "axial_vibration": {}}),
     (

@@ -70,9 +70,19 @@ class CrankSpeedParams(_Params):
     each cylinder's torque orders at the local mean speed, read at the
     tooth-wheel element (``[shaft_line] tooth_wheel``, else the outermost
     free-end element): resonances, a run-up through a critical speed.
+    ``variable_inertia``: the engine's equivalent single crank (paper 002: one
+    throw, its reciprocating inertia varying twice per revolution, on the shaft
+    line's first mode; linearised eq. 6: its twist against a uniformly turning
+    flywheel), driven by its own reciprocating inertia (``inertia`` must be
+    named) and, if named, one cylinder's gas torque; constant speed only.
+    ``damping`` is its damping ratio, ``initial_twist_rad`` its twist at the
+    start (with no damping the free vibration it starts goes on: paper 002's
+    waveforms and their harmonic content, Table 2).
     """
 
-    model: Literal["rigid", "shaft_line"] = "rigid"
+    model: Literal["rigid", "shaft_line", "variable_inertia"] = "rigid"
+    damping: Annotated[float, Field(ge=0, lt=1, description="variable_inertia: damping ratio")] = 0.02
+    initial_twist_rad: Annotated[float, Field(ge=0, le=0.05)] = 0.0
 
 
 class AxialVibrationParams(_Params):

@@ -424,6 +424,84 @@ def _axial_orders(sensor: Sensor, engine: Engine, sources: _Sources, speeds: Flo
     return out
 
 
+def _variable_inertia_crank(
+    scene: Scene,
+    engine: Engine,
+    params: CrankSpeedParams,
+    angle: FloatArray,
+    omega_mean: FloatArray,
+    mean: Callable[[FloatArray], FloatArray],
+    expected: dict[str, Any],
+) -> _Crank:
+    """The crank's angle ``tau + gamma(tau)`` against the flywheel's ``tau = Omega t`` (paper 002 eq. 6)."""
+    import dataclasses
+
+    from monitor.orders import order_coefficients
+    from monitor.torsion.variable_inertia import (
+        HarmonicExcitation,
+        crank_of_engine,
+        gas_excitation,
+        harmonic_content,
+    )
+    from monitor.torsion.variable_inertia import simulate as respond
+
+    if scene.operating_point.trend.kind != "constant":
+        raise SceneError("crank_speed (variable_inertia) is for a constant speed: remove the trend")
+    if "inertia" not in scene.effects:
+        raise SceneError(
+            "crank_speed (variable_inertia) is driven by the reciprocating parts' inertia: "
+            "add inertia to [effects]"
+        )
+    if engine.shaft_line is None:
+        raise SceneError(f"crank_speed (variable_inertia) needs the [shaft_line] of engine {engine.id!r}")
+    w = float(omega_mean[0])
+    excitation = (
+        gas_excitation(engine, w, load=scene.operating_point.load, max_order=MAX_ORDER)
+        if "gas" in scene.effects
+        else HarmonicExcitation()
+    )
+    crank = dataclasses.replace(crank_of_engine(engine, w), zeta=params.damping, excitation=excitation)
+    initial = (params.initial_twist_rad, 0.0)
+    response = respond(crank, angle, initial=initial, form="linear", integrator="periodic")
+    crank_angle = angle + response.gamma
+    if not np.all(np.isfinite(crank_angle)) or np.any(1.0 + response.gamma_prime <= 0):
+        raise SceneError(
+            f"the variable-inertia crank (epsilon {crank.epsilon:.3g}, r {crank.r:.3g}) does not settle: "
+            "it is in an unstable range; raise the damping or change the speed"
+        )
+    truth: dict[str, Any] = {"speed_rpm": w * 30 / math.pi, "epsilon": crank.epsilon, "r": crank.r}
+    if params.damping == 0.0 and not excitation.orders:
+        # a free vibration: its principal order and sidebands (the Floquet analysis of paper 002 Table 2)
+        content = harmonic_content(crank, initial=initial)
+        truth |= {
+            "principal_order": float(content["principal_order"]),
+            "orders": np.asarray(content["orders"]).tolist(),
+            "amplitude": np.asarray(content["amplitudes"]).tolist(),
+            "unit": "rad",
+        }
+        expected["crank angular vibration"] = truth
+    else:
+        # the steady speed's orders in the crank's own angle over the last whole cycle
+        R = engine.cycle_revolutions
+        cycle = 2 * math.pi * R
+        cycles = math.floor(crank_angle[-1] / cycle)
+        if cycles < 2:
+            raise SceneError(
+                "crank_speed (variable_inertia) needs two whole cycles or more: lengthen the scene"
+            )
+        on_cycle = (cycles - 1) * cycle + np.arange(_FINE * R) * (cycle / (_FINE * R))
+        steady = w * (1.0 + np.interp(on_cycle, crank_angle, response.gamma_prime))
+        oc = order_coefficients(steady, cycle_revolutions=R, max_order=MAX_ORDER)
+        truth |= {
+            "orders": oc.orders.tolist(),
+            "amplitude": np.abs(oc.coefficients).tolist(),
+            "phase_deg": np.degrees(np.angle(oc.coefficients)).tolist(),
+            "unit": "rad/s",
+        }
+        expected["crank speed"] = truth
+    return _Crank(crank_angle, angle / w, lambda t: mean(np.asarray(t, dtype=np.float64)))
+
+
 def _rigid_inertia(engine: Engine) -> float:
     from monitor.torsion.shaft_line import shaft_line_of
 
@@ -521,6 +599,9 @@ def _crank(
         lead = _shaft_line_lead(scene, engine, sources, angle, omega_mean, expected)
         time = np.interp(angle - lead, coarse_a, coarse_t)
         return _Crank(angle, time, lambda t: mean(np.asarray(t, dtype=np.float64)))
+    if isinstance(crank_speed, CrankSpeedParams) and crank_speed.model == "variable_inertia":
+        evaluated.append("crank_speed")
+        return _variable_inertia_crank(scene, engine, crank_speed, angle, omega_mean, mean, expected)
     if crank_speed is not None:
         evaluated.append("crank_speed")
         assert sources is not None and sources.torque is not None  # check_effects saw to a torque source
