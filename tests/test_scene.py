@@ -46,7 +46,7 @@ MODES = {"modes": [{"frequency_hz": 300.0, "damping": 0.05, "gain": 1e-6}]}
     ("effects", "message"),
     [
         ({"misfires": {}}, r"unknown effect\(s\) misfires; known effects: .*misfire"),
-        ({"gas": {"modle": "parametric"}}, r"effect 'gas': modle: unknown field \(fields: model\)"),
+        ({"gas": {"modle": "parametric"}}, r"effect 'gas': modle: unknown field \(fields: model, scale\)"),
         ({"crank_speed": {}}, r"'crank_speed' needs a torque: add one of external_torque, gas, inertia"),
         ({"bearing_vibration": MODES}, r"'bearing_vibration' needs a bearing force: add one of gas, inertia"),
         ({"inertia": {}, "misfire": {"cylinders": [4]}}, r"'misfire' changes 'gas': add gas"),
@@ -527,3 +527,33 @@ def test_the_variable_inertia_crank_is_refused_where_it_does_not_apply() -> None
     ramp = {"speed_rpm": 20.0, "trend": {"kind": "ramp", "to_rpm": 30.0}}
     with pytest.raises(SceneError, match="is for a constant speed"):
         simulate(_scene({"inertia": {}, **vi}, operating_point=ramp))
+
+
+def test_per_cylinder_gas_scale_and_per_sensor_modes() -> None:
+    """gas.scale sets each cylinder's heat release (0.7 on cylinder 4 is the weak-cylinder fault), and a
+    sensor given its own modes responds through them, not the common ones."""
+    weak = simulate(_scene({"gas": {}, "inertia": {}, "weak_cylinder": {"cylinder": 4, "scale": 0.7}}))
+    scaled = simulate(_scene({"gas": {"scale": [1, 1, 1, 0.7, 1, 1, 1]}, "inertia": {}}))
+    assert scaled.truth["cylinder_gas_scale"] == weak.truth["cylinder_gas_scale"]
+    for a, b in zip(weak.recording.channels, scaled.recording.channels, strict=True):
+        np.testing.assert_array_equal(a.data, b.data)
+    with pytest.raises(SceneError, match="scale has 3 values; the engine has 7 cylinders"):
+        simulate(_scene({"gas": {"scale": [1, 1, 1]}}))
+    own = [{"frequency_hz": 30.0, "damping": 0.05, "gain": 1e-6}]
+    modes = {**MODES, "sensors": {"mb2-vertical": own}}
+    common = simulate(_scene({"inertia": {}, "bearing_vibration": MODES})).truth["expected_orders"][
+        "mb2-vertical"
+    ]
+    special = simulate(_scene({"inertia": {}, "bearing_vibration": modes})).truth["expected_orders"][
+        "mb2-vertical"
+    ]
+    f = 2 * (104 / 60)  # order 2 [Hz]
+
+    def denominator(fn: float) -> float:  # |fn^2 - f^2 + 2 j zeta fn f| of one mode (same gain)
+        return abs(fn**2 - f**2 + 2j * 0.05 * fn * f)
+
+    assert special["amplitude"][2] / common["amplitude"][2] == pytest.approx(
+        denominator(300.0) / denominator(30.0), rel=1e-9
+    )
+    with pytest.raises(SceneError, match="gives modes to mb9, which the scene does not have"):
+        _scene({"inertia": {}, "bearing_vibration": {**MODES, "sensors": {"mb9": own}}})

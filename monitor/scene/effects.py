@@ -48,9 +48,14 @@ class InertiaParams(_Params):
 
 
 class GasParams(_Params):
-    """Gas forces from the cylinder pressure (measured trace or parametric cycle)."""
+    """Gas forces from the cylinder pressure (measured trace or parametric cycle).
+
+    ``scale``: each cylinder's heat release as a fraction of the model's (one
+    value per cylinder, from cylinder 1; the parametric cycle).
+    """
 
     model: Literal["auto", "parametric", "measured"] = "auto"
+    scale: list[Annotated[float, Field(ge=0, le=1.5)]] | None = None
 
 
 class UnbalanceParams(_Params):
@@ -107,9 +112,14 @@ class Mode(_Params):
 
 
 class BearingVibrationParams(_Params):
-    """Accelerations at main-bearing sensors from the bearing forces through a few modes."""
+    """Accelerations at main-bearing sensors from the bearing forces through a few modes.
+
+    ``modes`` serve every sensor; ``sensors`` may give a sensor its own
+    (``sensors = { "mb5-vertical" = [{ frequency_hz = ..., damping = ..., gain = ... }] }``).
+    """
 
     modes: list[Mode] = Field(min_length=1)
+    sensors: dict[str, list[Mode]] = Field(default_factory=dict)
 
 
 class MisfireParams(_Params):
@@ -345,6 +355,14 @@ def check_effects(scene: Scene, *, origin: str = "scene") -> None:
             raise SceneError(
                 f"{origin}: effect {name!r}: sensor {target!r} is not a {' or '.join(wanted)} sensor of the "
                 f"scene; sensors: {', '.join(f'{n} ({k})' for n, k in kinds.items())}"
+            )
+    vibration = named(scene, "bearing_vibration")
+    if isinstance(vibration, BearingVibrationParams):
+        unknown_sensors = sorted(set(vibration.sensors) - set(kinds))
+        if unknown_sensors:
+            raise SceneError(
+                f"{origin}: effect 'bearing_vibration' gives modes to {', '.join(unknown_sensors)}, "
+                f"which the scene does not have; sensors: {', '.join(kinds)}"
             )
     noise = named(scene, "noise")
     if noise is not None:

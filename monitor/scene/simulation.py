@@ -156,6 +156,8 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     unbalance = named(scene, "unbalance")
     external = named(scene, "external_torque")
     n = engine.cylinders
+    if isinstance(gas, GasParams) and gas.scale is not None and len(gas.scale) != n:
+        raise SceneError(f"effect 'gas': scale has {len(gas.scale)} values; the engine has {n} cylinders")
     if inertia is None and gas is None and unbalance is None:
         if external is None:
             return None
@@ -170,7 +172,8 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     from monitor.gas import gas_force
     from monitor.orders import order_coefficients
 
-    gas_scale, charge_scale = [1.0] * n, [1.0] * n
+    gas_scale = list(gas.scale) if isinstance(gas, GasParams) and gas.scale is not None else [1.0] * n
+    charge_scale = [1.0] * n
     for effect, params in (
         ("misfire", named(scene, "misfire")),
         ("weak_cylinder", named(scene, "weak_cylinder")),
@@ -188,7 +191,7 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
             if isinstance(params, MisfireParams):
                 gas_scale[c - 1] = 0.0
             elif isinstance(params, WeakCylinderParams):
-                gas_scale[c - 1] = params.scale
+                gas_scale[c - 1] *= params.scale
             elif isinstance(params, LeakingCylinderParams):
                 charge_scale[c - 1] = params.compression
     faulted = any(s != 1.0 for s in gas_scale + charge_scale)
@@ -670,10 +673,10 @@ def _bearing_response(
     return sources.bearing.a[b - 1, component], sources.bearing.b[b - 1, component], sources.orders
 
 
-def _transfer(params: BearingVibrationParams, frequency: FloatArray) -> ComplexArray:
+def _transfer(params: BearingVibrationParams, frequency: FloatArray, sensor: str = "") -> ComplexArray:
     w = 2 * np.pi * np.asarray(frequency)
     total = np.zeros(w.shape, dtype=np.complex128)
-    for mode in params.modes:
+    for mode in params.sensors.get(sensor, params.modes):
         wn = 2 * np.pi * mode.frequency_hz
         total += mode.gain * w**2 / (wn**2 - w**2 + 2j * mode.damping * wn * w)
     return total
@@ -807,7 +810,7 @@ def _channel(
             def measured(w: FloatArray) -> ComplexArray:
                 """Per unit of bearing force, at the orders' frequencies for mean speed(s) w."""
                 frequency = np.multiply.outer(w, orders)  # [rad/s]
-                transfer = _transfer(params, frequency / (2 * np.pi))
+                transfer = _transfer(params, frequency / (2 * np.pi), sensor.name)
                 if sensor.kind == "velocity":  # the acceleration integrated, order by order, in mm/s
                     transfer = np.where(
                         frequency > 0, 1e3 * transfer / (1j * np.where(frequency > 0, frequency, 1)), 0
