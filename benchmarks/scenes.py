@@ -47,8 +47,8 @@ EFFECTS: list[tuple[str, dict[str, Any]]] = [
         {"inertia": {}, "gas": {}, "crank_speed": {"model": "shaft_line"}},
     ),
     (
-        "crank_speed variable_inertia (with inertia, gas)",
-        {"inertia": {}, "gas": {}, "crank_speed": {"model": "variable_inertia"}},
+        "crank_speed variable_inertia, damping 0.4 (with inertia, gas)",
+        {"inertia": {}, "gas": {}, "crank_speed": {"model": "variable_inertia", "damping": 0.4}},
     ),
     ("bearing_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "bearing_vibration": MODES}),
     ("axial_vibration (with inertia, gas)", {"inertia": {}, "gas": {}, "axial_vibration": {}}),
