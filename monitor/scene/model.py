@@ -98,7 +98,6 @@ class Sensor(_Strict):
     direction: Literal["vertical", "horizontal", "axial", ""] = ""
     sample_rate_hz: Annotated[float, Field(gt=0, le=1e6)] = 25600.0
     representation: Literal["waveform", "events"] = "waveform"
-    noise: Annotated[float, Field(ge=0, description="noise RMS in the channel's unit")] = 0.0
     range: tuple[float, float] | None = None
     teeth: Annotated[int, Field(ge=3, le=720)] = 60
     missing_teeth: Annotated[int, Field(ge=1)] = 2
@@ -155,6 +154,18 @@ class Scene(_Strict):
         return self
 
 
+def _fields_at(loc: tuple[int | str, ...]) -> list[str]:
+    """The known fields of the table an unknown field was found in."""
+    model: type[BaseModel] = Scene
+    if loc[:1] == ("sensors",):
+        model = Sensor
+    elif loc[:2] == ("operating_point", "trend"):
+        model = Trend
+    elif loc[:1] == ("operating_point",):
+        model = OperatingPoint
+    return [name for name in model.model_fields if name != "source_dir"]
+
+
 def parse_scene(data: dict[str, Any], *, origin: str = "scene", source_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dictionary (the TOML's content).
 
@@ -182,10 +193,16 @@ def parse_scene(data: dict[str, Any], *, origin: str = "scene", source_dir: Path
         for problem in error.errors():
             where = ".".join(str(p) for p in problem["loc"]) or "(top level)"
             if problem["type"] == "extra_forbidden":
-                lines.append(f"{where}: unknown field")
+                lines.append(f"{where}: unknown field (fields: {', '.join(_fields_at(problem['loc']))})")
             else:
                 lines.append(f"{where}: {problem['msg']}")
         raise SceneError(f"{origin}: " + "; ".join(lines)) from None
+    for sensor in scene.sensors:
+        if sensor.representation == "waveform" and scene.duration_s * sensor.sample_rate_hz < 16:
+            raise SceneError(
+                f"{origin}: sensor {sensor.name!r}: duration_s = {scene.duration_s:g} s at sample_rate_hz = "
+                f"{sensor.sample_rate_hz:g} gives fewer than 16 samples; lengthen the scene"
+            )
     from monitor.scene.effects import check_effects
 
     check_effects(scene, origin=origin)

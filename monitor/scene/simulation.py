@@ -11,14 +11,15 @@ Channels are synthesised sample by sample as ``Re sum_k C_k(Omega(t))
 exp(i k theta(t))`` with the crank angle ``theta(t)`` of the recording.
 
 Crank angle.  The mean speed follows the scene's trend. With
-``crank_speed`` named, the crankshaft turns as one rigid body of inertia
-``J`` (the shaft line's inertias, reciprocating parts at their mean):
-the kinetic energy balance gives ``omega(theta)^2 = Omega^2 + (2 / J)
-integral (T - T_mean) dtheta``, exact for the rigid body at a steady mean
-speed, and the time at each angle is ``integral dtheta / omega`` (Simpson
-on 512 points per revolution); sample times are mapped back to angles by
-interpolation of that table. Without it the crank turns at the trend's
-speed.
+``crank_speed`` (rigid) named, the engine side of the shaft line (free end,
+throws with their reciprocating parts at their mean, flywheel) turns as one
+rigid body of inertia ``J``: the kinetic energy balance gives
+``omega(theta)^2 = Omega^2 + (2 / J) integral (T - T_mean) dtheta``, exact
+for the rigid body at a steady mean speed, and the time at each angle is
+``integral dtheta / omega`` (Simpson on 512 points per revolution); sample
+times are mapped back to angles by interpolation of that table. Without it
+the crank turns at the trend's speed. The shaft-line and variable-inertia
+models give the tooth wheel's lead over the mean rotation instead.
 
 Sensors.  Accelerometers on main bearing ``b`` (location "main bearing b",
 direction vertical: the force's y component, horizontal: x) measure the
@@ -146,6 +147,7 @@ class _Sources:
     gas_scale: list[float] = field(default_factory=list)
     charge_scale: list[float] = field(default_factory=list)
     cylinder_torque: _Orders | None = None  # shape (n_cylinders, n_orders): each throw's own
+    gas_model: str = "none"  # the pressure model used ("parametric" when cylinder faults are named)
     external: ComplexArray | None = None  # the external torque's orders (speed-independent)
 
 
@@ -287,6 +289,7 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
         torque = _Orders(orders, torque.a + external_torque, torque.b)
     return _Sources(
         orders,
+        gas_model=model.gas if gas is not None else "none",
         cylinder_torque=per_cylinder,
         external=external_torque,
         torque=torque if (has_cylinders or external is not None) else None,
@@ -457,6 +460,13 @@ def _variable_inertia_crank(
         )
     if engine.shaft_line is None:
         raise SceneError(f"crank_speed (variable_inertia) needs the [shaft_line] of engine {engine.id!r}")
+    faults = [name for name in ("misfire", "weak_cylinder", "leaking_cylinder") if name in scene.effects]
+    gas = named(scene, "gas")
+    if faults or (isinstance(gas, GasParams) and gas.scale is not None):
+        raise SceneError(
+            "crank_speed (variable_inertia) is one equivalent crank driven by one healthy cylinder's gas "
+            f"torque: remove {', '.join(faults) or 'gas.scale'} or use the rigid or shaft_line model"
+        )
     w = float(omega_mean[0])
     excitation = (
         gas_excitation(engine, w, load=scene.operating_point.load, max_order=MAX_ORDER)
@@ -505,14 +515,46 @@ def _variable_inertia_crank(
     return _Crank(crank_angle, angle / w, lambda t: mean(np.asarray(t, dtype=np.float64)))
 
 
+def _check_locations(scene: Scene, engine: Engine) -> None:
+    """Refuse main bearings the engine does not have, in sensor locations and in worn_bearing."""
+    count = engine.bearing_count
+    for sensor in scene.sensors:
+        words = sensor.location.lower().replace("-", " ").split()
+        if words[:2] == ["main", "bearing"] and (sensor.bearing is None or not 1 <= sensor.bearing <= count):
+            raise SceneError(
+                f"sensor {sensor.name!r}: location {sensor.location!r}: expected 'main bearing N' with N = "
+                f"1..{count} (engine {engine.id!r})"
+            )
+    worn = named(scene, "worn_bearing")
+    if isinstance(worn, WornBearingParams) and not 1 <= worn.bearing <= count:
+        raise SceneError(
+            f"effect 'worn_bearing': bearing {worn.bearing} does not exist (the engine has {count})"
+        )
+
+
 def _rigid_inertia(engine: Engine) -> float:
+    """The engine side of the shaft line as one rigid body [kg m^2].
+
+    Free-end elements, throws (reciprocating parts at their mean) and the
+    driven-end elements up to the flywheel: above the first mode (the engine
+    against its propeller or generator, 3.3 Hz on both bundled engines) the
+    engine side turns as one body up to the second mode, where the firing
+    orders of these engines lie; without a flywheel, the throws and free end.
+    """
     from monitor.torsion.shaft_line import shaft_line_of
 
     if engine.shaft_line is None:
         raise SceneError(
             f"effect 'crank_speed' (rigid) needs the inertias of engine {engine.id!r}: add its [shaft_line]"
         )
-    return float(sum(node.inertia for node in shaft_line_of(engine).nodes))
+    line = shaft_line_of(engine)
+    names = list(line.node_names)
+    last = max(names.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1))
+    for element in engine.shaft_line.driven_end:
+        if element.kind == "flywheel":
+            last = names.index(element.name)
+            break
+    return float(sum(node.inertia for node in line.nodes[: last + 1]))
 
 
 def _synthesise(coefficients: ComplexArray, orders: FloatArray, angle: FloatArray) -> FloatArray:
@@ -781,6 +823,13 @@ def _channel(
         values = np.interp(own, grid, trace) / 1e5  # [bar]
     elif sensor.direction == "axial":  # axial acceleration [m/s^2] or velocity [mm/s] of a journal
         values = np.zeros(n)
+        if named(scene, "axial_vibration") is not None and (
+            sources is None or sources.cylinder_torque is None
+        ):
+            raise SceneError(
+                "axial_vibration is driven by the cylinders' torques (the model ends at the thrust bearing, "
+                "an external torque does not reach it): add inertia or gas to [effects]"
+            )
         if (
             named(scene, "axial_vibration") is not None
             and sources is not None
@@ -979,6 +1028,7 @@ def simulate(
     """
     engine = _engine(scene)
     seed = scene.seed if seed is None else seed
+    _check_locations(scene, engine)
     evaluated: list[str] = []
     sources = _sources(scene, engine, evaluated)
     expected: dict[str, Any] = {}
@@ -1006,6 +1056,7 @@ def simulate(
         "seed": seed,
         "operating_point": scene.operating_point.model_dump(),
         "effects": scene.effects,
+        "gas_model": sources.gas_model if sources else "none",
         "cylinder_gas_scale": sources.gas_scale if sources else [1.0] * engine.cylinders,
         "cylinder_charge_scale": sources.charge_scale if sources else [1.0] * engine.cylinders,
         "expected_orders": expected,
