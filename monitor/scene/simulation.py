@@ -70,7 +70,6 @@ __all__ = ["Simulation", "simulate"]
 
 MAX_ORDER = 36.0  # highest order synthesised [-]
 _FINE = 512  # points per revolution of the angle-time table
-_BLOCK = 8192  # samples synthesised at a time
 _SPEED_NODES = 9  # mean speeds at which coefficients are tabulated along a trend
 
 
@@ -363,17 +362,7 @@ def _shaft_line_lead(
             torque[where] += sources.external
         for j in np.flatnonzero(k > 0):
             table[i, j] = line.harmonic_response(float(k[j] * w), torque[:, j])[0][probe]
-    lead = np.zeros(angle.size)
-    for start in range(0, angle.size, _BLOCK):
-        part = slice(start, start + _BLOCK)
-        if speeds.size == 1:
-            coefficients = table[0]
-        else:
-            position = np.clip((omega_mean[part] - lo) / (hi - lo) * (speeds.size - 1), 0, speeds.size - 1)
-            below = np.minimum(position.astype(np.int64), speeds.size - 2)
-            weight = (position - below)[:, None]
-            coefficients = (1 - weight) * table[below] + weight * table[below + 1]
-        lead[part] = _synthesise(coefficients, k, angle[part])
+    lead = _CycleTable.of(table, k, engine.cycle_revolutions, speeds).at(angle, omega_mean)
     start_speed = float(omega_mean[0])
     at_start = np.array(
         [
@@ -591,7 +580,11 @@ class _CycleTable:
         table = np.fft.irfft(spectrum, n=points, axis=-1)
         return cls(np.concatenate([table, table[:, :1]], axis=1), speeds, 2 * math.pi * revolutions)
 
-    def at(self, angle: FloatArray, speed: FloatArray) -> FloatArray:
+    def at(self, angle: FloatArray, speed: FloatArray | None = None) -> FloatArray:
+        """The tabulated sum at crank angles ``angle`` [rad] and mean speeds ``speed`` [rad/s].
+
+        ``speed`` is needed only when more than one speed is tabulated.
+        """
         points = self.values.shape[1] - 1
         where = np.mod(angle, self.cycle) * (points / self.cycle)
         i = np.minimum(where.astype(np.int64), points - 1)
@@ -599,6 +592,8 @@ class _CycleTable:
         if self.speeds.size == 1:
             row = self.values[0]
             return np.asarray(row[i] * (1 - frac) + row[i + 1] * frac)
+        if speed is None:
+            raise ValueError("a table over several mean speeds needs the speed of every sample")
         position = np.clip((speed - self.speeds[0]) / (self.speeds[-1] - self.speeds[0]), 0, 1) * (
             self.speeds.size - 1
         )
@@ -654,16 +649,13 @@ def _crank(
         k = sources.orders
         positive = k > 0
         # the integral of T - T_mean: sum over k > 0 of T_k exp(i k a) / (i k), with T_k = A_k + w^2 B_k
-        integral_a = np.zeros(angle.size)
-        integral_b = np.zeros(angle.size)
-        for lo in range(0, angle.size, _BLOCK):
-            part = angle[lo : lo + _BLOCK]
-            integral_a[lo : lo + _BLOCK] = _synthesise(
-                sources.torque.a[positive] / (1j * k[positive]), k[positive], part
+        over_k = np.where(positive, 1.0 / (1j * np.where(positive, k, 1.0)), 0.0)
+        integral_a, integral_b = (
+            _CycleTable.of((part * over_k)[None, :], k, engine.cycle_revolutions, np.zeros(1)).at(
+                angle, angle
             )
-            integral_b[lo : lo + _BLOCK] = _synthesise(
-                sources.torque.b[positive] / (1j * k[positive]), k[positive], part
-            )
+            for part in (sources.torque.a, sources.torque.b)
+        )
         energy = omega_mean**2 + (2.0 / inertia) * (integral_a + omega_mean**2 * integral_b)
         if np.any(energy <= 0):
             raise SceneError(
