@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +37,7 @@ __all__ = [
     "FormatError",
     "QualitySpan",
     "Recording",
+    "SampleReader",
     "quality_spans",
     "refuse_unusable",
 ]
@@ -324,6 +325,87 @@ def refuse_unusable(
             f"{where}: unusable samples ({first.reason} {first.start:.3f}-{first.stop:.3f} s"
             f"{', and more' if len(spans) > 1 else ''}): cut them out before analysing the channel"
         )
+
+
+class SampleReader:
+    """A waveform channel's samples in a file, read by contiguous slices and checked as they are read.
+
+    The array-like face the pipeline uses (``shape``, ``size``, ``dtype``,
+    slicing, conversion to a whole array); every slice read is refused if it
+    holds NaN, Inf or clipped samples (:func:`refuse_unusable`). Subclasses
+    read the samples in :meth:`_read`.
+
+    Parameters
+    ----------
+    where : str
+        The file and channel, for messages.
+    size : int
+        Samples in the channel.
+    dtype : numpy dtype
+        Their type.
+    sample_rate : float
+        [Hz].
+    start_offset : float
+        Time of the first sample [s].
+    limits : (float, float) or None
+        Measuring range for the clipping check [the channel's unit]; None: not judged.
+    """
+
+    def __init__(
+        self,
+        where: str,
+        size: int,
+        dtype: Any,
+        sample_rate: float,
+        start_offset: float,
+        limits: tuple[float, float] | None,
+    ) -> None:
+        self._where = where
+        self._size = int(size)
+        self._dtype = np.dtype(dtype)
+        self._rate = sample_rate
+        self._offset = start_offset
+        self._limits = limits
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self._size,)
+
+    @property
+    def ndim(self) -> int:
+        return 1
+
+    @property
+    def size(self) -> int:
+        return self._size
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return self._dtype
+
+    def __len__(self) -> int:
+        return self._size
+
+    def __getitem__(self, index: slice) -> np.ndarray:
+        if not isinstance(index, slice) or index.step not in (None, 1):
+            raise TypeError(f"{self._where}: samples are read by contiguous slices")
+        start, stop, _ = index.indices(self._size)
+        block = self._read(start, max(start, stop))
+        refuse_unusable(
+            self._where,
+            block,
+            self._rate,
+            start_offset=self._offset + start / self._rate,
+            limits=self._limits,
+        )
+        return block
+
+    def _read(self, start: int, stop: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        whole = self[:]
+        return whole if dtype is None else whole.astype(dtype)
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ import h5py
 import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, refuse_unusable
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
 
@@ -184,7 +184,7 @@ def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:
     )
 
 
-class Hdf5Samples:
+class Hdf5Samples(SampleReader):
     """A waveform channel's samples in an open HDF5 file, read by slices and checked as they are read.
 
     Parameters
@@ -208,53 +208,16 @@ class Hdf5Samples:
         start_offset: float,
         limits: tuple[float, float] | None,
     ) -> None:
+        super().__init__(where, dataset.shape[0], dataset.dtype, sample_rate, start_offset, limits)
         self._dataset = dataset
-        self._where = where
-        self._rate = sample_rate
-        self._offset = start_offset
-        self._limits = limits
 
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return tuple(self._dataset.shape)
-
-    @property
-    def ndim(self) -> int:
-        return len(self._dataset.shape)
-
-    @property
-    def size(self) -> int:
-        return int(self._dataset.size)
-
-    @property
-    def dtype(self) -> np.dtype[Any]:
-        return np.dtype(self._dataset.dtype)
-
-    def __len__(self) -> int:
-        return int(self._dataset.shape[0])
-
-    def __getitem__(self, index: slice) -> np.ndarray:
-        if not isinstance(index, slice) or index.step not in (None, 1):
-            raise TypeError("HDF5 samples are read by contiguous slices")
-        start, _, _ = index.indices(len(self))
+    def _read(self, start: int, stop: int) -> np.ndarray:
         try:
-            block = np.asarray(self._dataset[index])
+            return np.asarray(self._dataset[start:stop])
         except OSError as error:
             raise FormatError(
                 f"{self._where}: checksum failure or damaged data ({error}); the file is corrupt"
             ) from None
-        refuse_unusable(
-            self._where,
-            block,
-            self._rate,
-            start_offset=self._offset + start / self._rate,
-            limits=self._limits,
-        )
-        return block
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        whole = self[:]
-        return whole if dtype is None else whole.astype(dtype)
 
 
 def _refuse_links(f: h5py.File, source: Path) -> None:

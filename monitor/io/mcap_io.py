@@ -50,7 +50,7 @@ from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, refuse_unusable
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader
 
 __all__ = [
     "McapListing",
@@ -653,7 +653,7 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
             samples.close()
 
 
-class McapSamples:
+class McapSamples(SampleReader):
     """A waveform channel of an indexed MCAP recording, read forward by slices and checked as read.
 
     Slices are served from a buffer that moves forward with them; a slice
@@ -671,21 +671,22 @@ class McapSamples:
     """
 
     def __init__(self, source: Path, topic: str, meta: dict[str, str]) -> None:
-        self._source = source
-        self._topic = topic
-        self._where = f"{source}: channel {topic.lstrip('/')!r}"
-        self._rate = float(meta.get("sample_rate_hz", "nan"))
-        self._offset = float(meta.get("start_offset_s", "0"))
-        self._dtype = np.dtype(meta["dtype"])
+        where = f"{source}: channel {topic.lstrip('/')!r}"
         if "samples" not in meta:
-            raise FormatError(f"{self._where}: missing channel metadata 'samples'")
-        self._size = int(meta["samples"])
+            raise FormatError(f"{where}: missing channel metadata 'samples'")
         pulses = meta["kind"] in ("keyphasor", "tooth", "cam")  # pulse channels sit at their rails by design
-        self._limits = (
+        super().__init__(
+            where,
+            int(meta["samples"]),
+            meta["dtype"],
+            float(meta.get("sample_rate_hz", "nan")),
+            float(meta.get("start_offset_s", "0")),
             (float(meta["range_min"]), float(meta["range_max"]))
             if "range_min" in meta and not pulses
-            else None
+            else None,
         )
+        self._source = source
+        self._topic = topic
         self._messages: Iterator[Any] | None = None
         self._buffer = np.empty(0, self._dtype)
         self._start = 0  # sample index of the buffer's first sample
@@ -698,25 +699,6 @@ class McapSamples:
         with open(source, "rb") as fh, _damage_named(f"{source}: channel {topic.lstrip('/')!r}"):
             for _, _, message in make_reader(fh, validate_crcs=True).iter_messages(topics=[topic]):
                 yield message
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return (self._size,)
-
-    @property
-    def ndim(self) -> int:
-        return 1
-
-    @property
-    def size(self) -> int:
-        return self._size
-
-    @property
-    def dtype(self) -> np.dtype[Any]:
-        return self._dtype
-
-    def __len__(self) -> int:
-        return self._size
 
     def close(self) -> None:
         """Stop reading (closes the file)."""
@@ -741,11 +723,9 @@ class McapSamples:
         self._expected += values.size
         return values.astype(self._dtype, copy=False)
 
-    def __getitem__(self, index: slice) -> np.ndarray:
-        if not isinstance(index, slice) or index.step not in (None, 1):
-            raise TypeError("MCAP samples are read by contiguous slices")
+    def _read(self, start: int, stop: int) -> np.ndarray:
         with self._lock:  # one reader of the topic, whichever thread asks
-            return self._slice(*index.indices(self._size)[:2])
+            return self._slice(start, stop)
 
     def _slice(self, a: int, b: int) -> np.ndarray:
         b = max(a, b)
@@ -762,15 +742,7 @@ class McapSamples:
             held += block.size
         self._buffer = np.concatenate(pieces) if len(pieces) > 1 else pieces[0]  # from sample a on
         self._start = a
-        out = self._buffer[: b - a]
-        refuse_unusable(
-            self._where, out, self._rate, start_offset=self._offset + a / self._rate, limits=self._limits
-        )
-        return out
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        whole = self[:]
-        return whole if dtype is None else whole.astype(dtype)
+        return self._buffer[: b - a]
 
 
 # -------------------------------------------------------------------------------- third-party files
