@@ -70,8 +70,9 @@ class CrankSpeedParams(_Params):
     """Crank-speed fluctuation at the tooth wheel.
 
     ``rigid``: the engine side of the shaft line (free end, throws, flywheel)
-    as one rigid body, by its energy balance: right between the first mode
-    (the engine against its propeller or generator) and the second. ``shaft_line``: the steady forced response
+    as one rigid body, by its energy balance: right above the first mode (the
+    engine against its propeller or generator) and below the crankshaft's own
+    modes. ``shaft_line``: the steady forced response
     of the engine's shaft-line model (:mod:`monitor.torsion.shaft_line`) to
     each cylinder's torque orders at the local mean speed, read at the
     tooth-wheel element (``[shaft_line] tooth_wheel``, else the outermost

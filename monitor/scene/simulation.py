@@ -526,9 +526,10 @@ def _rigid_inertia(engine: Engine) -> float:
 
     Free-end elements, throws (reciprocating parts at their mean) and the
     driven-end elements up to the flywheel: above the first mode (the engine
-    against its propeller or generator, 3.3 Hz on both bundled engines) the
-    engine side turns as one body up to the second mode, where the firing
-    orders of these engines lie; without a flywheel, the throws and free end.
+    against its propeller or generator: 3.3 Hz on the 7K98MC, 3.5 Hz on the
+    6L32) the engine side turns as one body up to the crankshaft's own modes
+    (24 Hz on the 7K98MC, 54 Hz on the 6L32), below which their firing orders lie;
+    without a flywheel, the throws and free end.
     """
     from monitor.torsion.shaft_line import shaft_line_of
 
