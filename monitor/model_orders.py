@@ -15,6 +15,24 @@ complex order coefficients, with phases relative to TDC of cylinder 1 (see
 Everything that does not depend on the operating point (kinematics, the
 pressure basis) is evaluated once in :class:`~monitor.crankshaft.EngineModel`;
 :func:`predict_orders` then costs one batched FFT and a few small products.
+
+Cylinder strengths.  The diagnosis estimates how strongly each cylinder
+fires, so it needs each cylinder's torque and throw force split by what a
+fault changes (:func:`cylinder_parts`).  The gas force ``(p - p_ambient) A``
+is affine in the pressure, and the crank train's forces are linear in the
+gas force at a given speed, so every quantity of cylinder ``c`` is
+
+    inertia(Omega) + fixed + s_c combustion
+
+with ``s_c`` the cylinder's strength (1 = as the model).  With the
+parametric cycle, ``combustion`` is the heat-release part of the pressure and
+``fixed`` the compression of the charge less the ambient pressure (a
+misfiring cylinder, ``s_c = 0``, is motored); with a measured trace, the
+whole gas force is ``combustion``.  :func:`combine_cylinders` phases the
+parts by the firing angles and sums them into the engine's torque and the
+main-bearing forces.  The bearing load's reversals (:func:`load_reversals`),
+where a worn bearing's journal crosses its clearance, come from the same
+forces.
 """
 
 from __future__ import annotations
@@ -23,13 +41,25 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from monitor.crankshaft import EngineModel, phase_shift
+from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.forces import crank_train_forces
+from monitor.gas import gas_force
 from monitor.orders import order_coefficients
 from monitor.types import ComplexArray, FloatArray
 
-__all__ = ["ModelOrders", "predict_orders"]
+__all__ = [
+    "CombinedOrders",
+    "CylinderParts",
+    "ModelOrders",
+    "combine_cylinders",
+    "cylinder_parts",
+    "load_reversals",
+    "predict_orders",
+]
 
 
 @dataclass(frozen=True)
@@ -174,3 +204,189 @@ def predict_orders(
         kinematics=kin.model,
         gas=model.gas,
     )
+
+
+@dataclass(frozen=True)
+class CylinderParts:
+    """Cylinder 1's torque and throw force at one operating point, split by source (complex, peak, SI).
+
+    Rows of each array: torque [N m], throw force x [N], throw force y [N] (the rod's
+    force on the crank pin plus the throw's unbalance, as in :func:`predict_orders`).
+
+    Attributes
+    ----------
+    orders : ndarray, shape (n_orders,)
+    inertia : ndarray, shape (3, n_orders)
+        Moving masses and weights at the crank speed.
+    fixed : ndarray, shape (3, n_orders)
+        The part of the gas force that a cylinder's strength does not scale.
+    combustion : ndarray, shape (3, n_orders)
+        The part it scales.
+    strength : str
+        What a strength of 1 means: "heat release" (parametric cycle) or
+        "gas force" (measured trace); "" without gas forces.
+    crank_speed, load : float
+        [rad/s], fraction of rated IMEP [-].
+    """
+
+    orders: FloatArray
+    inertia: ComplexArray
+    fixed: ComplexArray
+    combustion: ComplexArray
+    strength: str
+    crank_speed: float
+    load: float
+
+
+def cylinder_parts(
+    model: EngineModel, *, crank_speed: float, load: float, max_order: float = 24
+) -> CylinderParts:
+    """Cylinder 1's torque and throw-force orders split into inertia, fixed gas and combustion parts.
+
+    Parameters
+    ----------
+    model : EngineModel
+    crank_speed : float
+        Mean crank speed, > 0 [rad/s].
+    load : float
+        Fraction of rated IMEP, 0..1.1 [-].
+    max_order : float, optional
+        Highest order [-].
+
+    Returns
+    -------
+    CylinderParts
+
+    Raises
+    ------
+    ModelError
+        For a speed or load out of range.
+    """
+    if not (math.isfinite(crank_speed) and crank_speed > 0):
+        raise ModelError(f"crank_speed = {crank_speed!r}: expected a positive speed [rad/s]")
+    if not 0.0 <= load <= 1.1:
+        raise ModelError(f"load = {load!r}: expected 0 <= load <= 1.1 (fraction of rated IMEP)")
+    engine = model.engine
+    area, ambient = engine.piston_area, model._ambient
+
+    def rows(force: FloatArray | float, speed: float, gravity: float) -> FloatArray:
+        f = crank_train_forces(
+            model.kinematics,
+            model.train,
+            crank_speed=speed,
+            gas_force=force,
+            rod_model=model.rod_model,
+            gravity=gravity,
+        )
+        return np.stack([f.torque, f.pin_force_x, f.pin_force_y])
+
+    zero = np.zeros_like(model.crank_angle)
+    unb_x, unb_y = model.unbalance_force(crank_speed)
+    inertia = rows(0.0, crank_speed, model.gravity) + np.stack([zero, unb_x, unb_y])
+    # the forces are affine in the gas force: its part is the difference to no gas force (at a
+    # speed of 1 rad/s and no weights, where the rest is small; the difference is exact either way)
+    empty = rows(0.0, 1.0, 0.0)
+    if model.gas == "parametric":
+        assert model._cycle is not None and model._setup.gas_basis is not None
+        basis_charge, basis_heat = model._setup.gas_basis
+        charge = model._cycle.charge_pressure(load) * basis_charge
+        heat = model._cycle.heat_release(load) * basis_heat
+        fixed = rows(gas_force(charge, area, ambient), 1.0, 0.0) - empty
+        combustion = rows(heat * area, 1.0, 0.0) - empty
+        strength = "heat release"
+    elif model.gas == "measured":
+        fixed = np.zeros_like(inertia)
+        combustion = rows(gas_force(model.cylinder_pressure(load), area, ambient), 1.0, 0.0) - empty
+        strength = "gas force"
+    else:
+        fixed = combustion = np.zeros_like(inertia)
+        strength = ""
+    oc = order_coefficients(
+        np.stack([inertia, fixed, combustion]), cycle_revolutions=model.cycle_revolutions, max_order=max_order
+    )
+    return CylinderParts(
+        orders=oc.orders,
+        inertia=oc.coefficients[0],
+        fixed=oc.coefficients[1],
+        combustion=oc.coefficients[2],
+        strength=strength,
+        crank_speed=float(crank_speed),
+        load=float(load),
+    )
+
+
+@dataclass(frozen=True)
+class CombinedOrders:
+    """The engine's orders for given cylinder strengths (complex, peak, SI).
+
+    Attributes
+    ----------
+    orders : ndarray, shape (n_orders,)
+    cylinder_torque : ndarray, shape (n_cylinders, n_orders)
+        Each throw's torque, phased by its firing angle [N m].
+    engine_torque : ndarray, shape (n_orders,)
+        [N m].
+    bearing_force : ndarray, shape (n_bearings, 2, n_orders)
+        Force of the crankshaft on each main bearing, x and y [N].
+    """
+
+    orders: FloatArray
+    cylinder_torque: ComplexArray
+    engine_torque: ComplexArray
+    bearing_force: ComplexArray
+
+
+def combine_cylinders(parts: CylinderParts, engine: Engine, strengths: npt.ArrayLike) -> CombinedOrders:
+    """Sum the cylinders' parts, each with its strength and firing angle.
+
+    Parameters
+    ----------
+    parts : CylinderParts
+    engine : Engine
+    strengths : array_like, shape (n_cylinders,)
+        Each cylinder's strength (1 = as the model, 0 = motored) [-].
+
+    Returns
+    -------
+    CombinedOrders
+    """
+    s = np.asarray(strengths, dtype=np.float64)
+    if s.shape != (engine.cylinders,):
+        raise ModelError(f"strengths have shape {s.shape}: expected one per cylinder ({engine.cylinders})")
+    one = parts.inertia + parts.fixed  # (3, n_orders)
+    per_cylinder = one[None, :, :] + s[:, None, None] * parts.combustion[None, :, :]
+    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))
+    phased = per_cylinder * rotation[:, None, :]  # (n_cyl, 3, n_orders)
+    bearing = np.einsum("bc,cko->bko", engine.bearing_share, phased[:, 1:3, :])
+    torque = phased[:, 0, :]
+    return CombinedOrders(parts.orders, torque, torque.sum(axis=0), bearing)
+
+
+def load_reversals(
+    force: ComplexArray, orders: FloatArray, cycle_revolutions: int, *, points: int = 4096
+) -> FloatArray:
+    """Cycle angles where a bearing's load turns: local minima of its magnitude below the cycle mean.
+
+    There the journal crosses its clearance; a worn bearing knocks.
+
+    Parameters
+    ----------
+    force : ndarray, shape (2, n_orders)
+        The bearing force's x and y orders [N].
+    orders : ndarray, shape (n_orders,)
+    cycle_revolutions : int
+    points : int, optional
+        Grid points per revolution on which the minima are found.
+
+    Returns
+    -------
+    ndarray
+        Cycle angles [rad], ascending (the global minimum alone if no local one lies below the mean).
+    """
+    grid = np.arange(points * cycle_revolutions) * (2 * math.pi / points)
+    phasor = np.exp(1j * np.multiply.outer(grid, orders))
+    x, y = np.real(phasor @ force[0]), np.real(phasor @ force[1])
+    magnitude = np.hypot(x, y)
+    low = (magnitude < np.roll(magnitude, 1)) & (magnitude <= np.roll(magnitude, -1))
+    low &= magnitude < magnitude.mean()
+    return np.asarray(grid[low] if low.any() else grid[[int(np.argmin(magnitude))]])

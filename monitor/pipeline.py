@@ -41,6 +41,7 @@ from monitor.recording import Channel, FormatError, Recording
 from monitor.signal.angle_domain import (
     AngleDomainSignal,
     AngleGrid,
+    HighFrequencyPower,
     OrderSpectrum,
     OrderSpeedMap,
     angle_grid,
@@ -256,6 +257,8 @@ class SpectrumResult:
     cycle_revolutions : int
     speed_maps : dict of str to OrderSpeedMap
         Order amplitudes against speed per channel (run-ups), when asked for.
+    high_frequency : dict of str to HighFrequencyPower
+        Crank-angle profiles of the vibration channels' high-frequency power, when asked for.
     """
 
     reference: AngleReference
@@ -264,6 +267,7 @@ class SpectrumResult:
     mean_speed: float
     cycle_revolutions: int
     speed_maps: dict[str, OrderSpeedMap] = field(default_factory=dict)
+    high_frequency: dict[str, HighFrequencyPower] = field(default_factory=dict)
 
 
 def spectra(
@@ -278,6 +282,7 @@ def spectra(
     cycle_phase: float | None = None,
     speed_bins: int | None = None,
     workers: int | None = None,
+    high_frequency: bool = False,
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -302,6 +307,9 @@ def spectra(
         Also map every channel's order amplitudes against speed in this many bins (run-ups).
     workers : int, optional
         Threads computing channels in parallel; default: one per core.
+    high_frequency : bool, optional
+        Also profile the high-frequency power of every acceleration and velocity channel over
+        the cycle (in the same pass over its samples).
 
     Returns
     -------
@@ -354,6 +362,8 @@ def spectra(
             )
         jobs[name] = (channel, grids[span])
 
+    profiles: dict[str, HighFrequencyPower] = {}
+
     def channel_spectrum(name: str) -> tuple[OrderSpectrum, OrderSpeedMap | None]:
         channel, grid = jobs[name]
         resampled = to_angle_domain(
@@ -365,8 +375,11 @@ def spectra(
             start_time=channel.start_offset,
             interpolation_order=interpolation_order,
             grid=grid,
+            high_frequency=high_frequency and channel.kind in ("acceleration", "velocity"),
         )
         spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
+        if resampled.high_frequency is not None:
+            profiles[name] = resampled.high_frequency
         if speed_bins is None:
             return spectrum, None
         return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
@@ -409,6 +422,7 @@ def spectra(
             -1j * factor * g.amplitude,
             factor * g.magnitude_mean,
             factor * g.magnitude_std,
+            factor * g.scatter,
             g.blocks,
             g.block_cycles,
         )
@@ -427,4 +441,5 @@ def spectra(
     if crank is not None:
         result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
-    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps)
+    profiled = dict(sorted(profiles.items()))
+    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps, profiled)

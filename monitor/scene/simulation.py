@@ -44,6 +44,7 @@ import numpy.typing as npt
 from pydantic import BaseModel
 
 from monitor.engine import Engine, bundled_engines, load_engine
+from monitor.model_orders import load_reversals
 from monitor.recording import Channel, Recording
 from monitor.scene.effects import (
     BearingVibrationParams,
@@ -522,29 +523,14 @@ def _check_locations(scene: Scene, engine: Engine) -> None:
 
 
 def _rigid_inertia(engine: Engine) -> float:
-    """The engine side of the shaft line as one rigid body [kg m^2].
-
-    Free-end elements, throws (reciprocating parts at their mean) and the
-    driven-end elements up to the flywheel: above the first mode (the engine
-    against its propeller or generator: 3.3 Hz on the 7K98MC, 3.5 Hz on the
-    6L32) the engine side turns as one body up to the crankshaft's own modes
-    (24 Hz on the 7K98MC, 54 Hz on the 6L32), below which their firing orders lie;
-    without a flywheel, the throws and free end.
-    """
-    from monitor.torsion.shaft_line import shaft_line_of
+    """The engine side of the shaft line as one rigid body [kg m^2] (see ``engine_side_inertia``)."""
+    from monitor.torsion.shaft_line import engine_side_inertia
 
     if engine.shaft_line is None:
         raise SceneError(
             f"effect 'crank_speed' (rigid) needs the inertias of engine {engine.id!r}: add its [shaft_line]"
         )
-    line = shaft_line_of(engine)
-    names = list(line.node_names)
-    last = max(names.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1))
-    for element in engine.shaft_line.driven_end:
-        if element.kind == "flywheel":
-            last = names.index(element.name)
-            break
-    return float(sum(node.inertia for node in line.nodes[: last + 1]))
+    return engine_side_inertia(engine)
 
 
 def _synthesise(coefficients: ComplexArray, orders: FloatArray, angle: FloatArray) -> FloatArray:
@@ -965,15 +951,8 @@ def _knocks(
         sources.bearing.a[params.bearing - 1] + w**2 * sources.bearing.b[params.bearing - 1]
     )  # (2, orders)
     cycle = 2 * math.pi * R
-    grid: FloatArray = np.arange(4096 * R, dtype=np.float64) * (cycle / (4096 * R))
-    magnitude = np.hypot(
-        _synthesise(force[0], sources.orders, grid), _synthesise(force[1], sources.orders, grid)
-    )
-    # the journal crosses its clearance where the load is least: the local minima of its magnitude
-    # below the cycle's mean
-    low = (magnitude < np.roll(magnitude, 1)) & (magnitude <= np.roll(magnitude, -1))
-    low &= magnitude < magnitude.mean()
-    reversals = grid[low] if low.any() else grid[[int(np.argmin(magnitude))]]
+    # the journal crosses its clearance where the load is least (what the diagnosis looks at)
+    reversals = load_reversals(force, sources.orders, R)
     expected[f"{sensor.name} knocks"] = {
         "bearing": params.bearing,
         "knock_angles_deg": np.degrees(reversals).tolist(),

@@ -62,6 +62,7 @@ __all__ = [
     "campbell",
     "cylinder_torque_orders",
     "engine_forced_response",
+    "engine_side_inertia",
     "mean_reciprocating_inertia",
     "reciprocating_inertia",
     "shaft_line_of",
@@ -389,6 +390,33 @@ def mean_reciprocating_inertia(engine: Engine) -> float:
     """
     grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
     return float(np.mean(reciprocating_inertia(engine, grid)))
+
+
+def engine_side_inertia(engine: Engine) -> float:
+    """The engine side of the shaft line as one rigid body [kg m^2].
+
+    Free-end elements, throws (reciprocating parts at their mean) and the
+    driven-end elements up to the flywheel: above the first mode (the engine
+    against its propeller or generator: 3.3 Hz on the 7K98MC, 3.5 Hz on the
+    6L32) the engine side turns as one body up to the crankshaft's own modes
+    (24 Hz on the 7K98MC, 54 Hz on the 6L32), below which their firing orders lie;
+    without a flywheel, the throws and free end.
+
+    Raises
+    ------
+    ModelError
+        If the engine has no ``[shaft_line]``.
+    """
+    if engine.shaft_line is None:
+        raise ModelError(f"engine {engine.id!r} has no [shaft_line]: its inertias are unknown")
+    line = shaft_line_of(engine)
+    names = list(line.node_names)
+    last = max(names.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1))
+    for element in engine.shaft_line.driven_end:
+        if element.kind == "flywheel":
+            last = names.index(element.name)
+            break
+    return float(sum(node.inertia for node in line.nodes[: last + 1]))
 
 
 def shaft_line_of(
