@@ -91,7 +91,10 @@ def detect_edges(
     min_prominence : float, optional
         Smallest rise of a pulse above its trough, and fall after its top [signal
         unit]; it acts as the hysteresis. Default: 5 % of the signal's peak-to-peak range
-        (of each block's, on a long waveform: it follows a slowly changing amplitude).
+        (of each block's, on a long waveform: it follows a slowly changing amplitude), or
+        ``NOISE_MARGIN`` (8) times the noise's rms if that is more, up to a quarter of the range
+        (the noise estimated from the lower quartile of the absolute differences of neighbouring
+        samples, which the flat parts of a pulse train give).
 
     Returns
     -------
@@ -170,6 +173,7 @@ def detect_edges(
     return EdgeDetection(start_time + times / sample_rate, levels, swings)
 
 
+NOISE_MARGIN = 8.0  # default hysteresis over the noise's rms [-]
 _EDGE_BLOCK = 1 << 20  # samples per block of a long pulse waveform (4 MB of float32)
 
 
@@ -187,7 +191,17 @@ def _block_edges(
     if not high_p > low_p:  # flat: no pulse here
         empty = np.empty(0)
         return empty, empty, empty, 0.0
-    prominence = 0.05 * (high_p - low_p) if min_prominence is None else float(min_prominence)
+    if min_prominence is None:
+        # 5 % of the range, and well above the noise (up to a quarter of the range): the noise's rms
+        # from the lower quartile of the absolute differences of neighbouring samples (the flat parts
+        # of a pulse train), on every 8th pair; for Gaussian noise that quartile is 0.3186 sqrt(2) rms
+        pairs = np.arange(1, x.size, 8)
+        steps = np.abs(x[pairs].astype(np.float64) - x[pairs - 1])
+        noise = float(np.percentile(steps, 25)) / (0.3186 * math.sqrt(2.0))
+        swing = high_p - low_p
+        prominence = max(0.05 * swing, min(NOISE_MARGIN * noise, 0.25 * swing))
+    else:
+        prominence = float(min_prominence)
     times, levels, swings = _timed_pulses(np.ascontiguousarray(x), prominence, level, rising)
     return times, levels, swings, prominence
 
