@@ -56,6 +56,7 @@ __all__ = [
     "PressureTrace",
     "ShaftElement",
     "ShaftLine",
+    "VibrationLimits",
     "bundled_engines",
     "load_engine",
     "parse_engine",
@@ -181,6 +182,28 @@ class Bearings(_Strict):
     positions_m: list[float] | None = Field(
         default=None, description="axial bearing positions from bearing 1 (default: mid-pitch)"
     )
+
+
+class VibrationLimits(_Strict):
+    """Overall vibration velocity zones in the style of ISO 10816-6 (see :mod:`monitor.diagnosis.zones`)."""
+
+    zone_boundaries_mm_s: tuple[float, float, float] = Field(
+        description="rms velocity at the A/B, B/C and C/D zone boundaries [mm/s], increasing"
+    )
+    band_hz: tuple[float, float] = Field(default=(2.0, 1000.0), description="band of the rms [Hz]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> VibrationLimits:
+        a, b, c = self.zone_boundaries_mm_s
+        if not 0 < a < b < c:
+            raise ValueError(
+                f"vibration_limits.zone_boundaries_mm_s = {list(self.zone_boundaries_mm_s)}: "
+                "expected three increasing positive values (A/B, B/C, C/D)"
+            )
+        low, high = self.band_hz
+        if not 0 < low < high:
+            raise ValueError(f"vibration_limits.band_hz = {list(self.band_hz)}: expected 0 < low < high")
+        return self
 
 
 class Combustion(_Strict):
@@ -317,6 +340,7 @@ class Engine(_Strict):
     combustion: Combustion | None = None
     pressure_trace: PressureTrace | None = None
     shaft_line: ShaftLine | None = None
+    vibration_limits: VibrationLimits | None = None
     source_dir: Path | None = Field(default=None, exclude=True, description="folder of the file")
 
     @model_validator(mode="after")

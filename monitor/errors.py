@@ -22,5 +22,10 @@ class ModelError(MonitorError, ValueError):
     """A model was asked for something outside its domain (e.g. a rod ratio >= 1)."""
 
 
+class DiagnosisError(MonitorError, ValueError):
+    """A recording that cannot be diagnosed as asked: another engine than its baseline, a channel
+    layout the baseline lacks, no usable angle reference for what is asked."""
+
+
 class DataQualityWarning(UserWarning):
     """Suspect but usable data; the message says how to fix it."""

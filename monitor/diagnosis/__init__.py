@@ -1,0 +1,36 @@
+"""Diagnosis: measured orders against the engine's model; cylinders and main bearings named.
+
+See :mod:`monitor.diagnosis.diagnose` for the steps and thresholds,
+:mod:`monitor.diagnosis.balance` for the cylinder balance,
+:mod:`monitor.diagnosis.bearings` for the bearing indicators,
+:mod:`monitor.diagnosis.zones` for the vibration zones and
+:mod:`monitor.diagnosis.baseline` for the stored calibration.
+"""
+
+from monitor.diagnosis.balance import CylinderBalance, cylinder_balance
+from monitor.diagnosis.baseline import Baseline, SensorBaseline
+from monitor.diagnosis.diagnose import (
+    ANALYSIS_VERSION,
+    BearingResult,
+    ChannelComparison,
+    Diagnosis,
+    Finding,
+    calibrate,
+    diagnose,
+    predicted_speed,
+)
+
+__all__ = [
+    "ANALYSIS_VERSION",
+    "Baseline",
+    "BearingResult",
+    "ChannelComparison",
+    "CylinderBalance",
+    "Diagnosis",
+    "Finding",
+    "SensorBaseline",
+    "calibrate",
+    "cylinder_balance",
+    "diagnose",
+    "predicted_speed",
+]

@@ -1,0 +1,194 @@
+"""A healthy baseline's calibration: per sensor, the structure's transfer and its impact profile.
+
+Calibrated once on a healthy recording of an engine (:func:`monitor.diagnosis.calibrate`)
+and stored as a small JSON document (``engine-monitor calibrate``), then
+reused for every later recording of the same engine and sensor layout.
+
+For each vibration sensor on a main bearing: the transfer ``H_k = X_k / F_k``
+from the bearing force to the sensor's orders with its standard error, the
+high-frequency power profile over the cycle, and the overall rms velocity;
+beside them the operating point and cylinder strengths it was calibrated at.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from monitor.errors import DiagnosisError
+from monitor.signal.angle_domain import HighFrequencyPower
+from monitor.types import ComplexArray, FloatArray
+
+__all__ = ["BASELINE_FORMAT", "Baseline", "SensorBaseline"]
+
+BASELINE_FORMAT = "engine-monitor baseline 1"
+
+
+@dataclass(frozen=True)
+class SensorBaseline:
+    """One sensor's calibration.
+
+    Attributes
+    ----------
+    channel : str
+    kind : str
+        "acceleration" or "velocity".
+    unit : str
+    bearing : int
+        The main bearing it sits on (1-based).
+    direction : str
+        "vertical" (the force's y) or "horizontal" (x).
+    sample_rate : float
+        [Hz]
+    orders : ndarray
+    transfer : ndarray, complex
+        ``H_k`` [unit / N].
+    transfer_error : ndarray
+        Standard error of ``H_k`` [unit / N].
+    high_frequency : HighFrequencyPower
+    velocity_rms : float
+        [mm/s]
+    """
+
+    channel: str
+    kind: str
+    unit: str
+    bearing: int
+    direction: str
+    sample_rate: float
+    orders: FloatArray
+    transfer: ComplexArray
+    transfer_error: FloatArray
+    high_frequency: HighFrequencyPower
+    velocity_rms: float
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A healthy recording's calibration of an engine's sensors.
+
+    Attributes
+    ----------
+    engine_id : str
+    speed_rpm : float
+        Mean crank speed of the baseline [rpm].
+    load : float
+        Load the model was evaluated at [-].
+    strengths : list of float
+        The baseline's estimated cylinder strengths (all 1 when they could not be estimated).
+    samples_per_cycle : int
+        Of the angle-domain grid (the impact profiles' bins).
+    sensors : dict of str to SensorBaseline
+    source : str
+        The baseline recording's file name.
+    """
+
+    engine_id: str
+    speed_rpm: float
+    load: float
+    strengths: list[float]
+    samples_per_cycle: int
+    sensors: dict[str, SensorBaseline]
+    source: str
+
+    def to_document(self) -> dict[str, Any]:
+        """The JSON document (complex numbers as [re, im] pairs)."""
+        return {
+            "format": BASELINE_FORMAT,
+            "engine_id": self.engine_id,
+            "speed_rpm": self.speed_rpm,
+            "load": self.load,
+            "strengths": list(self.strengths),
+            "samples_per_cycle": self.samples_per_cycle,
+            "source": self.source,
+            "sensors": {
+                name: {
+                    "kind": s.kind,
+                    "unit": s.unit,
+                    "bearing": s.bearing,
+                    "direction": s.direction,
+                    "sample_rate_hz": s.sample_rate,
+                    "orders": s.orders.tolist(),
+                    "transfer": [[z.real, z.imag] for z in s.transfer.tolist()],
+                    "transfer_error": s.transfer_error.tolist(),
+                    "high_frequency_mean": s.high_frequency.mean.tolist(),
+                    "high_frequency_std": s.high_frequency.std.tolist(),
+                    "high_frequency_cycles": s.high_frequency.cycles,
+                    "velocity_rms_mm_s": s.velocity_rms,
+                }
+                for name, s in self.sensors.items()
+            },
+        }
+
+    def write(self, path: str | Path) -> Path:
+        """Write the JSON document (whole or not at all: through a temporary file)."""
+        target = Path(path)
+        temporary = target.with_name(target.name + ".partial")
+        temporary.write_text(json.dumps(self.to_document(), indent=1) + "\n")
+        temporary.replace(target)
+        return target
+
+    @classmethod
+    def from_document(cls, document: dict[str, Any], *, origin: str = "baseline") -> Baseline:
+        """Read a document written by :meth:`to_document`.
+
+        Raises
+        ------
+        DiagnosisError
+            For another format or a missing field.
+        """
+        if document.get("format") != BASELINE_FORMAT:
+            raise DiagnosisError(
+                f"{origin}: format {document.get('format')!r}, expected {BASELINE_FORMAT!r} "
+                "(write it with 'engine-monitor calibrate')"
+            )
+        try:
+            sensors = {}
+            for name, s in document["sensors"].items():
+                profile = HighFrequencyPower(
+                    np.asarray(s["high_frequency_mean"], dtype=np.float64),
+                    np.asarray(s["high_frequency_std"], dtype=np.float64),
+                    int(s["high_frequency_cycles"]),
+                    float(s["sample_rate_hz"]),
+                )
+                pairs = np.asarray(s["transfer"], dtype=np.float64).reshape(-1, 2)
+                sensors[name] = SensorBaseline(
+                    channel=name,
+                    kind=str(s["kind"]),
+                    unit=str(s["unit"]),
+                    bearing=int(s["bearing"]),
+                    direction=str(s["direction"]),
+                    sample_rate=float(s["sample_rate_hz"]),
+                    orders=np.asarray(s["orders"], dtype=np.float64),
+                    transfer=pairs[:, 0] + 1j * pairs[:, 1],
+                    transfer_error=np.asarray(s["transfer_error"], dtype=np.float64),
+                    high_frequency=profile,
+                    velocity_rms=float(s["velocity_rms_mm_s"]),
+                )
+            return cls(
+                engine_id=str(document["engine_id"]),
+                speed_rpm=float(document["speed_rpm"]),
+                load=float(document["load"]),
+                strengths=[float(v) for v in document["strengths"]],
+                samples_per_cycle=int(document["samples_per_cycle"]),
+                sensors=sensors,
+                source=str(document.get("source", "")),
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            raise DiagnosisError(f"{origin}: not a complete baseline document ({error!r})") from error
+
+    @classmethod
+    def read(cls, path: str | Path) -> Baseline:
+        """Read a baseline JSON file."""
+        source = Path(path)
+        try:
+            document = json.loads(source.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise DiagnosisError(f"{source}: cannot read the baseline ({error})") from error
+        if not isinstance(document, dict):
+            raise DiagnosisError(f"{source}: not a baseline document")
+        return cls.from_document(document, origin=str(source))

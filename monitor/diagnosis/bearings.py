@@ -1,0 +1,214 @@
+"""Main bearings: accelerometer orders against the calibrated model, and impact content.
+
+Orders.  A sensor on main bearing ``b`` measures ``X_k = H_k F_k``: the force
+of the crankshaft on the bearing (:func:`monitor.model_orders.combine_cylinders`,
+``y`` for a vertical sensor, ``x`` for a horizontal one) through the
+structure's transfer ``H_k``.  ``H_k`` is calibrated per sensor and order on
+a healthy baseline recording of the same engine, ``H_k = X_k / F_k`` at the
+baseline's own speed, load and cylinder strengths; a later recording's
+prediction is ``H_k F_k`` at its own.  The transfer holds at the baseline's
+frequencies ``k Omega``: a recording more than :data:`SPEED_TOLERANCE` away
+in speed is not compared order by order (the report says so).  Orders whose
+prediction is small against the block spread, or against the channel's
+largest order, carry no evidence and are left out.
+
+Impacts.  Wear opens the clearance: where the bearing's load turns
+(:func:`monitor.model_orders.load_reversals`) the journal crosses it and
+knocks.  The high-frequency power profile of each sensor
+(:class:`monitor.signal.angle_domain.HighFrequencyPower`) is averaged over
+crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each reversal to
+:data:`WINDOW_AFTER_DEG` after it (the knock rings down after the turn), and
+divided by the baseline's power in the same bins; without a baseline, by the
+median of the recording's own profile.  A sensor hears its neighbours'
+bearings too, so the windows of the bearing it sits on and of the bearings
+next to it are scored, and the worst is named.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from monitor.signal.angle_domain import HighFrequencyPower, OrderSpectrum
+from monitor.types import ComplexArray, FloatArray
+
+__all__ = [
+    "SPEED_TOLERANCE",
+    "WINDOW_AFTER_DEG",
+    "WINDOW_BEFORE_DEG",
+    "ImpactScore",
+    "OrderDeviation",
+    "impact_score",
+    "order_deviations",
+]
+
+SPEED_TOLERANCE = 0.05  # largest relative speed difference at which a calibrated transfer is used [-]
+WINDOW_BEFORE_DEG = 10.0  # crank angle before a load reversal in its impact window [deg]
+WINDOW_AFTER_DEG = 30.0  # and after it [deg]
+RELEVANT_FRACTION = 0.02  # orders predicted below this fraction of the channel's largest carry no evidence
+RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
+
+
+@dataclass(frozen=True)
+class OrderDeviation:
+    """Measured against predicted orders of one vibration channel.
+
+    Attributes
+    ----------
+    orders : ndarray
+        The orders compared [-].
+    measured, predicted : ndarray, complex
+        [the channel's unit].
+    deviation : ndarray
+        ``|measured - predicted| / |predicted|`` [-].
+    deviation_error : ndarray
+        Its standard error, from the blocks' spread of both recordings [-].
+    """
+
+    orders: FloatArray
+    measured: ComplexArray
+    predicted: ComplexArray
+    deviation: FloatArray
+    deviation_error: FloatArray
+
+
+def order_deviations(
+    spectrum: OrderSpectrum,
+    force: ComplexArray,
+    force_orders: FloatArray,
+    transfer: ComplexArray,
+    transfer_error: FloatArray,
+    transfer_orders: FloatArray,
+    force_error: FloatArray | None = None,
+) -> OrderDeviation:
+    """Compare a channel's orders with ``H_k F_k`` (see the module docstring).
+
+    Parameters
+    ----------
+    spectrum : OrderSpectrum
+        The recording's channel.
+    force : ndarray, complex
+        The bearing force component at the recording's operating point [N].
+    force_orders : ndarray
+    transfer, transfer_error : ndarray
+        Calibrated ``H_k`` and its standard error [unit / N].
+    transfer_orders : ndarray
+    force_error : ndarray, optional
+        Standard error of ``force`` (from the estimated cylinder strengths) [N].
+
+    Returns
+    -------
+    OrderDeviation
+        The orders 0 < k that all three cover and that carry evidence.
+    """
+    keep = []
+    for position, k in enumerate(spectrum.orders):
+        if k <= 1e-9:
+            continue
+        at_f = int(np.argmin(np.abs(force_orders - k)))
+        at_h = int(np.argmin(np.abs(transfer_orders - k)))
+        if abs(force_orders[at_f] - k) < 1e-9 and abs(transfer_orders[at_h] - k) < 1e-9:
+            keep.append((position, at_f, at_h))
+    if not keep:
+        empty = np.zeros(0)
+        return OrderDeviation(empty, empty.astype(complex), empty.astype(complex), empty, empty)
+    j, i_f, i_h = (np.array(v) for v in zip(*keep, strict=True))
+    measured = spectrum.amplitude[j]
+    predicted = transfer[i_h] * force[i_f]
+    error = np.hypot(spectrum.standard_error[j], transfer_error[i_h] * np.abs(force[i_f]))
+    if force_error is not None:
+        error = np.hypot(error, np.abs(transfer[i_h]) * force_error[i_f])
+    size = np.abs(predicted)
+    relevant = (size >= RELEVANT_FRACTION * size.max()) & (size >= RELEVANT_SIGMAS * error)
+    size = np.where(size > 0, size, 1.0)
+    return OrderDeviation(
+        orders=spectrum.orders[j][relevant],
+        measured=measured[relevant],
+        predicted=predicted[relevant],
+        deviation=(np.abs(measured - predicted) / size)[relevant],
+        deviation_error=(error / size)[relevant],
+    )
+
+
+@dataclass(frozen=True)
+class ImpactScore:
+    """Impact content in a bearing's load-reversal windows, against a reference.
+
+    Attributes
+    ----------
+    bearing : int
+        The bearing whose windows were scored.
+    score : float
+        Mean high-frequency power in the windows over the reference's [-] (1 = as the reference).
+    score_error : float
+        Standard error [-].
+    reference : str
+        "baseline" or "own median".
+    reversal_angles_deg : list of float
+        The load reversals' cycle angles [deg].
+    """
+
+    bearing: int
+    score: float
+    score_error: float
+    reference: str
+    reversal_angles_deg: list[float]
+
+
+def window_bins(reversals: FloatArray, bins: int, cycle_revolutions: int) -> FloatArray:
+    """Boolean mask over a profile's bins: those in any reversal's window."""
+    cycle = 2 * math.pi * cycle_revolutions
+    start = np.arange(bins) * (cycle / bins)
+    centre = start + 0.5 * cycle / bins
+    mask = np.zeros(bins, dtype=bool)
+    before, after = math.radians(WINDOW_BEFORE_DEG), math.radians(WINDOW_AFTER_DEG)
+    for r in reversals:
+        offset = (centre - r + before) % cycle  # 0 at the window's start
+        mask |= offset <= before + after
+    return mask
+
+
+def impact_score(
+    profile: HighFrequencyPower,
+    reversals: FloatArray,
+    bearing: int,
+    cycle_revolutions: int,
+    baseline: HighFrequencyPower | None = None,
+) -> ImpactScore:
+    """Score a bearing's reversal windows in a sensor's high-frequency profile (module docstring).
+
+    Parameters
+    ----------
+    profile : HighFrequencyPower
+    reversals : ndarray
+        The bearing's load reversals, cycle angles [rad].
+    bearing : int
+    cycle_revolutions : int
+    baseline : HighFrequencyPower, optional
+        The same sensor's profile on the healthy baseline (same bins and sampling rate).
+
+    Returns
+    -------
+    ImpactScore
+    """
+    bins = profile.mean.size
+    mask = window_bins(reversals, bins, cycle_revolutions)
+    count = int(mask.sum())
+    inside = float(profile.mean[mask].mean())
+    inside_error = float(np.sqrt(np.sum(profile.std[mask] ** 2)) / count / math.sqrt(max(profile.cycles, 1)))
+    if baseline is not None:
+        reference = float(baseline.mean[mask].mean())
+        reference_error = float(
+            np.sqrt(np.sum(baseline.std[mask] ** 2)) / count / math.sqrt(max(baseline.cycles, 1))
+        )
+        how = "baseline"
+    else:
+        reference = float(np.median(profile.mean))
+        reference_error = float(np.median(profile.std) / math.sqrt(max(profile.cycles * bins, 1)))
+        how = "own median"
+    reference = max(reference, 1e-300)
+    score = inside / reference
+    error = score * math.hypot(inside_error / max(inside, 1e-300), reference_error / reference)
+    return ImpactScore(bearing, score, error, how, np.degrees(reversals).round(2).tolist())

@@ -1,0 +1,844 @@
+"""The diagnosis of a recording: measured orders against the model, findings with severity.
+
+Steps (DESIGN.md, "Diagnosis: the sums behind it"):
+
+1. Order spectra of every vibration channel and of the crank speed, with the
+   crank-angle profile of each vibration channel's high-frequency power, in
+   one pass (:func:`monitor.pipeline.spectra`).
+2. Cylinder balance from the crank-speed orders (:mod:`monitor.diagnosis.balance`):
+   each cylinder's strength with its standard error.
+3. The model at the recording's own mean speed and load, with the estimated
+   strengths: the crank-speed orders (rigid body or shaft line) and the
+   main-bearing forces; through the baseline's calibrated transfers, each
+   bearing sensor's orders (:mod:`monitor.diagnosis.bearings`).
+4. Impact content in each bearing's load-reversal windows; the overall rms
+   velocity of each vibration channel against its zones (:mod:`monitor.diagnosis.zones`).
+5. Findings: a deviation beyond its engineering threshold (below) and
+   statistically significant (at least :data:`SIGNIFICANCE` standard errors
+   from the healthy value) is a finding, with the evidence behind it and a
+   confidence, the probability that the true value is beyond the threshold
+   (normal errors).
+
+Thresholds (the product's defaults, for the shipped acceptance set):
+
+- cylinder strength against those that fire alike: a warning outside
+  85 %..115 %, an alarm below 50 % (a misfiring cylinder is near 0 %) or above 130 %;
+- a bearing sensor's order against its calibrated prediction: a warning at a
+  deviation of 50 % of the prediction, an alarm at 100 %;
+- impact power in a bearing's reversal windows against the baseline's: a
+  warning at 3 times, an alarm at 10 times;
+- rms velocity: zone C a warning, zone D an alarm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from monitor.crankshaft import EngineModel
+from monitor.diagnosis.balance import CylinderBalance, Transfer, cylinder_balance
+from monitor.diagnosis.baseline import Baseline, SensorBaseline
+from monitor.diagnosis.bearings import (
+    SPEED_TOLERANCE,
+    ImpactScore,
+    OrderDeviation,
+    impact_score,
+    order_deviations,
+)
+from monitor.diagnosis.zones import (
+    DEFAULT_BAND_HZ,
+    DEFAULT_BOUNDARIES_MM_S,
+    VelocityRms,
+    velocity_rms,
+    zone_of,
+)
+from monitor.engine import Engine
+from monitor.errors import DiagnosisError, ModelError
+from monitor.model_orders import (
+    CombinedOrders,
+    CylinderParts,
+    combine_cylinders,
+    cylinder_parts,
+    load_reversals,
+)
+from monitor.orders import order_coefficients
+from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, spectra
+from monitor.recording import Channel, Recording
+from monitor.types import ComplexArray, FloatArray
+
+__all__ = [
+    "ANALYSIS_VERSION",
+    "BearingResult",
+    "ChannelComparison",
+    "Diagnosis",
+    "Finding",
+    "calibrate",
+    "diagnose",
+    "predicted_speed",
+]
+
+ANALYSIS_VERSION = "1"
+SIGNIFICANCE = 4.0  # standard errors between a finding's estimate and the healthy value [-]
+CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
+CYLINDER_ALARM = (0.5, 1.3)
+MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
+BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
+IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's [-]
+SEVERITIES = ("healthy", "warning", "alarm")
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A deviation the product reports.
+
+    Attributes
+    ----------
+    kind : str
+        "cylinder", "main bearing" or "vibration zone".
+    subject : str
+        What it names: "cylinder 4", "main bearing 5", or the channel for a zone.
+    severity : str
+        "warning" or "alarm".
+    summary : str
+        One line for people.
+    confidence : float
+        Probability that the true value lies beyond the threshold crossed [-].
+    evidence : list of dict
+        What was measured, against what prediction and threshold, in which unit.
+    """
+
+    kind: str
+    subject: str
+    severity: str
+    summary: str
+    confidence: float
+    evidence: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class ChannelComparison:
+    """Measured against predicted orders of one channel.
+
+    Attributes
+    ----------
+    channel : str
+    unit : str
+    orders : ndarray
+    measured, predicted : ndarray, complex
+    standard_error : ndarray
+        Of ``measured``, from the spread over the averaged blocks (and the calibration).
+    basis : str
+        What the prediction rests on.
+    """
+
+    channel: str
+    unit: str
+    orders: FloatArray
+    measured: ComplexArray
+    predicted: ComplexArray
+    standard_error: FloatArray
+    basis: str
+
+    @property
+    def deviation(self) -> FloatArray:
+        """``|measured - predicted|`` over the channel's largest predicted order [-]."""
+        largest = float(np.abs(self.predicted).max()) if self.predicted.size else 0.0
+        return np.asarray(np.abs(self.measured - self.predicted) / (largest if largest > 0 else 1.0))
+
+
+@dataclass(frozen=True)
+class BearingResult:
+    """One bearing sensor's results.
+
+    Attributes
+    ----------
+    channel : str
+    bearing : int
+    orders : OrderDeviation or None
+        None without a usable calibration (the reason is in the diagnosis' notes).
+    impacts : list of ImpactScore
+        The sensor's own bearing's windows and its neighbours'.
+    """
+
+    channel: str
+    bearing: int
+    orders: OrderDeviation | None
+    impacts: list[ImpactScore]
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """A recording's diagnosis.
+
+    Attributes
+    ----------
+    engine_id : str
+    speed_rpm : float
+        Mean crank speed [rpm].
+    load : float
+        Load the model was evaluated at [-].
+    status : str
+        "healthy", "warning" or "alarm": the worst finding.
+    findings : list of Finding
+    balance : CylinderBalance or None
+    comparisons : list of ChannelComparison
+    bearings : list of BearingResult
+    velocity : dict of str to (VelocityRms, zone)
+    zone_boundaries_mm_s : tuple of float
+    notes : list of str
+        What was not done, and why.
+    spectra : SpectrumResult
+    baseline : str
+        The baseline's source, or "".
+    """
+
+    engine_id: str
+    speed_rpm: float
+    load: float
+    status: str
+    findings: list[Finding]
+    balance: CylinderBalance | None
+    comparisons: list[ChannelComparison]
+    bearings: list[BearingResult]
+    velocity: dict[str, tuple[VelocityRms, str]]
+    zone_boundaries_mm_s: tuple[float, float, float]
+    notes: list[str]
+    spectra: SpectrumResult = field(repr=False)
+    baseline: str = ""
+
+
+# ------------------------------------------------------------------------------------------ model
+def predicted_speed(
+    torque: ComplexArray, orders: FloatArray, inertia: float, mean_speed: float, cycle_revolutions: int
+) -> ComplexArray:
+    """Speed orders of a rigid body driven by a torque, exactly: ``omega = sqrt(c + 2 E / J)``.
+
+    ``E`` is the torque's integral over the angle (order by order ``T_k / (i k)``) and ``c``
+    is chosen so that the mean speed over the cycle is ``mean_speed``.
+
+    Parameters
+    ----------
+    torque : ndarray, complex, shape (n_orders,)
+        [N m] (order 0 ignored: the load takes the mean).
+    orders : ndarray
+    inertia : float
+        [kg m^2]
+    mean_speed : float
+        [rad/s]
+    cycle_revolutions : int
+
+    Returns
+    -------
+    ndarray, complex, shape (n_orders,)
+        [rad/s], order 0 the mean speed.
+    """
+    highest = float(orders[-1])
+    points = 2 ** math.ceil(math.log2(max(64, 8 * highest * cycle_revolutions)))
+    theta = np.arange(points) * (2 * math.pi * cycle_revolutions / points)
+    energy_orders = np.zeros(orders.size, dtype=np.complex128)
+    energy_orders[1:] = torque[1:] / (1j * orders[1:])
+    energy = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ energy_orders)
+    c = mean_speed**2
+    for _ in range(50):  # Newton on the mean speed
+        omega = np.sqrt(np.maximum(c + 2 * energy / inertia, 1e-12 * mean_speed**2))
+        miss = float(omega.mean()) - mean_speed
+        c -= miss / float(np.mean(0.5 / omega))
+        if abs(miss) < 1e-13 * mean_speed:
+            break
+    omega = np.sqrt(np.maximum(c + 2 * energy / inertia, 1e-12 * mean_speed**2))
+    out = order_coefficients(omega, cycle_revolutions=cycle_revolutions, max_order=highest).coefficients
+    return np.asarray(out[: orders.size])
+
+
+def _bearing_of(channel: Channel) -> int | None:
+    words = channel.location.lower().split()
+    if len(words) == 3 and words[:2] == ["main", "bearing"] and words[2].isdigit():
+        return int(words[2])
+    return None
+
+
+def _vibration_channels(recording: Recording) -> list[Channel]:
+    return [c for c in recording.channels if c.kind in ("acceleration", "velocity") and not c.is_events]
+
+
+def _bearing_sensors(recording: Recording, engine: Engine) -> list[tuple[Channel, int]]:
+    out = []
+    for channel in _vibration_channels(recording):
+        b = _bearing_of(channel)
+        if (
+            b is not None
+            and channel.direction in ("vertical", "horizontal")
+            and 1 <= b <= engine.bearing_count
+        ):
+            out.append((channel, b))
+    return out
+
+
+@dataclass(frozen=True)
+class _Analysis:
+    spectra: SpectrumResult
+    balance: CylinderBalance | None
+    combined: CombinedOrders
+    nominal: CombinedOrders
+    load: float
+    notes: list[str]
+    inertia: float
+    force_error: FloatArray  # (n_bearings, 2, n_orders): of combined.bearing_force, from the strengths [N]
+
+
+def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
+    """Standard error of each bearing force order that the strengths' covariance gives [N].
+
+    ``dF_bk / ds_c = share_bc combustion_k exp(-i k phi_c)``; ``E |dF|^2 = g^H C g``.
+    """
+    n_orders = parts.orders.size
+    if covariance is None:
+        return np.zeros((engine.bearing_count, 2, n_orders))
+    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))  # (n_cyl, n_orders)
+    g = engine.bearing_share[:, :, None, None] * (
+        rotation[None, :, None, :] * parts.combustion[None, None, 1:3, :]
+    )  # (n_b, n_cyl, 2, n_orders)
+    variance = np.einsum("bcko,cd,bdko->bko", g, covariance, np.conj(g)).real
+    return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
+
+
+def _analyse(
+    recording: Recording, engine: Engine, *, load: float, transfer: Transfer, max_order: float
+) -> _Analysis:
+    if recording.engine_id and recording.engine_id != engine.id:
+        raise DiagnosisError(
+            f"the recording is of engine {recording.engine_id!r}, the description given is {engine.id!r}"
+        )
+    R = engine.cycle_revolutions
+    result = spectra(recording, cycle_revolutions=R, max_order=max_order, high_frequency=True)
+    model = EngineModel(engine, gas="auto")
+    parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
+    notes: list[str] = []
+    balance = None
+    strengths = np.ones(engine.cylinders)
+    speed = result.spectra.get(SPEED_CHANNEL)
+    if speed is None or speed.orders.size < 2:
+        notes.append(
+            "cylinder balance not done: the angle reference gives no crank-speed orders "
+            f"({result.reference.pulses_per_revolution} pulse(s) per revolution; a tooth wheel gives them)"
+        )
+    else:
+        try:
+            balance = cylinder_balance(speed, engine, parts, transfer=transfer)
+        except ModelError as error:
+            notes.append(f"cylinder balance not done: {error}")
+        else:
+            if balance.separable:
+                strengths = balance.strength
+            else:
+                notes.append(
+                    f"the crank-speed orders cannot tell the cylinders apart (condition number "
+                    f"{balance.condition:.3g}): no cylinder is named"
+                )
+    covariance = balance.strength_covariance if balance is not None and balance.separable else None
+    inertia = 0.0
+    if transfer == "rigid":
+        from monitor.torsion.shaft_line import engine_side_inertia
+
+        try:
+            inertia = engine_side_inertia(engine)
+        except ModelError as error:
+            notes.append(f"crank speed not predicted: {error}")
+    return _Analysis(
+        spectra=result,
+        balance=balance,
+        combined=combine_cylinders(parts, engine, strengths),
+        nominal=combine_cylinders(parts, engine, np.ones(engine.cylinders)),
+        load=load,
+        notes=notes,
+        inertia=inertia,
+        force_error=_force_error(parts, engine, covariance),
+    )
+
+
+def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -> ChannelComparison | None:
+    speed = analysis.spectra.spectra.get(SPEED_CHANNEL)
+    if speed is None or speed.orders.size < 2:
+        return None
+    orders = speed.orders
+    nominal = analysis.nominal
+    index = [int(np.argmin(np.abs(nominal.orders - k))) for k in orders]
+    if transfer == "rigid":
+        if analysis.inertia <= 0:
+            return None
+        predicted = predicted_speed(
+            nominal.engine_torque[index],
+            orders,
+            analysis.inertia,
+            float(speed.amplitude[0].real),
+            engine.cycle_revolutions,
+        )
+        basis = f"healthy model, rigid engine side (J = {analysis.inertia:.4g} kg m^2)"
+    else:
+        from monitor.diagnosis.balance import _shaft_line_receptance
+
+        receptance = _shaft_line_receptance(engine, orders[1:], float(speed.amplitude[0].real))
+        predicted = np.concatenate(
+            [[speed.amplitude[0]], (receptance * nominal.cylinder_torque[:, index[1:]]).sum(axis=0)]
+        )
+        basis = "healthy model, shaft-line receptance at the tooth wheel"
+    keep = orders > 1e-9
+    return ChannelComparison(
+        SPEED_CHANNEL,
+        "rad/s",
+        orders[keep],
+        speed.amplitude[keep],
+        predicted[keep],
+        speed.standard_error[keep],
+        basis,
+    )
+
+
+# ---------------------------------------------------------------------------------------- public
+def calibrate(
+    recording: Recording,
+    engine: Engine,
+    *,
+    load: float = 1.0,
+    transfer: Transfer = "rigid",
+    max_order: float = 24.0,
+    source: str = "",
+) -> Baseline:
+    """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
+
+    Parameters
+    ----------
+    recording : Recording
+        Healthy, at a steady speed.
+    engine : Engine
+    load : float, optional
+        The load it ran at [-].
+    transfer : {"rigid", "shaft-line"}, optional
+        For the cylinder balance the calibration is made at.
+    max_order : float, optional
+    source : str, optional
+        Name of the recording, kept in the baseline.
+
+    Returns
+    -------
+    Baseline
+
+    Raises
+    ------
+    DiagnosisError
+        Without a vibration sensor on a main bearing.
+    """
+    sensors = _bearing_sensors(recording, engine)
+    if not sensors:
+        raise DiagnosisError(
+            "the recording has no acceleration or velocity channel on a main bearing (location "
+            "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
+        )
+    analysis = _analyse(recording, engine, load=load, transfer=transfer, max_order=max_order)
+    result = analysis.spectra
+    out = {}
+    for channel, b in sensors:
+        spectrum = result.spectra[channel.name]
+        component = 1 if channel.direction == "vertical" else 0
+        force_orders = analysis.combined.orders
+        index = [int(np.argmin(np.abs(force_orders - k))) for k in spectrum.orders]
+        force = analysis.combined.bearing_force[b - 1, component, index]
+        magnitude = np.abs(force)
+        safe = np.where(magnitude > 0, force, 1.0)
+        transfer_k = np.where(magnitude > 0, spectrum.amplitude / safe, 0.0)
+        # H = X / F: the relative errors of X (block spread) and of F (the strengths') add
+        relative = np.hypot(
+            spectrum.standard_error
+            / np.where(magnitude > 0, magnitude, 1.0)
+            / np.maximum(np.abs(transfer_k), 1e-300),
+            analysis.force_error[b - 1, component, index] / np.where(magnitude > 0, magnitude, 1.0),
+        )
+        error = np.where(magnitude > 0, relative * np.abs(transfer_k), 0.0)
+        profile = result.high_frequency[channel.name]
+        out[channel.name] = SensorBaseline(
+            channel=channel.name,
+            kind=channel.kind,
+            unit=channel.unit,
+            bearing=b,
+            direction=channel.direction,
+            sample_rate=float(channel.sample_rate or 0.0),
+            orders=spectrum.orders,
+            transfer=np.asarray(transfer_k, dtype=np.complex128),
+            transfer_error=np.asarray(error, dtype=np.float64),
+            high_frequency=profile,
+            velocity_rms=velocity_rms(channel).value,
+        )
+    strengths = (
+        analysis.balance.strength.tolist() if analysis.balance is not None else [1.0] * engine.cylinders
+    )
+    return Baseline(
+        engine_id=engine.id,
+        speed_rpm=result.mean_speed * 30 / math.pi,
+        load=load,
+        strengths=[float(s) for s in strengths],
+        samples_per_cycle=int(profile.mean.size),
+        sensors=out,
+        source=source,
+    )
+
+
+def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) -> None:
+    if baseline.engine_id != engine.id:
+        raise DiagnosisError(
+            f"the baseline is of engine {baseline.engine_id!r}, the recording of {engine.id!r}: "
+            "calibrate a baseline of this engine"
+        )
+    missing = []
+    for channel, b in _bearing_sensors(recording, engine):
+        known = baseline.sensors.get(channel.name)
+        if known is None:
+            missing.append(f"{channel.name!r} (not in the baseline)")
+        elif (known.bearing, known.direction, known.unit, known.sample_rate) != (
+            b,
+            channel.direction,
+            channel.unit,
+            float(channel.sample_rate or 0.0),
+        ):
+            missing.append(
+                f"{channel.name!r} (baseline: main bearing {known.bearing} {known.direction}, {known.unit}, "
+                f"{known.sample_rate:g} Hz; recording: main bearing {b} {channel.direction}, {channel.unit}, "
+                f"{float(channel.sample_rate or 0):g} Hz)"
+            )
+    if missing:
+        raise DiagnosisError(
+            f"the baseline {baseline.source or ''} lacks the recording's channel layout: "
+            + ", ".join(missing)
+            + f"; baseline channels: {', '.join(sorted(baseline.sensors)) or 'none'}"
+        )
+
+
+def _phi(z: float) -> float:
+    return 0.5 * math.erfc(-z / math.sqrt(2))
+
+
+def _worse(a: str, b: str) -> str:
+    return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b
+
+
+def _cylinder_findings(balance: CylinderBalance) -> list[Finding]:
+    findings = []
+    for c in range(balance.strength.size):
+        r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
+        severity, threshold = "healthy", None
+        if r < CYLINDER_WARNING[0]:
+            severity, threshold = "warning", CYLINDER_WARNING[0]
+            if r < CYLINDER_ALARM[0]:
+                severity, threshold = "alarm", CYLINDER_ALARM[0]
+        elif r > CYLINDER_WARNING[1]:
+            severity, threshold = "warning", CYLINDER_WARNING[1]
+            if r > CYLINDER_ALARM[1]:
+                severity, threshold = "alarm", CYLINDER_ALARM[1]
+        if threshold is None or abs(r - 1.0) < SIGNIFICANCE * e:
+            continue
+        low = r < 1.0
+        what = (
+            "misfiring"
+            if r < MISFIRE_BELOW
+            else ("weak, leaking or misfiring" if low else "stronger than the others")
+        )
+        confidence = _phi((threshold - r) / e) if low else _phi((r - threshold) / e)
+        findings.append(
+            Finding(
+                kind="cylinder",
+                subject=f"cylinder {c + 1}",
+                severity=severity,
+                summary=(
+                    f"cylinder {c + 1} at {100 * r:.0f} % +- {196 * e:.0f} % of the cylinders that fire "
+                    f"alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
+                ),
+                confidence=confidence,
+                evidence=[
+                    {
+                        "quantity": "relative strength",
+                        "measured": r,
+                        "standard_error": e,
+                        "predicted": 1.0,
+                        "threshold": threshold,
+                        "unit": "-",
+                        "orders": balance.orders.tolist(),
+                        "strength": float(balance.strength[c]),
+                        "condition_number": balance.condition,
+                    }
+                ],
+            )
+        )
+    return findings
+
+
+def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
+    by_subject: dict[str, Finding] = {}
+
+    def add(finding: Finding) -> None:
+        old = by_subject.get(finding.subject)
+        if old is None:
+            by_subject[finding.subject] = finding
+            return
+        keep = finding if SEVERITIES.index(finding.severity) > SEVERITIES.index(old.severity) else old
+        by_subject[finding.subject] = Finding(
+            keep.kind,
+            keep.subject,
+            keep.severity,
+            keep.summary,
+            max(old.confidence, finding.confidence),
+            old.evidence + finding.evidence,
+        )
+
+    for result in results:
+        dev = result.orders
+        if dev is not None and dev.orders.size:
+            error = np.maximum(dev.deviation_error, 1e-12)
+            beyond = (dev.deviation >= BEARING_WARNING) & (dev.deviation >= SIGNIFICANCE * error)
+            if beyond.any():
+                worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))
+                d = float(dev.deviation[worst])
+                severity = "alarm" if d >= BEARING_ALARM else "warning"
+                threshold = BEARING_ALARM if severity == "alarm" else BEARING_WARNING
+                orders = ", ".join(f"{k:g}" for k in dev.orders[beyond])
+                add(
+                    Finding(
+                        kind="main bearing",
+                        subject=f"main bearing {result.bearing}",
+                        severity=severity,
+                        summary=(
+                            f"main bearing {result.bearing}: orders {orders} of {result.channel} deviate "
+                            f"from the calibrated model, up to {100 * d:.0f} % (order {dev.orders[worst]:g})"
+                        ),
+                        confidence=_phi((d - threshold) / float(error[worst])),
+                        evidence=[
+                            {
+                                "quantity": "order deviation",
+                                "channel": result.channel,
+                                "order": float(k),
+                                "measured": abs(complex(m)),
+                                "predicted": abs(complex(p)),
+                                "deviation": float(v),
+                                "standard_error": float(s),
+                                "threshold": BEARING_WARNING,
+                                "unit": "-",
+                            }
+                            for k, m, p, v, s in zip(
+                                dev.orders[beyond],
+                                dev.measured[beyond],
+                                dev.predicted[beyond],
+                                dev.deviation[beyond],
+                                error[beyond],
+                                strict=True,
+                            )
+                        ],
+                    )
+                )
+        if not result.impacts:
+            continue
+        own = next(s for s in result.impacts if s.bearing == result.bearing)
+        best = max(result.impacts, key=lambda s: s.score)
+        if (
+            best.score < 1.5 * own.score
+        ):  # a sensor hears its own bearing best: name a neighbour only if clearly
+            best = own
+        e = max(best.score_error, 1e-12)
+        if best.score >= IMPACT_WARNING and best.score - 1.0 >= SIGNIFICANCE * e:
+            severity = "alarm" if best.score >= IMPACT_ALARM else "warning"
+            threshold = IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING
+            add(
+                Finding(
+                    kind="main bearing",
+                    subject=f"main bearing {best.bearing}",
+                    severity=severity,
+                    summary=(
+                        f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
+                        f"the {best.reference}'s high-frequency power in those windows "
+                        f"({result.channel}; clearance or wear)"
+                    ),
+                    confidence=_phi((best.score - threshold) / e),
+                    evidence=[
+                        {
+                            "quantity": "impact power in load-reversal windows",
+                            "channel": result.channel,
+                            "measured": best.score,
+                            "standard_error": best.score_error,
+                            "predicted": 1.0,
+                            "threshold": IMPACT_WARNING,
+                            "unit": f"x {best.reference}",
+                            "reversal_angles_deg": best.reversal_angles_deg,
+                        }
+                    ],
+                )
+            )
+    return list(by_subject.values())
+
+
+def diagnose(
+    recording: Recording,
+    engine: Engine,
+    *,
+    baseline: Baseline | None = None,
+    load: float | None = None,
+    transfer: Transfer = "rigid",
+    max_order: float = 24.0,
+) -> Diagnosis:
+    """Diagnose a recording against the engine's model (see the module docstring).
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    baseline : Baseline, optional
+        A healthy recording's calibration: without it, the bearing sensors' orders are
+        not compared and impacts are judged against the recording's own profile.
+    load : float, optional
+        The load it ran at [-]; default: the baseline's, else rated (1).
+    transfer : {"rigid", "shaft-line"}, optional
+        From the torque to the crank speed.
+    max_order : float, optional
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    DiagnosisError
+        For a recording of another engine than its description or baseline, or a channel
+        layout the baseline lacks.
+    SignalError
+        Without a usable angle reference.
+    """
+    if baseline is not None:
+        _check_baseline(recording, engine, baseline)
+    if load is None:
+        load = baseline.load if baseline is not None else 1.0
+    analysis = _analyse(recording, engine, load=load, transfer=transfer, max_order=max_order)
+    result = analysis.spectra
+    notes = list(analysis.notes)
+    R = engine.cycle_revolutions
+    speed_rpm = result.mean_speed * 30 / math.pi
+    comparisons = []
+    speed_comparison = _speed_comparison(analysis, engine, transfer)
+    if speed_comparison is not None:
+        comparisons.append(speed_comparison)
+    usable = baseline is not None and abs(speed_rpm / baseline.speed_rpm - 1.0) <= SPEED_TOLERANCE
+    if baseline is not None and not usable:
+        notes.append(
+            f"bearing orders not compared: the baseline ran at {baseline.speed_rpm:.1f} rpm, this "
+            f"recording at {speed_rpm:.1f} rpm (more than {100 * SPEED_TOLERANCE:g} % apart; "
+            "calibrate at a comparable speed)"
+        )
+    if baseline is None:
+        notes.append(
+            "no baseline: bearing orders not compared; impacts judged against the recording's own median"
+        )
+    calibration_source = (baseline.source if baseline is not None else "") or "the baseline"
+    bearings = []
+    for channel, b in _bearing_sensors(recording, engine):
+        spectrum = result.spectra[channel.name]
+        component = 1 if channel.direction == "vertical" else 0
+        calibration: SensorBaseline | None = (
+            baseline.sensors.get(channel.name) if baseline is not None else None
+        )
+        deviation = None
+        if calibration is not None and usable:
+            force = analysis.combined.bearing_force[b - 1, component]
+            deviation = order_deviations(
+                spectrum,
+                force,
+                analysis.combined.orders,
+                calibration.transfer,
+                calibration.transfer_error,
+                calibration.orders,
+                analysis.force_error[b - 1, component],
+            )
+            index = [int(np.argmin(np.abs(calibration.orders - k))) for k in spectrum.orders[1:]]
+            f_index = [int(np.argmin(np.abs(analysis.combined.orders - k))) for k in spectrum.orders[1:]]
+            comparisons.append(
+                ChannelComparison(
+                    channel.name,
+                    channel.unit,
+                    spectrum.orders[1:],
+                    spectrum.amplitude[1:],
+                    calibration.transfer[index] * force[f_index],
+                    np.hypot(
+                        spectrum.standard_error[1:],
+                        calibration.transfer_error[index] * np.abs(force[f_index]),
+                    ),
+                    f"bearing {b} force through the transfer calibrated on {calibration_source}",
+                )
+            )
+        impacts = []
+        profile = result.high_frequency.get(channel.name)
+        if profile is not None:
+            for neighbour in (b - 1, b, b + 1):
+                if not 1 <= neighbour <= engine.bearing_count:
+                    continue
+                reversals = load_reversals(
+                    analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
+                )
+                reference = calibration.high_frequency if calibration is not None else None
+                if reference is not None and reference.mean.size != profile.mean.size:
+                    reference = None
+                impacts.append(impact_score(profile, reversals, neighbour, R, reference))
+        bearings.append(BearingResult(channel.name, b, deviation, impacts))
+    limits = engine.vibration_limits
+    boundaries = limits.zone_boundaries_mm_s if limits is not None else DEFAULT_BOUNDARIES_MM_S
+    band = limits.band_hz if limits is not None else DEFAULT_BAND_HZ
+    velocity = {}
+    findings: list[Finding] = []
+    if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
+        findings += _cylinder_findings(analysis.balance)
+    findings += _bearing_findings(bearings)
+    for channel in _vibration_channels(recording):
+        v = velocity_rms(channel, band)
+        zone = zone_of(v.value, boundaries)
+        velocity[channel.name] = (v, zone)
+        if zone in ("C", "D"):
+            limit = boundaries[1] if zone == "C" else boundaries[2]
+            findings.append(
+                Finding(
+                    kind="vibration zone",
+                    subject=channel.name,
+                    severity="warning" if zone == "C" else "alarm",
+                    summary=(
+                        f"{channel.name} ({channel.location or 'location not given'}): {v.value:.2f} "
+                        f"mm/s rms over {v.band_hz[0]:g}-{v.band_hz[1]:g} Hz, zone {zone} "
+                        f"(boundary {limit:g} mm/s)"
+                    ),
+                    confidence=_phi((v.value - limit) / max(v.error, 1e-12)),
+                    evidence=[
+                        {
+                            "quantity": "rms velocity",
+                            "channel": channel.name,
+                            "measured": v.value,
+                            "standard_error": v.error,
+                            "threshold": limit,
+                            "unit": "mm/s",
+                        }
+                    ],
+                )
+            )
+    status = "healthy"
+    for f in findings:
+        status = _worse(f.severity, status)
+    order = {"alarm": 0, "warning": 1}
+    findings.sort(key=lambda f: (order[f.severity], -f.confidence, f.subject))
+    return Diagnosis(
+        engine_id=engine.id,
+        speed_rpm=speed_rpm,
+        load=load,
+        status=status,
+        findings=findings,
+        balance=analysis.balance,
+        comparisons=comparisons,
+        bearings=bearings,
+        velocity=velocity,
+        zone_boundaries_mm_s=tuple(boundaries),  # type: ignore[arg-type]
+        notes=notes,
+        spectra=result,
+        baseline=baseline.source if baseline is not None else "",
+    )

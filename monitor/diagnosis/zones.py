@@ -1,0 +1,119 @@
+"""Overall vibration velocity against evaluation zones, in the style of ISO 10816-6.
+
+ISO 10816-6 (reciprocating machines above 100 kW, measured on the
+non-rotating structure) judges the rms vibration velocity over 2 to 1000 Hz
+against zone boundaries: A (new machine), B (unrestricted long-term
+operation), C (restricted: plan action), D (damaging).  The standard
+assigns the boundaries by machine class from a series of severity grades
+(1.1, 1.8, 2.8, 4.5, 7.1, 11, 18, 28, 45, 71 ... mm/s), the class being a
+matter of agreement between manufacturer and user.
+
+The product's defaults, :data:`DEFAULT_BOUNDARIES_MM_S`, are three
+consecutive grades of that series chosen for large engines measured at main
+bearing level.  They are the product's own choice, not values quoted from the
+standard: set the boundaries agreed for your machine in the engine file's
+``[vibration_limits]`` (see :class:`monitor.engine.VibrationLimits`).  Zone C
+gives a warning, zone D an alarm.
+
+The rms velocity is estimated from periodograms (Hann window, constant
+removed) of :data:`SEGMENTS` segments of at least 2 s spread evenly over the
+recording, so its cost does not grow with the recording's length; an
+acceleration is integrated in the frequency domain (divided by ``2 pi f``).
+The spread of the segments' values gives its standard error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from monitor.recording import Channel
+from monitor.signal.pulses import SignalError
+
+__all__ = ["DEFAULT_BAND_HZ", "DEFAULT_BOUNDARIES_MM_S", "SEGMENTS", "VelocityRms", "velocity_rms", "zone_of"]
+
+DEFAULT_BOUNDARIES_MM_S = (7.1, 11.0, 18.0)  # A/B, B/C, C/D [mm/s rms], the product's defaults
+DEFAULT_BAND_HZ = (2.0, 1000.0)
+SEGMENTS = 16
+
+
+@dataclass(frozen=True)
+class VelocityRms:
+    """Overall rms vibration velocity of a channel.
+
+    Attributes
+    ----------
+    value : float
+        [mm/s rms] over the band.
+    error : float
+        Standard error from the segments' spread [mm/s].
+    band_hz : tuple of float
+        The band evaluated (the upper edge capped below the channel's Nyquist frequency) [Hz].
+    segments : int
+    """
+
+    value: float
+    error: float
+    band_hz: tuple[float, float]
+    segments: int
+
+
+def velocity_rms(channel: Channel, band_hz: tuple[float, float] = DEFAULT_BAND_HZ) -> VelocityRms:
+    """The rms velocity of an acceleration [m/s^2] or velocity [mm/s] channel over a band.
+
+    Parameters
+    ----------
+    channel : Channel
+        A waveform channel of kind "acceleration" or "velocity".
+    band_hz : tuple of float, optional
+        [Hz].
+
+    Returns
+    -------
+    VelocityRms
+
+    Raises
+    ------
+    SignalError
+        For another kind of channel, or one shorter than a segment.
+    """
+    if channel.kind not in ("acceleration", "velocity") or channel.sample_rate is None:
+        raise SignalError(f"channel {channel.name!r} ({channel.kind}): expected an acceleration or velocity")
+    fs = float(channel.sample_rate)
+    low, high = band_hz
+    high = min(high, 0.45 * fs)
+    length = 2 ** math.ceil(math.log2(max(2.0, 4.0 / low) * fs))  # at least 4 / low seconds, 2 s
+    n = int(channel.data.shape[0])
+    if n < length:
+        length = 2 ** int(math.log2(n)) if n >= 256 else 0
+        if length == 0:
+            raise SignalError(f"channel {channel.name!r} has {n} samples: too short for its rms velocity")
+    count = min(SEGMENTS, max(1, n // length))
+    starts = np.linspace(0, n - length, count).astype(np.int64)
+    freq = np.fft.rfftfreq(length, 1.0 / fs)
+    window = np.hanning(length)
+    band = (freq >= low) & (freq <= high)
+    scale = 2.0 / (fs * float(np.sum(window**2)))  # one-sided power spectral density
+    gain = np.zeros(freq.size)
+    if channel.kind == "acceleration":
+        gain[band] = (1e3 / (2 * math.pi * freq[band])) ** 2  # m/s^2 -> mm/s
+    else:
+        gain[band] = 1.0
+    values = np.empty(count)
+    for i, start in enumerate(starts):
+        x = np.asarray(channel.data[int(start) : int(start) + length], dtype=np.float64)
+        x = x - x.mean()
+        psd = np.abs(np.fft.rfft(x * window)) ** 2 * scale
+        values[i] = math.sqrt(float(np.sum(psd * gain)) * (fs / length))
+    error = float(values.std(ddof=1) / math.sqrt(count)) if count > 1 else 0.0
+    return VelocityRms(float(np.sqrt(np.mean(values**2))), error, (low, high), count)
+
+
+def zone_of(value: float, boundaries: tuple[float, float, float]) -> str:
+    """The evaluation zone "A", "B", "C" or "D" of an rms velocity against the A/B, B/C, C/D boundaries."""
+    for zone, limit in zip("ABC", boundaries, strict=True):
+        if value < limit:
+            return zone
+    return "D"
