@@ -7,10 +7,17 @@ Subcommands:
 - ``torsion ...``: shaft-line modes, Campbell data and forced response of an
   engine, and the stability chart and time response of the variable-inertia
   crank (see :mod:`monitor.cli_torsion`).
+- ``spectrum``, ``import``, ``simulate``: order spectra of a recording,
+  test-bench imports, scenes.
+- ``compare``: a recording's measured orders against the model, and the
+  findings (:mod:`monitor.diagnosis`); ``calibrate``: a healthy baseline's
+  calibration, stored for later comparisons.
 
 Errors the product raises on purpose (bad engine file, out-of-range input)
 print one clear message and exit with status 2; the table goes to standard
-output, messages to standard error.
+output, messages to standard error. ``compare`` exits with the health it
+found instead: 0 healthy, 1 warning, 2 alarm, and 3 when it cannot diagnose
+(an error, a usage error included).
 """
 
 from __future__ import annotations
@@ -161,9 +168,128 @@ def _build_parser() -> argparse.ArgumentParser:
         "--truth", metavar="RECORDING", help="print the ground truth stored in a simulated recording (JSON)"
     )
 
+    compare = sub.add_parser(
+        "compare",
+        help="diagnose a recording: measured against predicted orders, findings (exit 0/1/2/3)",
+        description="Compare a recording's measured orders with the engine's model: crank-speed orders and "
+        "the cylinder balance, bearing sensors' orders through a baseline's calibrated transfer, impacts "
+        "in each bearing's load-reversal windows, rms velocity against zones. Exit status: 0 healthy, "
+        "1 warning, 2 alarm, 3 could not diagnose.",
+    )
+    compare.add_argument("recording", metavar="RECORDING", help="HDF5 or MCAP recording")
+    compare.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
+    compare.add_argument(
+        "--baseline",
+        metavar="B",
+        help="a healthy baseline: its calibration (.json, from 'calibrate') or a recording to calibrate on",
+    )
+    compare.add_argument("--load", type=float, help="load the engine ran at, fraction of rated (default 1)")
+    compare.add_argument(
+        "--transfer",
+        choices=("rigid", "shaft-line"),
+        default="rigid",
+        help="torque to crank speed: the rigid engine side (default) or the shaft line's receptance",
+    )
+    compare.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
+    compare.add_argument("--plot", metavar="FILE.png|FILE.html", help="also draw measured against predicted")
+    compare.error = _exit_3_on_usage_error(compare)  # type: ignore[method-assign]
+
+    calibrate = sub.add_parser(
+        "calibrate",
+        help="calibrate a healthy baseline recording's sensors, for later comparisons",
+        description="Calibrate, on a healthy recording, each main-bearing sensor's transfer from bearing "
+        "force to its orders, its impact profile and rms velocity; write them as JSON for 'compare "
+        "--baseline'.",
+    )
+    calibrate.add_argument("recording", metavar="RECORDING", help="healthy HDF5 or MCAP recording")
+    calibrate.add_argument("-o", "--output", required=True, metavar="BASELINE.json", help="file to write")
+    calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
+    calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
+
+
+def _exit_3_on_usage_error(parser: argparse.ArgumentParser) -> Any:
+    """``compare``'s usage errors exit with 3 (could not diagnose), not argparse's 2 (an alarm)."""
+
+    def error(message: str) -> Any:
+        parser.print_usage(sys.stderr)
+        parser.exit(3, f"{parser.prog}: error: {message}\n")
+
+    return error
+
+
+def _engine_of(recording: Recording, given: str | None) -> Any:
+    from monitor.engine import bundled_engines, load_engine
+    from monitor.errors import DiagnosisError
+
+    if given:
+        return load_engine(given)
+    if recording.engine_id in bundled_engines():
+        return load_engine(bundled_engines()[recording.engine_id])
+    raise DiagnosisError(
+        f"engine {recording.engine_id!r} is not bundled: give its description with --engine FILE.toml"
+    )
+
+
+def _run_calibrate(args: argparse.Namespace) -> int:
+    from monitor.diagnosis import calibrate
+    from monitor.pipeline import open_recording
+
+    with open_recording(args.recording) as recording:
+        engine = _engine_of(recording, args.engine)
+        baseline = calibrate(recording, engine, load=args.load, source=Path(args.recording).name)
+    path = baseline.write(args.output)
+    sensors = ", ".join(f"{n} (main bearing {s.bearing})" for n, s in baseline.sensors.items())
+    print(
+        f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _run_compare(args: argparse.Namespace) -> int:
+    from monitor.diagnosis import Baseline, calibrate, diagnose
+    from monitor.diagnosis.report import diagnosis_document, diagnosis_table
+    from monitor.pipeline import open_recording
+
+    baseline = None
+    with open_recording(args.recording) as recording:
+        engine = _engine_of(recording, args.engine)
+        if args.baseline:
+            if Path(args.baseline).suffix.lower() == ".json":
+                baseline = Baseline.read(args.baseline)
+            else:
+                with open_recording(args.baseline) as healthy:
+                    baseline = calibrate(
+                        healthy,
+                        _engine_of(healthy, args.engine),
+                        load=args.load if args.load is not None else 1.0,
+                        transfer=args.transfer,
+                        source=Path(args.baseline).name,
+                    )
+                print(
+                    f"calibrated on {args.baseline} (store it with 'engine-monitor calibrate' to reuse it)",
+                    file=sys.stderr,
+                )
+        diagnosis = diagnose(recording, engine, baseline=baseline, load=args.load, transfer=args.transfer)
+    name = Path(args.recording).name
+    table = diagnosis_table(diagnosis, recording=name)
+    if args.json:
+        json.dump(diagnosis_document(diagnosis, recording=name), sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        print(table)
+    if args.plot:
+        from monitor.plots import plot_diagnosis
+
+        path = plot_diagnosis(
+            diagnosis, args.plot, title=f"{name}: {engine.id} at {diagnosis.speed_rpm:.1f} rpm", table=table
+        )
+        print(f"plot written to {path}", file=sys.stderr)
+    return {"healthy": 0, "warning": 1, "alarm": 2}[diagnosis.status]
 
 
 def _run_orders(args: argparse.Namespace) -> int:
@@ -420,7 +546,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 on success, 2 on a usage or input error.
+        Exit status: 0 on success, 2 on a usage or input error; ``compare``: 0 healthy,
+        1 warning, 2 alarm, 3 could not diagnose.
     """
     parser = _build_parser()
     args = parser.parse_args(argv)
@@ -431,12 +558,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         "spectrum": _run_spectrum,
         "import": _run_import,
         "simulate": _run_simulate,
+        "compare": _run_compare,
+        "calibrate": _run_calibrate,
     }
     try:
         return handlers[args.command](args)
     except MonitorError as error:
         print(f"engine-monitor: error: {error}", file=sys.stderr)
-        return 2
+        return 3 if args.command == "compare" else 2
     except BrokenPipeError:  # the reader went away (e.g. piped into head): stop quietly
         import os
 

@@ -14,7 +14,7 @@ import numpy as np
 from monitor.crankshaft import EngineModel
 from monitor.model_orders import ModelOrders
 
-__all__ = ["plot_model_orders", "plot_spectra", "plot_speed_maps"]
+__all__ = ["plot_diagnosis", "plot_model_orders", "plot_spectra", "plot_speed_maps"]
 
 
 def new_figure(
@@ -197,3 +197,111 @@ def plot_speed_maps(result: Any, path: str | Path) -> Path:
         fig.colorbar(image, ax=ax, label=f"amplitude [{result.units[name]}]")
         ax.set(xlabel="order", ylabel="crank speed [rpm]", title=name)
     return save_figure(fig, out, dpi=100)
+
+
+def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: str = "") -> Path:
+    """Measured against predicted order spectra per channel, and the cylinder balance on a polar chart.
+
+    Each channel's panel overlays the measured orders (bars) and the model's
+    (markers), amplitudes on a log scale with the measured orders' standard
+    error; the polar chart puts each cylinder at its firing angle with its
+    strength relative to those that fire alike as the radius (the unit
+    circle is "as the others"), with its 95 % interval.
+
+    Parameters
+    ----------
+    diagnosis : monitor.diagnosis.Diagnosis
+    path : str or Path
+        ``.png``, or ``.html`` for a self-contained page (the figure as inline SVG,
+        followed by ``table``).
+    title : str, optional
+    table : str, optional
+        Text shown under the figure on an HTML page.
+
+    Returns
+    -------
+    Path
+    """
+    import html
+    import io
+    import math
+
+    out = Path(path)
+    if out.suffix.lower() not in (".png", ".html", ".htm"):
+        from monitor.errors import MonitorError
+
+        raise MonitorError(f"--plot {out}: expected a .png or .html file")
+    comparisons = [c for c in diagnosis.comparisons if c.orders.size]
+    balance = diagnosis.balance
+    rows = max(len(comparisons), 1)
+    fig, axes, _ = new_figure(out, rows=rows, cols=2, size=(13, 2.8 * rows + 1.0), squeeze=False)
+    gs = axes[0, 1].get_gridspec()
+    for ax in axes[:, 1]:
+        ax.remove()
+    polar = fig.add_subplot(gs[:, 1], projection="polar")
+    for ax, comparison in zip(axes[:, 0], comparisons, strict=False):
+        k = comparison.orders
+        measured, predicted = np.abs(comparison.measured), np.abs(comparison.predicted)
+        width = 0.35 * (k[1] - k[0] if k.size > 1 else 1.0)
+        ax.bar(k, np.maximum(measured, 1e-15), width=width, label="measured", color="tab:blue", alpha=0.75)
+        ax.errorbar(k, measured, yerr=comparison.standard_error, fmt="none", ecolor="k", elinewidth=0.6)
+        ax.plot(k, np.maximum(predicted, 1e-15), "o", ms=4, color="tab:red", label="predicted")
+        top = float(max(measured.max(initial=0), predicted.max(initial=0), 1e-15))
+        ax.set_yscale("log")
+        ax.set_ylim(top * 1e-5, top * 3)
+        ax.set(ylabel=f"[{comparison.unit}]", title=comparison.channel)
+        ax.grid(alpha=0.3, axis="y", which="both")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("order")
+    if balance is not None:
+        from monitor.engine import bundled_engines, load_engine
+
+        angles = None
+        if diagnosis.engine_id in bundled_engines():
+            angles = load_engine(bundled_engines()[diagnosis.engine_id]).firing_angles
+        n = balance.relative.size
+        if angles is None or len(angles) != n:
+            angles = np.arange(n) * (2 * math.pi / n)
+        # the cycle around the circle: a four-stroke's 720 deg of firing angles at half their angle
+        theta = np.mod(np.asarray(angles) / diagnosis.spectra.cycle_revolutions, 2 * math.pi)
+        circle = np.linspace(0, 2 * math.pi, 200)
+        polar.plot(circle, np.ones_like(circle), color="0.5", lw=0.8, ls="--")
+        colours = ["tab:red" if r < 0.85 else "tab:green" for r in balance.relative]
+        polar.bar(theta, np.clip(balance.relative, 0, None), width=0.25, color=colours, alpha=0.7)
+        polar.errorbar(
+            theta,
+            np.clip(balance.relative, 0, None),
+            yerr=1.96 * balance.relative_error,
+            fmt="none",
+            ecolor="k",
+        )
+        for c in range(n):
+            polar.annotate(
+                f"{c + 1}", (theta[c], max(balance.relative[c], 0) + 0.12), ha="center", fontsize=9
+            )
+        polar.set_ylim(0, max(1.3, float(np.max(balance.relative)) + 0.2))
+        polar.set_theta_zero_location("N")
+        polar.set_theta_direction(-1)
+        polar.set_title(
+            "cylinder strength against the cylinders that fire alike\n(at its firing angle in the cycle)"
+        )
+    else:
+        polar.set_title("no cylinder balance")
+    fig.suptitle(title or f"{diagnosis.engine_id}: {diagnosis.status}")
+    if out.suffix.lower() == ".png":
+        return save_figure(fig, out, dpi=100)
+    import matplotlib.pyplot as plt
+
+    buffer = io.StringIO()
+    fig.savefig(buffer, format="svg")
+    plt.close(fig)
+    svg = buffer.getvalue()
+    svg = svg[svg.index("<svg") :]
+    page = (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{html.escape(title or diagnosis.engine_id)}</title></head>\n<body>\n"
+        f"<h1>{html.escape(title or diagnosis.engine_id)}</h1>\n{svg}\n"
+        f"<pre>{html.escape(table)}</pre>\n</body></html>\n"
+    )
+    out.write_text(page)
+    return out

@@ -385,7 +385,8 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
             [[speed.amplitude[0]], (receptance * nominal.cylinder_torque[:, index[1:]]).sum(axis=0)]
         )
         basis = "healthy model, shaft-line receptance at the tooth wheel"
-    keep = orders > 1e-9
+    # the speed spline follows orders up to about a sixth of the pulses per revolution (pipeline tests)
+    keep = (orders > 1e-9) & (orders <= analysis.spectra.reference.pulses_per_revolution / 6 + 1e-9)
     return ChannelComparison(
         SPEED_CHANNEL,
         "rad/s",
@@ -551,8 +552,8 @@ def _cylinder_findings(balance: CylinderBalance) -> list[Finding]:
                 subject=f"cylinder {c + 1}",
                 severity=severity,
                 summary=(
-                    f"cylinder {c + 1} at {100 * r:.0f} % +- {196 * e:.0f} % of the cylinders that fire "
-                    f"alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
+                    f"cylinder {c + 1} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
+                    f"fire alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
                 ),
                 confidence=confidence,
                 evidence=[

@@ -1,0 +1,199 @@
+"""A diagnosis as a JSON document and as text tables.
+
+Both say the same: the operating point, the findings with their evidence,
+the cylinder balance, and per channel the measured against the predicted
+orders with their deviation and its uncertainty (complex amplitudes as
+magnitude and phase in degrees, relative to TDC of cylinder 1).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
+
+__all__ = ["diagnosis_document", "diagnosis_table"]
+
+
+def _plain(value: Any) -> Any:
+    """JSON-safe: numpy scalars to Python, non-finite floats to None."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
+    """The diagnosis as a JSON-ready document (documented in docs/diagnosis.md).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    recording : str, optional
+        The recording's name.
+
+    Returns
+    -------
+    dict
+    """
+    balance = diagnosis.balance
+    document: dict[str, Any] = {
+        "analysis_version": ANALYSIS_VERSION,
+        "recording": recording,
+        "engine_id": diagnosis.engine_id,
+        "speed_rpm": diagnosis.speed_rpm,
+        "load": diagnosis.load,
+        "baseline": diagnosis.baseline,
+        "status": diagnosis.status,
+        "findings": [
+            {
+                "kind": f.kind,
+                "subject": f.subject,
+                "severity": f.severity,
+                "summary": f.summary,
+                "confidence": f.confidence,
+                "evidence": f.evidence,
+            }
+            for f in diagnosis.findings
+        ],
+        "notes": list(diagnosis.notes),
+        "cylinder_balance": None,
+        "channels": {},
+        "impacts": {},
+        "velocity_rms": {
+            name: {
+                "value_mm_s": v.value,
+                "standard_error_mm_s": v.error,
+                "band_hz": list(v.band_hz),
+                "zone": zone,
+            }
+            for name, (v, zone) in diagnosis.velocity.items()
+        },
+        "zone_boundaries_mm_s": list(diagnosis.zone_boundaries_mm_s),
+    }
+    if balance is not None:
+        document["cylinder_balance"] = {
+            "transfer": balance.transfer,
+            "strength_meaning": balance.strength_meaning,
+            "strength": balance.strength,
+            "strength_standard_error": balance.strength_error,
+            "relative": balance.relative,
+            "relative_standard_error": balance.relative_error,
+            "orders": balance.orders,
+            "condition_number": balance.condition,
+            "chi2_reduced": balance.chi2_reduced,
+            "separable": balance.separable,
+        }
+    for c in diagnosis.comparisons:
+        document["channels"][c.channel] = {
+            "unit": c.unit,
+            "basis": c.basis,
+            "orders": c.orders,
+            "measured_amplitude": np.abs(c.measured),
+            "measured_phase_deg": np.degrees(np.angle(c.measured)),
+            "predicted_amplitude": np.abs(c.predicted),
+            "predicted_phase_deg": np.degrees(np.angle(c.predicted)),
+            "standard_error": c.standard_error,
+            "deviation_of_largest": c.deviation,
+        }
+    for b in diagnosis.bearings:
+        document["impacts"][b.channel] = [
+            {
+                "bearing": s.bearing,
+                "score": s.score,
+                "standard_error": s.score_error,
+                "reference": s.reference,
+                "reversal_angles_deg": s.reversal_angles_deg,
+            }
+            for s in b.impacts
+        ]
+    return dict(_plain(document))
+
+
+def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int = 12) -> str:
+    """The diagnosis as text: findings first, then the balance and the order tables.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    recording : str, optional
+    max_rows : int, optional
+        Orders listed per channel (the largest measured or predicted ones, in order).
+
+    Returns
+    -------
+    str
+    """
+    lines = [
+        f"{recording or 'recording'}: {diagnosis.engine_id} at {diagnosis.speed_rpm:.2f} rpm, model at load "
+        f"{diagnosis.load:.2f}" + (f", baseline {diagnosis.baseline}" if diagnosis.baseline else ""),
+        f"status: {diagnosis.status.upper()}",
+    ]
+    if diagnosis.findings:
+        lines.append("findings:")
+        for f in diagnosis.findings:
+            lines.append(f"  [{f.severity}] {f.summary} (confidence {100 * f.confidence:.0f} %)")
+    else:
+        lines.append("findings: none")
+    for note in diagnosis.notes:
+        lines.append(f"note: {note}")
+    balance = diagnosis.balance
+    if balance is not None:
+        lines += [
+            "",
+            f"cylinder balance ({balance.strength_meaning} from crank-speed orders "
+            f"{', '.join(f'{k:g}' for k in balance.orders)}; {balance.transfer} transfer; "
+            f"condition number {balance.condition:.3g}):",
+            f"{'cylinder':>8} {'strength':>9} {'+-':>6} {'of alike':>9} {'+- (95 %)':>10}",
+        ]
+        for c in range(balance.strength.size):
+            lines.append(
+                f"{c + 1:8d} {balance.strength[c]:9.3f} {balance.strength_error[c]:6.3f} "
+                f"{100 * balance.relative[c]:8.1f}% {196 * balance.relative_error[c]:9.1f}%"
+            )
+    for comparison in diagnosis.comparisons:
+        size = np.abs(comparison.predicted)
+        if size.size == 0:
+            continue
+        shown = np.maximum(size, np.abs(comparison.measured))
+        top = np.sort(np.argsort(shown)[::-1][:max_rows])
+        lines += [
+            "",
+            f"{comparison.channel} [{comparison.unit}], measured against predicted ({comparison.basis}):",
+            f"{'order':>6} {'measured':>11} {'phase':>7} {'predicted':>11} {'phase':>7} "
+            f"{'deviation':>10} {'+-':>8}",
+        ]
+        largest = float(size.max()) or 1.0
+        for i in top:
+            m, p = comparison.measured[i], comparison.predicted[i]
+            lines.append(
+                f"{comparison.orders[i]:6.1f} {abs(m):11.4g} {math.degrees(np.angle(m)):7.1f} {abs(p):11.4g} "
+                f"{math.degrees(np.angle(p)):7.1f} {100 * comparison.deviation[i]:9.2f}% "
+                f"{100 * comparison.standard_error[i] / largest:7.2f}%"
+            )
+        lines.append("  (deviation: |measured - predicted| in % of the channel's largest predicted order)")
+    if diagnosis.bearings:
+        lines += ["", "impact power in load-reversal windows (1 = reference):"]
+        for b in diagnosis.bearings:
+            scores = ", ".join(f"bearing {s.bearing} {s.score:.2f} +- {s.score_error:.2f}" for s in b.impacts)
+            reference = b.impacts[0].reference if b.impacts else ""
+            lines.append(f"  {b.channel} (main bearing {b.bearing}, against {reference}): {scores}")
+    if diagnosis.velocity:
+        a, bc, cd = diagnosis.zone_boundaries_mm_s
+        lines += ["", f"rms velocity (zones A/B {a:g}, B/C {bc:g}, C/D {cd:g} mm/s):"]
+        for name, (v, zone) in diagnosis.velocity.items():
+            lines.append(
+                f"  {name}: {v.value:.3f} +- {v.error:.3f} mm/s over {v.band_hz[0]:g}-{v.band_hz[1]:g} Hz, "
+                f"zone {zone}"
+            )
+    return "\n".join(lines)

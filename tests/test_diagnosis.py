@@ -1,0 +1,286 @@
+"""Diagnosis on recordings simulated from the shipped scenes (with their noise): the acceptance set.
+
+Each engine's baseline is calibrated on its shipped healthy scene; every
+single-cylinder misfire, the weak cylinder and the worn bearing must be named
+(and nothing else), healthy recordings with other noise seeds must give no
+finding, and recordings the baseline does not fit must be refused.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from monitor.cli import main
+from monitor.diagnosis import Baseline, calibrate, diagnose
+from monitor.engine import Engine, VibrationLimits, bundled_engines, load_engine
+from monitor.errors import DiagnosisError
+from monitor.io.hdf5 import write_hdf5
+from monitor.recording import Channel, Recording
+from monitor.scene import load_scene, simulate
+from monitor.signal.pulses import SignalError
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "recordings" / "scenes"
+SAMPLES = ROOT / "recordings" / "samples"
+ENGINES = {"7k98mc": "man-b-w-7k98mc", "6l32": "medium-speed-6l32"}
+
+
+def _recording(name: str, seed: int | None = None) -> Recording:
+    return simulate(load_scene(SCENES / f"{name}.toml"), seed=seed).recording
+
+
+def _with(recording: Recording, channels: list[Channel]) -> Recording:
+    return replace(recording, channels=tuple(channels))
+
+
+def _engine(prefix: str) -> Engine:
+    return load_engine(bundled_engines()[ENGINES[prefix]])
+
+
+@pytest.fixture(scope="module")
+def baselines() -> dict[str, Baseline]:
+    return {
+        prefix: calibrate(_recording(f"{prefix}-baseline"), _engine(prefix), source=f"{prefix}-baseline")
+        for prefix in ENGINES
+    }
+
+
+MISFIRES = [(prefix, c) for prefix, n in (("7k98mc", 7), ("6l32", 6)) for c in range(1, n + 1)]
+
+
+@pytest.mark.parametrize(("prefix", "cylinder"), MISFIRES, ids=[f"{p}-cyl{c}" for p, c in MISFIRES])
+def test_every_single_cylinder_misfire_is_named(
+    baselines: dict[str, Baseline], prefix: str, cylinder: int
+) -> None:
+    """The misfiring cylinder, and only it, is named: an alarm, its strength within 4 standard errors
+    of 0 and below the misfire threshold; no bearing or zone finding (the bearing prediction carries
+    the estimated strengths)."""
+    diagnosis = diagnose(
+        _recording(f"{prefix}-misfire-cyl{cylinder}"), _engine(prefix), baseline=baselines[prefix]
+    )
+    assert diagnosis.status == "alarm"
+    assert [(f.kind, f.subject, f.severity) for f in diagnosis.findings] == [
+        ("cylinder", f"cylinder {cylinder}", "alarm")
+    ]
+    balance = diagnosis.balance
+    assert balance is not None and balance.separable
+    relative, error = balance.relative[cylinder - 1], balance.relative_error[cylinder - 1]
+    assert abs(relative) < 4 * error + 0.05
+    assert "misfiring" in diagnosis.findings[0].summary
+    assert diagnosis.findings[0].confidence > 0.99
+
+
+def test_a_30_percent_weak_cylinder_is_named_at_rated_speed(baselines: dict[str, Baseline]) -> None:
+    """7K98MC at 104 rpm, cylinder 4 with 70 % of the heat release: named as a warning at 70 % of the
+    others within 3 % (several standard errors), nothing else."""
+    diagnosis = diagnose(_recording("7k98mc-weak-cyl4"), _engine("7k98mc"), baseline=baselines["7k98mc"])
+    assert [(f.subject, f.severity) for f in diagnosis.findings] == [("cylinder 4", "warning")]
+    assert diagnosis.balance is not None
+    assert diagnosis.balance.relative[3] == pytest.approx(0.7, abs=0.03)
+    assert "cylinder 4 at 7" in diagnosis.findings[0].summary
+
+
+@pytest.mark.parametrize("prefix", list(ENGINES))
+def test_no_finding_on_twenty_healthy_recordings(baselines: dict[str, Baseline], prefix: str) -> None:
+    """Twenty noise seeds other than the baseline's: no finding, with the baseline and without it."""
+    engine = _engine(prefix)
+    for seed in range(101, 121):
+        recording = _recording(f"{prefix}-baseline", seed=seed)
+        for baseline in (baselines[prefix], None):
+            diagnosis = diagnose(recording, engine, baseline=baseline)
+            assert diagnosis.findings == [], (seed, baseline is None, [f.summary for f in diagnosis.findings])
+            assert diagnosis.status == "healthy"
+
+
+@pytest.mark.parametrize("with_baseline", [True, False])
+def test_the_worn_bearing_is_named_at_its_location(
+    baselines: dict[str, Baseline], with_baseline: bool
+) -> None:
+    """Main bearing 5 knocks where its load reverses: the sensor on it names bearing 5 (not its
+    neighbours 4 or 6, which it also hears) from the impact power in bearing 5's reversal windows,
+    against the baseline or the recording's own median; the sensor on bearing 2 names nothing."""
+    baseline = baselines["7k98mc"] if with_baseline else None
+    diagnosis = diagnose(_recording("7k98mc-worn-bearing-5"), _engine("7k98mc"), baseline=baseline)
+    assert [(f.kind, f.subject) for f in diagnosis.findings] == [("main bearing", "main bearing 5")]
+    assert "impacts" in diagnosis.findings[0].summary
+    scores = {r.channel: {s.bearing: s.score for s in r.impacts} for r in diagnosis.bearings}
+    assert max(scores["mb5-vertical"], key=scores["mb5-vertical"].get) == 5  # type: ignore[arg-type]
+    assert max(scores["mb2-vertical"].values()) < 1.5
+
+
+def test_the_balance_matches_the_simulated_truth(baselines: dict[str, Baseline]) -> None:
+    """The estimated strengths are the scene's per-cylinder heat-release scales within 4 standard
+    errors (and 5 %), for a misfire and for the weak cylinder."""
+    for name in ("7k98mc-misfire-cyl2", "7k98mc-weak-cyl4", "6l32-misfire-cyl5"):
+        simulation = simulate(load_scene(SCENES / f"{name}.toml"))
+        prefix = name.split("-")[0]
+        diagnosis = diagnose(simulation.recording, _engine(prefix), baseline=baselines[prefix])
+        assert diagnosis.balance is not None
+        truth = np.asarray(simulation.truth["cylinder_gas_scale"])
+        error = diagnosis.balance.strength_error
+        assert np.all(np.abs(diagnosis.balance.strength - truth) < np.maximum(4 * error, 0.05)), name
+
+
+def test_the_predicted_crank_speed_is_the_simulated_truth(baselines: dict[str, Baseline]) -> None:
+    """The healthy model's crank-speed orders at the recording's speed (rigid engine side, exact in
+    omega^2) against the simulator's own truth for the healthy scene: the firing order within 0.5 %
+    (the simulator integrates the same energy balance on its own grid); the measured one within 4
+    of its standard errors (the tooth wheel's noise)."""
+    simulation = simulate(load_scene(SCENES / "7k98mc-baseline.toml"))
+    diagnosis = diagnose(simulation.recording, _engine("7k98mc"), baseline=baselines["7k98mc"])
+    speed = next(c for c in diagnosis.comparisons if c.channel == "crank speed")
+    truth = simulation.truth["expected_orders"]["crank speed"]["amplitude"]
+    i = int(np.argmin(np.abs(speed.orders - 7)))
+    assert abs(speed.predicted[i]) == pytest.approx(truth[7], rel=5e-3)
+    assert abs(abs(speed.measured[i]) - truth[7]) < 4 * speed.standard_error[i]
+    assert speed.standard_error[i] < 0.1 * truth[7]
+
+
+# ------------------------------------------------------------------------------------------ refusals
+def test_a_recording_of_another_engine_than_the_baseline_is_refused(baselines: dict[str, Baseline]) -> None:
+    with pytest.raises(DiagnosisError, match=r"baseline is of engine 'medium-speed-6l32'.*man-b-w-7k98mc"):
+        diagnose(_recording("7k98mc-misfire-cyl1"), _engine("7k98mc"), baseline=baselines["6l32"])
+
+
+def test_a_channel_layout_the_baseline_lacks_is_refused(baselines: dict[str, Baseline]) -> None:
+    """A sensor the baseline has not seen, and one moved to another bearing, are each named."""
+    recording = _recording("7k98mc-misfire-cyl1")
+    renamed = [
+        replace(c, name="mb2-horizontal") if c.name == "mb2-vertical" else c for c in recording.channels
+    ]
+    with pytest.raises(DiagnosisError, match=r"'mb2-horizontal' \(not in the baseline\).*baseline channels"):
+        diagnose(_with(recording, renamed), _engine("7k98mc"), baseline=baselines["7k98mc"])
+    moved = [
+        replace(c, location="main bearing 3") if c.name == "mb2-vertical" else c for c in recording.channels
+    ]
+    with pytest.raises(
+        DiagnosisError, match=r"'mb2-vertical' \(baseline: main bearing 2.*recording: main bearing 3"
+    ):
+        diagnose(_with(recording, moved), _engine("7k98mc"), baseline=baselines["7k98mc"])
+
+
+def test_a_recording_without_an_angle_reference_is_refused() -> None:
+    recording = _recording("7k98mc-misfire-cyl1")
+    kept = [c for c in recording.channels if c.kind not in ("tooth", "keyphasor")]
+    with pytest.raises(SignalError, match="no usable angle reference"):
+        diagnose(_with(recording, kept), _engine("7k98mc"))
+
+
+def test_a_keyphasor_alone_diagnoses_without_naming_a_cylinder() -> None:
+    """Without a tooth wheel the crank speed has no orders: the balance is not done and says why."""
+    recording = _recording("7k98mc-misfire-cyl1")
+    kept = [c for c in recording.channels if c.kind != "tooth"]
+    diagnosis = diagnose(_with(recording, kept), _engine("7k98mc"))
+    assert diagnosis.balance is None
+    assert any("cylinder balance not done" in note for note in diagnosis.notes)
+    assert all(f.kind != "cylinder" for f in diagnosis.findings)
+
+
+def test_a_recording_of_another_engine_than_its_description_is_refused() -> None:
+    with pytest.raises(DiagnosisError, match="the recording is of engine 'man-b-w-7k98mc'"):
+        diagnose(_recording("7k98mc-misfire-cyl1"), _engine("6l32"))
+
+
+def test_a_baseline_far_from_the_recording_speed_is_not_used_for_orders(
+    baselines: dict[str, Baseline],
+) -> None:
+    """The transfer holds at the baseline's frequencies: 10 % away, the orders are not compared and
+    the notes say so."""
+    scene = load_scene(SCENES / "7k98mc-baseline.toml")
+    faster = scene.model_copy(
+        update={"operating_point": scene.operating_point.model_copy(update={"speed_rpm": 114.4})}
+    )
+    diagnosis = diagnose(simulate(faster).recording, _engine("7k98mc"), baseline=baselines["7k98mc"])
+    assert all(b.orders is None for b in diagnosis.bearings)
+    assert any("bearing orders not compared" in note and "104.0 rpm" in note for note in diagnosis.notes)
+
+
+# -------------------------------------------------------------------------------------- baseline file
+def test_a_stored_baseline_gives_the_same_diagnosis(baselines: dict[str, Baseline], tmp_path: Path) -> None:
+    path = baselines["7k98mc"].write(tmp_path / "b.json")
+    again = Baseline.read(path)
+    recording = _recording("7k98mc-weak-cyl4")
+    engine = _engine("7k98mc")
+    first = diagnose(recording, engine, baseline=baselines["7k98mc"])
+    second = diagnose(recording, engine, baseline=again)
+    assert [f.summary for f in first.findings] == [f.summary for f in second.findings]
+    for a, b in zip(first.comparisons, second.comparisons, strict=True):
+        np.testing.assert_allclose(a.predicted, b.predicted, rtol=1e-12, atol=0)
+
+
+def test_a_bad_baseline_file_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "b.json"
+    path.write_text("{}")
+    with pytest.raises(DiagnosisError, match="format None, expected 'engine-monitor baseline 1'"):
+        Baseline.read(path)
+    path.write_text("not json")
+    with pytest.raises(DiagnosisError, match="cannot read the baseline"):
+        Baseline.read(path)
+
+
+# ---------------------------------------------------------------------------------------------- CLI
+def test_compare_exits_with_the_health_it_found(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The bundled samples: the baseline compared with itself is healthy (0), the misfire an alarm (2)
+    naming cylinder 4; a weak cylinder is a warning (1); the JSON says the same; PNG and HTML plots."""
+    baseline = str(tmp_path / "b.json")
+    assert main(["calibrate", str(SAMPLES / "7k98mc-baseline.h5"), "-o", baseline]) == 0
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", baseline]) == 0
+    assert "status: HEALTHY" in capsys.readouterr().out
+    png, page = tmp_path / "d.png", tmp_path / "d.html"
+    argv = ["compare", str(SAMPLES / "7k98mc-misfire-cyl4.h5"), "--baseline", baseline, "--json"]
+    assert main([*argv, "--plot", str(png)]) == 2
+    document = json.loads(capsys.readouterr().out)
+    assert document["status"] == "alarm"
+    assert [f["subject"] for f in document["findings"]] == ["cylinder 4"]
+    assert document["cylinder_balance"]["relative"][3] < 0.2
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main([*argv[:-1], "--plot", str(page)]) == 2
+    text = page.read_text()
+    assert text.startswith("<!DOCTYPE html>") and "<svg" in text and "cylinder 4 at" in text
+    weak = tmp_path / "weak.h5"
+    write_hdf5(
+        simulate(
+            load_scene(SCENES / "7k98mc-weak-cyl4.toml").model_copy(update={"duration_s": 10.0})
+        ).recording,
+        weak,
+    )
+    capsys.readouterr()
+    assert main(["compare", str(weak), "--baseline", str(SAMPLES / "7k98mc-baseline.h5")]) == 1
+    out = capsys.readouterr().out
+    assert "[warning] cylinder 4 at" in out
+
+
+def test_compare_exits_3_when_it_cannot_diagnose(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Errors and usage errors exit 3, so that 2 always means an alarm."""
+    bad = tmp_path / "b.json"
+    bad.write_text("{}")
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", str(bad)]) == 3
+    assert "expected 'engine-monitor baseline 1'" in capsys.readouterr().err
+    other = str(SAMPLES / "6l32-misfire-cyl3.h5")
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", other]) == 3
+    assert "baseline is of engine 'medium-speed-6l32'" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--transfer", "elastic"])
+    assert info.value.code == 3
+    assert main(["compare", str(tmp_path / "missing.h5")]) == 3
+
+
+def test_the_velocity_zones_come_from_the_engine_file(tmp_path: Path) -> None:
+    """Zone limits set low in the engine's [vibration_limits] turn the healthy baseline's 0.34 mm/s
+    into zone D on bearing 2 (an alarm with its evidence) and C on bearing 5."""
+    limits = VibrationLimits(zone_boundaries_mm_s=(0.1, 0.2, 0.3))
+    engine = _engine("7k98mc").model_copy(update={"vibration_limits": limits})
+    diagnosis = diagnose(_recording("7k98mc-baseline"), engine)
+    zones = {name: zone for name, (_, zone) in diagnosis.velocity.items()}
+    assert zones == {"mb2-vertical": "D", "mb5-vertical": "C"}
+    by_subject = {f.subject: f for f in diagnosis.findings}
+    assert by_subject["mb2-vertical"].severity == "alarm" and by_subject["mb5-vertical"].severity == "warning"
+    evidence = by_subject["mb2-vertical"].evidence[0]
+    assert evidence["threshold"] == 0.3 and evidence["unit"] == "mm/s"
+    assert math.isclose(evidence["measured"], diagnosis.velocity["mb2-vertical"][0].value)
