@@ -15,11 +15,14 @@ $(STAMP): pyproject.toml constraints.txt
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,import]'
 	@touch $(STAMP)
 
-## demo: the main job on bundled data (predicted order table and plot of the 7K98MC)
+## demo: the main job on bundled data: diagnose the 7K98MC misfire recording against its healthy baseline
 demo: $(STAMP)
 	@mkdir -p $(OUT)
-	$(BIN)/engine-monitor orders recordings/engines/man-b-w-7k98mc.toml --rpm 104 --load 1.0 \
-		--plot $(OUT)/7k98mc-orders.png
+	$(BIN)/engine-monitor calibrate recordings/samples/7k98mc-baseline.h5 -o $(OUT)/7k98mc-baseline.json
+	@# compare exits 0 healthy, 1 warning, 2 alarm (this recording: an alarm), 3 when it cannot diagnose
+	$(BIN)/engine-monitor compare recordings/samples/7k98mc-misfire-cyl4.h5 \
+		--baseline $(OUT)/7k98mc-baseline.json --plot $(OUT)/7k98mc-misfire-cyl4.png; \
+		status=$$?; test $$status -le 2
 
 ## test: lint, type check and the whole test suite
 test: $(STAMP)

@@ -383,9 +383,19 @@ def load_reversals(
     ndarray
         Cycle angles [rad], ascending (the global minimum alone if no local one lies below the mean).
     """
-    grid = np.arange(points * cycle_revolutions) * (2 * math.pi / points)
-    phasor = np.exp(1j * np.multiply.outer(grid, orders))
-    x, y = np.real(phasor @ force[0]), np.real(phasor @ force[1])
+    n = points * cycle_revolutions
+    grid = np.arange(n) * (2 * math.pi / points)
+    # Re sum_k F_k exp(i k theta) on the grid by one inverse real FFT: order k is harmonic k R of the cycle
+    harmonic = np.rint(np.asarray(orders) * cycle_revolutions).astype(np.int64)
+    if harmonic.max(initial=0) >= n // 2:
+        raise ModelError(
+            f"load_reversals: orders up to {orders[-1]:g} need more than {points} points per revolution"
+        )
+    spectrum = np.zeros((2, n // 2 + 1), dtype=np.complex128)
+    for row in range(2):  # orders are distinct harmonics; add.at keeps repeated ones summed all the same
+        np.add.at(spectrum[row], harmonic, force[row] * (n / 2))
+    spectrum[:, 0] = np.real(spectrum[:, 0]) * 2  # order 0 enters once, not as half of a pair
+    x, y = np.fft.irfft(spectrum, n, axis=-1)
     magnitude = np.hypot(x, y)
     low = (magnitude < np.roll(magnitude, 1)) & (magnitude <= np.roll(magnitude, -1))
     low &= magnitude < magnitude.mean()

@@ -142,6 +142,21 @@ def test_the_predicted_crank_speed_is_the_simulated_truth(baselines: dict[str, B
     assert speed.standard_error[i] < 0.1 * truth[7]
 
 
+def test_the_shaft_line_transfer_names_a_misfire_the_rigid_body_cannot() -> None:
+    """The misfire scene with the shaft line's forced response as the crank speed, at 70 rpm (between
+    the engine-propeller mode and the crankshaft's own): the shaft-line receptance names cylinder 3;
+    the rigid body does not fit those orders, names nothing and says it fits poorly."""
+    scene = load_scene(SCENES / "7k98mc-misfire-cyl3.toml")
+    effects = {**scene.effects, "crank_speed": {"model": "shaft_line"}}
+    point = scene.operating_point.model_copy(update={"speed_rpm": 70.0})
+    recording = simulate(scene.model_copy(update={"effects": effects, "operating_point": point})).recording
+    elastic = diagnose(recording, _engine("7k98mc"), transfer="shaft-line")
+    assert [f.subject for f in elastic.findings] == ["cylinder 3"]
+    rigid = diagnose(recording, _engine("7k98mc"), transfer="rigid")
+    assert [f for f in rigid.findings if f.kind == "cylinder"] == []
+    assert any("fits the measured orders poorly" in note and "shaft-line" in note for note in rigid.notes)
+
+
 # ------------------------------------------------------------------------------------------ refusals
 def test_a_recording_of_another_engine_than_the_baseline_is_refused(baselines: dict[str, Baseline]) -> None:
     with pytest.raises(DiagnosisError, match=r"baseline is of engine 'medium-speed-6l32'.*man-b-w-7k98mc"):

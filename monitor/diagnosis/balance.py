@@ -185,7 +185,7 @@ def cylinder_balance(
         The model's cylinder parts at the recording's mean speed and load.
     transfer : {"rigid", "shaft-line"}, optional
     highest_order : float, optional
-        Highest order used; default ``n_cylinders / R``.
+        Highest order used; default ``n_cylinders / R`` [-].
 
     Returns
     -------

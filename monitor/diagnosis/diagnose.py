@@ -88,6 +88,7 @@ MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
 BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
 IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's [-]
 SEVERITIES = ("healthy", "warning", "alarm")
+MISFIT = 25.0  # reduced chi-square of the cylinder balance above which the notes say the model misfits
 
 
 @dataclass(frozen=True)
@@ -331,6 +332,13 @@ def _analyse(
         except ModelError as error:
             notes.append(f"cylinder balance not done: {error}")
         else:
+            if balance.chi2_reduced > MISFIT:
+                other = "shaft-line" if transfer == "rigid" else "rigid"
+                notes.append(
+                    f"the {transfer} crank-speed model fits the measured orders poorly (reduced chi-square "
+                    f"{balance.chi2_reduced:.3g}; the strengths' errors are widened by it): near a torsional "
+                    f"resonance try the {other} transfer"
+                )
             if balance.separable:
                 strengths = balance.strength
             else:
@@ -420,6 +428,7 @@ def calibrate(
     transfer : {"rigid", "shaft-line"}, optional
         For the cylinder balance the calibration is made at.
     max_order : float, optional
+        Highest order analysed [-].
     source : str, optional
         Name of the recording, kept in the baseline.
 
@@ -699,6 +708,7 @@ def diagnose(
     transfer : {"rigid", "shaft-line"}, optional
         From the torque to the crank speed.
     max_order : float, optional
+        Highest order analysed [-].
 
     Returns
     -------

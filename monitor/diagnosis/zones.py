@@ -112,7 +112,20 @@ def velocity_rms(channel: Channel, band_hz: tuple[float, float] = DEFAULT_BAND_H
 
 
 def zone_of(value: float, boundaries: tuple[float, float, float]) -> str:
-    """The evaluation zone "A", "B", "C" or "D" of an rms velocity against the A/B, B/C, C/D boundaries."""
+    """The evaluation zone of an rms velocity.
+
+    Parameters
+    ----------
+    value : float
+        rms velocity [mm/s].
+    boundaries : tuple of float
+        The A/B, B/C and C/D boundaries, increasing [mm/s].
+
+    Returns
+    -------
+    str
+        "A", "B", "C" or "D" (a value on a boundary is in the zone above it).
+    """
     for zone, limit in zip("ABC", boundaries, strict=True):
         if value < limit:
             return zone

@@ -402,6 +402,16 @@ def engine_side_inertia(engine: Engine) -> float:
     (24 Hz on the 7K98MC, 54 Hz on the 6L32), below which their firing orders lie;
     without a flywheel, the throws and free end.
 
+    Parameters
+    ----------
+    engine : Engine
+        With its ``[shaft_line]``.
+
+    Returns
+    -------
+    float
+        [kg m^2]
+
     Raises
     ------
     ModelError
