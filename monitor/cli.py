@@ -202,7 +202,13 @@ def _build_parser() -> argparse.ArgumentParser:
         "--baseline'.",
     )
     calibrate.add_argument("recording", metavar="RECORDING", help="healthy HDF5 or MCAP recording")
-    calibrate.add_argument("-o", "--output", required=True, metavar="BASELINE.json", help="file to write")
+    calibrate.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="BASELINE.json|TRANSFERS.toml",
+        help="the baseline (JSON), or its transfers as [[sensor_transfers]] for the engine file (.toml)",
+    )
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
     calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
 
@@ -241,7 +247,11 @@ def _run_calibrate(args: argparse.Namespace) -> int:
     with open_recording(args.recording) as recording:
         engine = _engine_of(recording, args.engine)
         baseline = calibrate(recording, engine, load=args.load, source=Path(args.recording).name)
-    path = baseline.write(args.output)
+    if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
+        path = Path(args.output)
+        path.write_text(baseline.to_toml())
+    else:
+        path = baseline.write(args.output)
     sensors = ", ".join(f"{n} (main bearing {s.bearing})" for n, s in baseline.sensors.items())
     print(
         f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",

@@ -54,6 +54,7 @@ __all__ = [
     "Masses",
     "Operation",
     "PressureTrace",
+    "SensorTransfer",
     "ShaftElement",
     "ShaftLine",
     "VibrationLimits",
@@ -182,6 +183,39 @@ class Bearings(_Strict):
     positions_m: list[float] | None = Field(
         default=None, description="axial bearing positions from bearing 1 (default: mid-pitch)"
     )
+
+
+class SensorTransfer(_Strict):
+    """A bearing sensor's transfer from its bearing's force to its orders, given instead of calibrated.
+
+    ``X_k = H_k F_k`` with ``H_k = magnitude_k exp(i phase_k)`` [the sensor's unit per newton], valid at
+    ``speed_rpm`` (the structure's response is a function of frequency, ``k`` times the speed); written
+    by ``engine-monitor calibrate HEALTHY.h5 -o FILE.toml`` or taken from a structural model.
+    """
+
+    channel: str = Field(description="the recording channel it applies to")
+    bearing: Annotated[int, Field(ge=1)]
+    direction: Literal["vertical", "horizontal"]
+    unit: str
+    speed_rpm: Annotated[float, AfterValidator(_positive("rpm"))]
+    orders: list[float] = Field(min_length=1)
+    magnitude: list[float] = Field(description="|H_k| [unit per N]")
+    phase_deg: list[float] = Field(description="arg H_k [deg]")
+    magnitude_error: list[float] | None = Field(default=None, description="standard error of |H_k|")
+
+    @model_validator(mode="after")
+    def _lengths(self) -> SensorTransfer:
+        n = len(self.orders)
+        for name in ("magnitude", "phase_deg", "magnitude_error"):
+            values = getattr(self, name)
+            if values is not None and len(values) != n:
+                raise ValueError(
+                    f"sensor_transfers ({self.channel!r}).{name} has {len(values)} values: expected {n}, "
+                    "one per order"
+                )
+        if any(m < 0 for m in self.magnitude):
+            raise ValueError(f"sensor_transfers ({self.channel!r}).magnitude: expected values >= 0")
+        return self
 
 
 class VibrationLimits(_Strict):
@@ -341,6 +375,7 @@ class Engine(_Strict):
     pressure_trace: PressureTrace | None = None
     shaft_line: ShaftLine | None = None
     vibration_limits: VibrationLimits | None = None
+    sensor_transfers: list[SensorTransfer] = Field(default_factory=list)
     source_dir: Path | None = Field(default=None, exclude=True, description="folder of the file")
 
     @model_validator(mode="after")
@@ -389,6 +424,12 @@ class Engine(_Strict):
             raise ValueError(
                 f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}"
             )
+        for transfer in self.sensor_transfers:
+            if transfer.bearing > nb:
+                raise ValueError(
+                    f"sensor_transfers ({transfer.channel!r}): bearing {transfer.bearing} does not exist "
+                    f"(the engine has {nb} main bearings)"
+                )
         cycle_model = self.combustion
         if cycle_model is not None:
             end = cycle_model.exhaust_opening_deg + cycle_model.blowdown_deg

@@ -19,7 +19,7 @@ import pytest
 from monitor.cli import main
 from monitor.diagnosis import Baseline, calibrate, diagnose
 from monitor.engine import Engine, VibrationLimits, bundled_engines, load_engine
-from monitor.errors import DiagnosisError
+from monitor.errors import DiagnosisError, EngineDescriptionError
 from monitor.io.hdf5 import write_hdf5
 from monitor.recording import Channel, Recording
 from monitor.scene import load_scene, simulate
@@ -227,6 +227,36 @@ def test_a_stored_baseline_gives_the_same_diagnosis(baselines: dict[str, Baselin
     assert [f.summary for f in first.findings] == [f.summary for f in second.findings]
     for a, b in zip(first.comparisons, second.comparisons, strict=True):
         np.testing.assert_allclose(a.predicted, b.predicted, rtol=1e-12, atol=0)
+
+
+def test_transfers_given_in_the_engine_file_compare_the_bearing_orders(
+    baselines: dict[str, Baseline], tmp_path: Path
+) -> None:
+    """The baseline's transfers written as [[sensor_transfers]] into the engine file give, without a
+    baseline, the same predicted bearing orders (to the TOML's 7 significant digits); a transfer
+    for a bearing the engine lacks is refused."""
+    import tomllib
+
+    from monitor.engine import parse_engine
+
+    source = bundled_engines()["man-b-w-7k98mc"]
+    data = tomllib.loads(source.read_text())
+    data.update(tomllib.loads(baselines["7k98mc"].to_toml()))
+    engine = parse_engine(data, source_dir=source.parent)
+    recording = _recording("7k98mc-weak-cyl4")
+    given = diagnose(recording, engine)
+    calibrated = diagnose(recording, engine, baseline=baselines["7k98mc"])
+    for name in ("mb2-vertical", "mb5-vertical"):
+        a = next(c for c in given.comparisons if c.channel == name)
+        b = next(c for c in calibrated.comparisons if c.channel == name)
+        keep = np.isin(b.orders, a.orders)
+        np.testing.assert_allclose(
+            a.predicted, b.predicted[keep], rtol=1e-5, atol=1e-7 * np.abs(b.predicted).max()
+        )
+    assert [f.subject for f in given.findings] == ["cylinder 4"]
+    data["sensor_transfers"][0]["bearing"] = 9
+    with pytest.raises(EngineDescriptionError, match=r"bearing 9 does not exist \(the engine has 8"):
+        parse_engine(data, source_dir=source.parent)
 
 
 def test_a_bad_baseline_file_is_refused(tmp_path: Path) -> None:

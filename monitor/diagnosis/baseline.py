@@ -13,12 +13,14 @@ beside them the operating point and cylinder strengths it was calibrated at.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from monitor.engine import Engine
 from monitor.errors import DiagnosisError
 from monitor.signal.angle_domain import HighFrequencyPower
 from monitor.types import ComplexArray, FloatArray
@@ -49,9 +51,10 @@ class SensorBaseline:
         ``H_k`` [unit / N].
     transfer_error : ndarray
         Standard error of ``H_k`` [unit / N].
-    high_frequency : HighFrequencyPower
+    high_frequency : HighFrequencyPower or None
+        None for a transfer given in the engine file.
     velocity_rms : float
-        [mm/s]
+        [mm/s] (NaN for a transfer given in the engine file).
     """
 
     channel: str
@@ -63,7 +66,7 @@ class SensorBaseline:
     orders: FloatArray
     transfer: ComplexArray
     transfer_error: FloatArray
-    high_frequency: HighFrequencyPower
+    high_frequency: HighFrequencyPower | None
     velocity_rms: float
 
 
@@ -115,9 +118,9 @@ class Baseline:
                     "orders": s.orders.tolist(),
                     "transfer": [[z.real, z.imag] for z in s.transfer.tolist()],
                     "transfer_error": s.transfer_error.tolist(),
-                    "high_frequency_mean": s.high_frequency.mean.tolist(),
-                    "high_frequency_std": s.high_frequency.std.tolist(),
-                    "high_frequency_cycles": s.high_frequency.cycles,
+                    "high_frequency_mean": s.high_frequency.mean.tolist() if s.high_frequency else None,
+                    "high_frequency_std": s.high_frequency.std.tolist() if s.high_frequency else None,
+                    "high_frequency_cycles": s.high_frequency.cycles if s.high_frequency else 0,
                     "velocity_rms_mm_s": s.velocity_rms,
                 }
                 for name, s in self.sensors.items()
@@ -131,6 +134,69 @@ class Baseline:
         temporary.write_text(json.dumps(self.to_document(), indent=1) + "\n")
         temporary.replace(target)
         return target
+
+    def to_toml(self) -> str:
+        """The transfers as ``[[sensor_transfers]]`` tables for the engine file (``SensorTransfer``)."""
+        lines = [
+            f"# sensor transfers calibrated on {self.source or 'a healthy recording'} of {self.engine_id} "
+            f"at {self.speed_rpm:.2f} rpm, load {self.load:g}",
+        ]
+        for name, s in self.sensors.items():
+            keep = np.abs(s.transfer) > 0
+            lines += [
+                "",
+                "[[sensor_transfers]]",
+                f"channel = {json.dumps(name)}",
+                f"bearing = {s.bearing}",
+                f"direction = {json.dumps(s.direction)}",
+                f"unit = {json.dumps(s.unit)}",
+                f"speed_rpm = {self.speed_rpm:.6g}",
+                f"orders = [{', '.join(f'{k:g}' for k in s.orders[keep])}]",
+                f"magnitude = [{', '.join(f'{v:.6e}' for v in np.abs(s.transfer[keep]))}]",
+                f"phase_deg = [{', '.join(f'{v:.3f}' for v in np.degrees(np.angle(s.transfer[keep])))}]",
+                f"magnitude_error = [{', '.join(f'{v:.3e}' for v in s.transfer_error[keep])}]",
+            ]
+        return "\n".join(lines) + "\n"
+
+    @classmethod
+    def from_engine(cls, engine: Engine) -> Baseline | None:
+        """The transfers given in the engine file, as a baseline without impact profiles (None if none)."""
+        if not engine.sensor_transfers:
+            return None
+        speeds = {t.speed_rpm for t in engine.sensor_transfers}
+        if len(speeds) > 1:
+            raise DiagnosisError(
+                f"engine {engine.id!r}: sensor_transfers at different speeds {sorted(speeds)}: "
+                "give them at one speed"
+            )
+        sensors = {}
+        for t in engine.sensor_transfers:
+            magnitude = np.asarray(t.magnitude, dtype=np.float64)
+            error = np.asarray(
+                t.magnitude_error if t.magnitude_error is not None else np.zeros(magnitude.size)
+            )
+            sensors[t.channel] = SensorBaseline(
+                channel=t.channel,
+                kind="",
+                unit=t.unit,
+                bearing=t.bearing,
+                direction=t.direction,
+                sample_rate=0.0,
+                orders=np.asarray(t.orders, dtype=np.float64),
+                transfer=magnitude * np.exp(1j * np.radians(np.asarray(t.phase_deg))),
+                transfer_error=error,
+                high_frequency=None,
+                velocity_rms=math.nan,
+            )
+        return cls(
+            engine_id=engine.id,
+            speed_rpm=speeds.pop(),
+            load=1.0,
+            strengths=[1.0] * engine.cylinders,
+            samples_per_cycle=0,
+            sensors=sensors,
+            source=f"the sensor transfers of engine file {engine.id}",
+        )
 
     @classmethod
     def from_document(cls, document: dict[str, Any], *, origin: str = "baseline") -> Baseline:
@@ -149,11 +215,15 @@ class Baseline:
         try:
             sensors = {}
             for name, s in document["sensors"].items():
-                profile = HighFrequencyPower(
-                    np.asarray(s["high_frequency_mean"], dtype=np.float64),
-                    np.asarray(s["high_frequency_std"], dtype=np.float64),
-                    int(s["high_frequency_cycles"]),
-                    float(s["sample_rate_hz"]),
+                profile = (
+                    HighFrequencyPower(
+                        np.asarray(s["high_frequency_mean"], dtype=np.float64),
+                        np.asarray(s["high_frequency_std"], dtype=np.float64),
+                        int(s["high_frequency_cycles"]),
+                        float(s["sample_rate_hz"]),
+                    )
+                    if s["high_frequency_mean"] is not None
+                    else None
                 )
                 pairs = np.asarray(s["transfer"], dtype=np.float64).reshape(-1, 2)
                 sensors[name] = SensorBaseline(

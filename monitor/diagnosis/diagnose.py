@@ -735,28 +735,37 @@ def diagnose(
     speed_comparison = _speed_comparison(analysis, engine, transfer)
     if speed_comparison is not None:
         comparisons.append(speed_comparison)
-    usable = baseline is not None and abs(speed_rpm / baseline.speed_rpm - 1.0) <= SPEED_TOLERANCE
-    if baseline is not None and not usable:
+    # the transfers: the baseline's, else those given in the engine file
+    transfers = baseline if baseline is not None else Baseline.from_engine(engine)
+    usable = transfers is not None and abs(speed_rpm / transfers.speed_rpm - 1.0) <= SPEED_TOLERANCE
+    if transfers is not None and not usable:
         notes.append(
-            f"bearing orders not compared: the baseline ran at {baseline.speed_rpm:.1f} rpm, this "
-            f"recording at {speed_rpm:.1f} rpm (more than {100 * SPEED_TOLERANCE:g} % apart; "
-            "calibrate at a comparable speed)"
+            f"bearing orders not compared: {transfers.source or 'the baseline'} holds at "
+            f"{transfers.speed_rpm:.1f} rpm, this recording ran at {speed_rpm:.1f} rpm (more than "
+            f"{100 * SPEED_TOLERANCE:g} % apart; calibrate at a comparable speed)"
         )
-    if baseline is None:
+    if transfers is None:
         notes.append(
-            "no baseline: bearing orders not compared; impacts judged against the recording's own median"
+            "no baseline and no sensor transfers in the engine file: bearing orders not compared; "
+            "impacts judged against the recording's own median"
         )
-    calibration_source = (baseline.source if baseline is not None else "") or "the baseline"
+    elif baseline is None:
+        notes.append("no baseline: impacts judged against the recording's own median")
     bearings = []
     for channel, b in _bearing_sensors(recording, engine):
         spectrum = result.spectra[channel.name]
         component = 1 if channel.direction == "vertical" else 0
-        calibration: SensorBaseline | None = (
-            baseline.sensors.get(channel.name) if baseline is not None else None
-        )
+        calibration = transfers.sensors.get(channel.name) if transfers is not None else None
+        if calibration is not None and (calibration.bearing, calibration.direction) != (b, channel.direction):
+            notes.append(
+                f"{channel.name}: the engine file's transfer is for main bearing {calibration.bearing} "
+                f"{calibration.direction}, the channel is on main bearing {b} {channel.direction}: not used"
+            )
+            calibration = None
         deviation = None
-        if calibration is not None and usable:
+        if calibration is not None and transfers is not None and usable:
             force = analysis.combined.bearing_force[b - 1, component]
+            force_error = analysis.force_error[b - 1, component]
             deviation = order_deviations(
                 spectrum,
                 force,
@@ -764,22 +773,27 @@ def diagnose(
                 calibration.transfer,
                 calibration.transfer_error,
                 calibration.orders,
-                analysis.force_error[b - 1, component],
+                force_error,
             )
-            index = [int(np.argmin(np.abs(calibration.orders - k))) for k in spectrum.orders[1:]]
-            f_index = [int(np.argmin(np.abs(analysis.combined.orders - k))) for k in spectrum.orders[1:]]
+            k = spectrum.orders
+            index = np.array([int(np.argmin(np.abs(calibration.orders - v))) for v in k])
+            f_index = np.array([int(np.argmin(np.abs(analysis.combined.orders - v))) for v in k])
+            covered = (k > 1e-9) & (np.abs(calibration.orders[index] - k) < 1e-9)
+            covered &= np.abs(analysis.combined.orders[f_index] - k) < 1e-9
+            h, f = calibration.transfer[index[covered]], force[f_index[covered]]
             comparisons.append(
                 ChannelComparison(
                     channel.name,
                     channel.unit,
-                    spectrum.orders[1:],
-                    spectrum.amplitude[1:],
-                    calibration.transfer[index] * force[f_index],
-                    np.hypot(
-                        spectrum.standard_error[1:],
-                        calibration.transfer_error[index] * np.abs(force[f_index]),
+                    k[covered],
+                    spectrum.amplitude[covered],
+                    h * f,
+                    np.sqrt(
+                        spectrum.standard_error[covered] ** 2
+                        + (calibration.transfer_error[index[covered]] * np.abs(f)) ** 2
+                        + (np.abs(h) * force_error[f_index[covered]]) ** 2
                     ),
-                    f"bearing {b} force through the transfer calibrated on {calibration_source}",
+                    f"bearing {b} force through the transfer of {transfers.source or 'the baseline'}",
                 )
             )
         impacts = []
@@ -792,6 +806,8 @@ def diagnose(
                     analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
                 )
                 reference = calibration.high_frequency if calibration is not None else None
+                if reference is not None and reference.sample_rate != profile.sample_rate:
+                    reference = None
                 if reference is not None and reference.mean.size != profile.mean.size:
                     reference = None
                 impacts.append(impact_score(profile, reversals, neighbour, R, reference))
