@@ -448,11 +448,6 @@ def test_cylinder_balance_recovers_any_strengths_without_noise(strengths: list[f
     np.testing.assert_allclose(balance.strength, strengths, rtol=0, atol=1e-6)
 
 
-@pytest.mark.xfail(
-    reason="balance.py weighs the real and the imaginary part each by the complex standard error "
-    "(se = scatter / sqrt(blocks), E|n|^2 = se^2); each part's is se / sqrt(2), so the strength errors "
-    "come out sqrt(2) too large (variance twice, chi2 half)",
-)
 def test_strength_errors_match_the_scatter_of_the_estimates(rng: np.random.Generator) -> None:
     """Calibration of ``strength_error``: over 200 noise draws of the 7K98MC's speed (complex normal,
     E |n|^2 = se^2), the estimates' standard deviation equals the reported error within 25 %
@@ -513,10 +508,6 @@ def test_a_tone_outside_the_band_is_left_out(kind: str, unit: str, frequency: fl
     assert value < 0.01 * own
 
 
-@pytest.mark.xfail(
-    reason="velocity_rms ignores the channel's unit: a channel in g (or mm/s^2, or velocity in m/s, "
-    "all accepted by Channel) is read as m/s^2 (mm/s)",
-)
 @pytest.mark.parametrize(
     ("kind", "unit", "to_si"),
     [("acceleration", "g", 9.80665), ("acceleration", "mm/s^2", 1e-3), ("velocity", "m/s", 1e3)],
@@ -668,14 +659,10 @@ def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Genera
     assert profile.mean[burst_bin] > 10 * profile.mean[quiet].max()
 
 
-@pytest.mark.xfail(
-    reason="to_angle_domain counts every cycle in every bin (counts = grid.cycles) while _bin_power adds "
-    "nothing for a bin without a sample in that cycle: a grid finer than the samples biases the mean low",
-)
 def test_high_frequency_power_on_a_grid_finer_than_the_samples(rng: np.random.Generator) -> None:
     """128 bins per cycle at about 97 samples per cycle (1 kHz, 10.3 rev/s): many bins hold no sample in
     a cycle, the others one or two.  Averaged over the cycles in which a bin has samples, white noise
-    still gives 6 sigma^2: the mean over the bins within 3 % (its spread from 2.6 million second
+    still gives 6 sigma^2: the mean over the bins within 3 % (its spread from 250 000 second
     differences is under 0.5 %)."""
     fs, revolution_rate, m, seconds = 1000.0, 10.3, 128, 250.0
     signal = rng.standard_normal(int(seconds * fs))

@@ -230,8 +230,9 @@ def cylinder_balance(
         raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
     rhs = y - (H * known).sum(axis=0)
     design = (H * combustion).T  # (n_orders, n_cyl)
-    # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution)
-    sigma = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300)
+    # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution);
+    # se is the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
+    sigma = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
     a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
     b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
     norms = np.linalg.norm(a, axis=0)

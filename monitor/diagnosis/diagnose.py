@@ -67,6 +67,7 @@ from monitor.model_orders import (
 from monitor.orders import order_coefficients
 from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, spectra
 from monitor.recording import Channel, Recording
+from monitor.signal.pulses import SignalError
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -479,11 +480,11 @@ def calibrate(
             transfer=np.asarray(transfer_k, dtype=np.complex128),
             transfer_error=np.asarray(error, dtype=np.float64),
             high_frequency=profile,
-            velocity_rms=velocity_rms(channel).value,
+            velocity_rms=_velocity_or_nan(channel),
         )
-    strengths = (
-        analysis.balance.strength.tolist() if analysis.balance is not None else [1.0] * engine.cylinders
-    )
+    balance = analysis.balance
+    used = balance is not None and balance.separable  # the strengths the bearing forces were predicted with
+    strengths = balance.strength.tolist() if balance is not None and used else [1.0] * engine.cylinders
     return Baseline(
         engine_id=engine.id,
         speed_rpm=result.mean_speed * 30 / math.pi,
@@ -493,6 +494,13 @@ def calibrate(
         sensors=out,
         source=source,
     )
+
+
+def _velocity_or_nan(channel: Channel) -> float:
+    try:
+        return velocity_rms(channel).value
+    except SignalError:  # a channel in volts: no rms velocity
+        return math.nan
 
 
 def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) -> None:
@@ -821,7 +829,11 @@ def diagnose(
         findings += _cylinder_findings(analysis.balance)
     findings += _bearing_findings(bearings)
     for channel in _vibration_channels(recording):
-        v = velocity_rms(channel, band)
+        try:
+            v = velocity_rms(channel, band)
+        except SignalError as error:
+            notes.append(f"rms velocity not rated: {error}")
+            continue
         zone = zone_of(v.value, boundaries)
         velocity[channel.name] = (v, zone)
         if zone in ("C", "D"):

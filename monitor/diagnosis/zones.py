@@ -34,6 +34,14 @@ from monitor.signal.pulses import SignalError
 
 __all__ = ["DEFAULT_BAND_HZ", "DEFAULT_BOUNDARIES_MM_S", "SEGMENTS", "VelocityRms", "velocity_rms", "zone_of"]
 
+# each unit a channel may be stored in (monitor.recording.UNITS), in SI (m/s^2, m/s)
+_TO_SI = {
+    ("acceleration", "m/s^2"): 1.0,
+    ("acceleration", "mm/s^2"): 1e-3,
+    ("acceleration", "g"): 9.80665,
+    ("velocity", "m/s"): 1.0,
+    ("velocity", "mm/s"): 1e-3,
+}
 DEFAULT_BOUNDARIES_MM_S = (7.1, 11.0, 18.0)  # A/B, B/C, C/D [mm/s rms], the product's defaults
 DEFAULT_BAND_HZ = (2.0, 1000.0)
 SEGMENTS = 16
@@ -66,7 +74,7 @@ def velocity_rms(channel: Channel, band_hz: tuple[float, float] = DEFAULT_BAND_H
     Parameters
     ----------
     channel : Channel
-        A waveform channel of kind "acceleration" or "velocity".
+        A waveform channel of kind "acceleration" (m/s^2, mm/s^2 or g) or "velocity" (m/s or mm/s).
     band_hz : tuple of float, optional
         [Hz].
 
@@ -81,6 +89,13 @@ def velocity_rms(channel: Channel, band_hz: tuple[float, float] = DEFAULT_BAND_H
     """
     if channel.kind not in ("acceleration", "velocity") or channel.sample_rate is None:
         raise SignalError(f"channel {channel.name!r} ({channel.kind}): expected an acceleration or velocity")
+    to_si = _TO_SI.get((channel.kind, channel.unit))
+    if to_si is None:
+        known = ", ".join(unit for kind, unit in _TO_SI if kind == channel.kind)
+        raise SignalError(
+            f"channel {channel.name!r} is in {channel.unit!r}: its rms velocity needs one of {known} "
+            "(convert the sensor's volts with its sensitivity first)"
+        )
     fs = float(channel.sample_rate)
     low, high = band_hz
     high = min(high, 0.45 * fs)
@@ -97,10 +112,10 @@ def velocity_rms(channel: Channel, band_hz: tuple[float, float] = DEFAULT_BAND_H
     band = (freq >= low) & (freq <= high)
     scale = 2.0 / (fs * float(np.sum(window**2)))  # one-sided power spectral density
     gain = np.zeros(freq.size)
-    if channel.kind == "acceleration":
-        gain[band] = (1e3 / (2 * math.pi * freq[band])) ** 2  # m/s^2 -> mm/s
-    else:
-        gain[band] = 1.0
+    if channel.kind == "acceleration":  # to m/s^2, integrated, to mm/s
+        gain[band] = (to_si * 1e3 / (2 * math.pi * freq[band])) ** 2
+    else:  # to m/s, to mm/s
+        gain[band] = (to_si * 1e3) ** 2
     values = np.empty(count)
     for i, start in enumerate(starts):
         x = np.asarray(channel.data[int(start) : int(start) + length], dtype=np.float64)

@@ -383,7 +383,7 @@ def to_angle_domain(
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
     m = grid.samples_per_cycle
-    power_sum, power_squares = np.zeros(m), np.zeros(m)
+    power_sum, power_squares, power_counts = np.zeros(m), np.zeros(m), np.zeros(m)
     for g0 in range(0, grid.times.size, step):
         # in input samples; one more grid time than the block's closes its last bin
         edges = (grid.times[g0 : g0 + step + 1] - start_time) * sample_rate
@@ -393,7 +393,7 @@ def to_angle_domain(
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
         x = _read(source, a, b, start_time, sample_rate)
         if high_frequency:
-            _bin_power(x, edges - a, m, power_sum, power_squares)
+            _bin_power(x, edges - a, m, power_sum, power_squares, power_counts)
         y = fir.apply(x) if fir is not None else x
         _interpolate(
             _spline_coefficients(y, interpolation_order),
@@ -403,11 +403,9 @@ def to_angle_domain(
         )
     profile = None
     if high_frequency:
-        # the last grid point's bin is open (no next grid time): every bin has grid.cycles samples but
-        # that one, which has one fewer
-        counts = np.full(m, float(grid.cycles))
-        counts[-1] -= 1
-        counts = np.maximum(counts, 1.0)
+        # each bin's cycles that held at least one sample (a grid finer than the samples leaves some
+        # bins empty in some cycles; the last grid point's bin is open, one cycle fewer)
+        counts = np.maximum(power_counts, 1.0)
         mean = power_sum / counts
         variance = np.maximum(power_squares / counts - mean**2, 0.0) * counts / np.maximum(counts - 1, 1)
         profile = HighFrequencyPower(mean, np.sqrt(variance), grid.cycles, float(sample_rate))
@@ -423,8 +421,11 @@ def to_angle_domain(
 
 
 @numba.njit(cache=True, nogil=True)
-def _bin_power(x: FloatArray, edges: FloatArray, m: int, total: FloatArray, squares: FloatArray) -> None:
-    """Add each bin's mean square second difference of ``x`` to ``total[bin % m]`` (and its square).
+def _bin_power(
+    x: FloatArray, edges: FloatArray, m: int, total: FloatArray, squares: FloatArray, counts: FloatArray
+) -> None:
+    """Add each bin's mean square second difference of ``x`` to ``total[bin % m]`` (its square to
+    ``squares``, and 1 to ``counts``) when the bin holds a sample.
 
     Bin ``i`` holds the samples from ``edges[i]`` up to ``edges[i + 1]`` (positions in ``x``); the
     first bin is a whole number of cycles from the grid's start.
@@ -441,6 +442,7 @@ def _bin_power(x: FloatArray, edges: FloatArray, m: int, total: FloatArray, squa
             acc /= j1 - j0
             total[i % m] += acc
             squares[i % m] += acc * acc
+            counts[i % m] += 1.0
 
 
 # poles of the B-spline interpolation prefilters (Unser, Aldroubi & Eden 1991; Thevenaz et al. 2000)
