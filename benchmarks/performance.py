@@ -106,7 +106,8 @@ def generate(path: Path, minutes: float) -> dict[str, float]:
             }
         )
         angle = 0.0
-        pulses = []
+        pulses, revolutions = [], []
+        before = (-1.0 / FS, 0.0)  # the last sample of the previous chunk (time, angle)
         for start in range(0, n, chunk):
             t = (start + np.arange(min(chunk, n - start))) / FS
             w = w0 * (1 + 0.1 * np.sin(2 * np.pi * 0.02 * t))
@@ -122,14 +123,20 @@ def generate(path: Path, minutes: float) -> dict[str, float]:
             present = np.mod(index, 60) < 58
             pulse = np.clip(np.sin(np.pi * (position - index)) * 1.6 - 0.3, 0, 1)  # flat bottom and top
             tooth[start : start + t.size] = np.where(present, 0.2 + 3.0 * pulse, 0.2).astype(np.float32)
-            revs = np.arange(math.ceil((alpha[0]) / (2 * math.pi)), math.floor(alpha[-1] / (2 * math.pi)) + 1)
-            pulses.append(np.interp(revs * 2 * math.pi, alpha, t))
+            # the revolutions from the previous chunk's last sample on: none falls between two chunks
+            revs = np.arange(
+                math.floor(before[1] / (2 * math.pi)) + 1, math.floor(alpha[-1] / (2 * math.pi)) + 1
+            )
+            pulses.append(np.interp(revs * 2 * math.pi, np.r_[before[1], alpha], np.r_[before[0], t]))
+            revolutions.append(revs)
+            before = (float(t[-1]), float(alpha[-1]))
         kp = group.create_dataset("keyphasor", data=np.concatenate(pulses))
         kp.attrs.update(
             {"kind": "keyphasor", "unit": "s", "representation": "events", "pulse_angle_deg": 0.0}
         )
         # a cam pulse every second revolution: the four-stroke cycle's phase, for the diagnosis
-        cam = group.create_dataset("cam", data=np.concatenate(pulses)[::2])
+        even = np.concatenate(revolutions) % 2 == 0
+        cam = group.create_dataset("cam", data=np.concatenate(pulses)[even])
         cam.attrs.update({"kind": "cam", "unit": "s", "representation": "events", "cam_angle_deg": 0.0})
     return {"samples_per_channel": n, "bytes": path.stat().st_size, "seconds": n / FS}
 
