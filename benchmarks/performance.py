@@ -292,11 +292,16 @@ def main() -> None:
             ("bare-mcap", mcap),
             ("compute", path),
             ("pipeline-mcap", mcap),
-            ("engine-spectra", path),
-            ("diagnosis", path),
         ):
             print(f"{task} ...", flush=True)
             runs[task] = measure(task, where)
+        # the diagnosis against the spectra it starts from: a ratio near 1, so each is measured twice,
+        # interleaved, and the faster of the two runs kept (the machine's load drifts within a run)
+        for task in ("engine-spectra", "diagnosis", "engine-spectra", "diagnosis"):
+            print(f"{task} ...", flush=True)
+            run = measure(task, path)
+            if task not in runs or run["seconds"] < runs[task]["seconds"]:
+                runs[task] = run
         mcap_bytes = mcap.stat().st_size
         from benchmarks.peer_rota import measure_ours, measure_rota, table
 
@@ -390,7 +395,8 @@ def main() -> None:
         "profiles (in the same pass over the samples), the cylinder balance, the model at the "
         "recording's speed, the bearing comparisons and the rms velocities (from 16 segments). The "
         "generated signals are not an engine's, so the findings themselves mean nothing here "
-        f"({int(diagnosis['findings'])} were reported); the cost is what is measured.",
+        f"({int(diagnosis['findings'])} were reported); the cost is what is measured. Each of the two "
+        "was run twice, interleaved; the faster run of each is shown.",
         "",
         "| task | time | real time over computing time | ratio | peak memory |",
         "|---|---|---|---|---|",
