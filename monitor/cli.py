@@ -212,6 +212,34 @@ def _build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
     calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
 
+    batch = sub.add_parser(
+        "batch",
+        help="diagnose every recording not yet diagnosed (a folder, or the store's since a date)",
+        description="Register the recordings under PATH in the results store (or take the store's "
+        "recordings uploaded since --since), and diagnose those without a result at the current analysis "
+        "version in a local process pool. Idempotent: run it again, or after a crash, and only what is "
+        "missing is done. Ends with a summary of findings per engine.",
+    )
+    scope = batch.add_mutually_exclusive_group(required=True)
+    scope.add_argument("path", nargs="?", metavar="PATH", help="a recording file or a folder of them")
+    scope.add_argument(
+        "--since", metavar="DATE", help="the store's recordings uploaded since DATE (ISO 8601)"
+    )
+    batch.add_argument(
+        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else ./engine-monitor.db)"
+    )
+    batch.add_argument(
+        "--fleet", default="local", help="the fleet the recordings belong to (default 'local')"
+    )
+    batch.add_argument(
+        "--baseline",
+        action="append",
+        default=[],
+        metavar="B.json",
+        help="a baseline (from 'calibrate'), per engine",
+    )
+    batch.add_argument("--workers", type=int, help="worker processes (default: one per core)")
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
@@ -257,6 +285,51 @@ def _run_calibrate(args: argparse.Namespace) -> int:
         f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",
         file=sys.stderr,
     )
+    return 0
+
+
+def _run_batch(args: argparse.Namespace) -> int:
+    from datetime import UTC, datetime
+
+    from monitor.batch import progress_bar, run_batch
+    from monitor.diagnosis import Baseline
+    from monitor.errors import ModelError
+    from monitor.store import StoreError, open_store
+
+    since = None
+    if args.since:
+        try:
+            since = datetime.fromisoformat(args.since)
+        except ValueError:
+            raise ModelError(
+                f"--since {args.since!r}: expected a date or time in ISO 8601 (2026-11-22)"
+            ) from None
+        if since.tzinfo is None:
+            since = since.replace(tzinfo=UTC)
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers {args.workers}: expected at least 1")
+    baselines = {}
+    for path in args.baseline:
+        baseline = Baseline.read(path)
+        baselines[baseline.engine_id] = baseline.to_document()
+    store = open_store(args.store)
+    try:
+        try:
+            fleet_id = store.fleet_id(args.fleet)
+        except StoreError:
+            fleet_id = store.create_fleet(args.fleet)
+        summary = run_batch(
+            store,
+            fleet_id,
+            path=Path(args.path) if args.path else None,
+            since=since,
+            baselines=baselines,
+            workers=args.workers,
+            progress=progress_bar(),
+        )
+    finally:
+        store.close()
+    print(summary.text())
     return 0
 
 
@@ -570,6 +643,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "simulate": _run_simulate,
         "compare": _run_compare,
         "calibrate": _run_calibrate,
+        "batch": _run_batch,
     }
     try:
         return handlers[args.command](args)

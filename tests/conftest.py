@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import uuid
 import zlib
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -38,3 +41,44 @@ def shared_path(*parts: str) -> Path:
     if not path.exists():
         pytest.skip(f"{path.relative_to(ROOT.parent)} is absent: third-party test data not available")
     return path
+
+
+# ------------------------------------------------------------------------------------------ stores
+# The PostgreSQL server on loopback (ENGINE_MONITOR_TEST_POSTGRES overrides the URL); each use gets a
+# database of its own, dropped afterwards; where no server answers, the PostgreSQL cases skip and say so.
+ADMIN_URL = os.environ.get(
+    "ENGINE_MONITOR_TEST_POSTGRES", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
+)
+
+
+@contextmanager
+def postgres_database() -> Iterator[str]:
+    """The URL of a new, empty PostgreSQL database; skips the test if no server answers."""
+    import sqlalchemy as sa
+
+    admin = sa.create_engine(ADMIN_URL, isolation_level="AUTOCOMMIT")
+    name = f"engine_monitor_test_{uuid.uuid4().hex[:12]}"
+    try:
+        with admin.connect() as c:
+            c.execute(sa.text(f'CREATE DATABASE "{name}"'))
+    except sa.exc.OperationalError as error:
+        admin.dispose()
+        pytest.skip(
+            f"no PostgreSQL server answers at {admin.url.render_as_string(hide_password=True)}: {error.orig}"
+        )
+    try:
+        yield admin.url.set(database=name).render_as_string(hide_password=False)
+    finally:
+        with admin.connect() as c:
+            c.execute(sa.text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        admin.dispose()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def store_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    """A store URL: an SQLite file, then a fresh PostgreSQL database (skipped where no server answers)."""
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'store.db'}"
+    else:
+        with postgres_database() as url:
+            yield url

@@ -1,0 +1,279 @@
+"""The nightly batch: diagnose every recording not yet diagnosed, idempotent and resumable.
+
+``engine-monitor batch PATH`` registers every recording file under ``PATH``
+(``.h5``, ``.hdf5``, ``.mcap``) in the store by its content hash (a file seen
+before, under any name, is not registered twice), queues a diagnosis job for
+each recording that has no result at the current analysis version, and runs
+the queued jobs in a local process pool. ``engine-monitor batch --since DATE``
+does the same for the recordings already in the store (uploaded over HTTP)
+since that date.
+
+Each job's result is written in one transaction with the job's completion,
+and the store's unique keys refuse a second result for the same recording and
+version, so the batch can be run again at any time, and after a crash: jobs a
+killed batch left running are queued again, the rest are not redone. A job
+that fails records why and is retried by the next run, up to
+:data:`monitor.store.MAX_ATTEMPTS` times, then set aside.
+
+Engines come from the fleet's descriptions in the store, else the bundled
+ones; baselines (``--baseline B.json``, one per engine) make the bearing
+comparisons.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+from collections import Counter, defaultdict
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from monitor.errors import MonitorError
+from monitor.store import Job, Store
+
+__all__ = ["RECORDING_SUFFIXES", "BatchSummary", "content_hash", "diagnose_file", "register", "run_batch"]
+
+RECORDING_SUFFIXES = (".h5", ".hdf5", ".mcap")
+DIAGNOSIS = "diagnosis"  # the kind of result a job writes
+
+
+def content_hash(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex), read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
+    """Register a recording file in the store: ``(recording id, created)``.
+
+    Raises
+    ------
+    MonitorError
+        If the file is not a recording the product can read.
+    """
+    from monitor.pipeline import open_recording
+
+    with open_recording(path) as recording:
+        engine_id, recorded_at = recording.engine_id, recording.start_time
+    row, created = store.add_recording(
+        fleet_id,
+        content_hash=content_hash(path),
+        engine_id=engine_id,
+        filename=path.name,
+        path=str(path.resolve()),
+        size_bytes=path.stat().st_size,
+        recorded_at=recorded_at,
+    )
+    return row.id, created
+
+
+def diagnose_file(
+    path: str, engine_description: dict[str, Any] | None, baseline_document: dict[str, Any] | None
+) -> tuple[str, dict[str, Any]]:
+    """Diagnose one recording file (run in a worker process): ``(status, JSON document)``."""
+    from monitor.diagnosis import Baseline, diagnose
+    from monitor.diagnosis.report import diagnosis_document
+    from monitor.engine import bundled_engines, load_engine, parse_engine
+    from monitor.errors import DiagnosisError
+    from monitor.pipeline import open_recording
+
+    with open_recording(path) as recording:
+        if engine_description is not None:
+            engine = parse_engine(engine_description, origin=f"engine {recording.engine_id} of the store")
+        elif recording.engine_id in bundled_engines():
+            engine = load_engine(bundled_engines()[recording.engine_id])
+        else:
+            raise DiagnosisError(
+                f"engine {recording.engine_id!r} is neither in the fleet's engines nor bundled: "
+                "add its description"
+            )
+        baseline = Baseline.from_document(baseline_document) if baseline_document is not None else None
+        diagnosis = diagnose(recording, engine, baseline=baseline)
+    return diagnosis.status, diagnosis_document(diagnosis, recording=Path(path).name)
+
+
+@dataclass
+class BatchSummary:
+    """What a batch run did.
+
+    Attributes
+    ----------
+    registered, known : int
+        Recording files newly registered, and already in the store.
+    unreadable : list of (str, str)
+        Files that are not readable recordings, with the reason.
+    diagnosed : int
+        Jobs completed in this run.
+    failed : list of (str, str, str)
+        Jobs that failed: file, reason, new state ("queued" to retry, "set_aside").
+    requeued : int
+        Jobs an earlier, interrupted run had left running.
+    by_engine : dict of str to Counter
+        Per engine, the statuses of the diagnoses of this run.
+    findings : dict of str to list of str
+        Per engine, the findings' summaries of this run (prefixed with the file name).
+    """
+
+    registered: int = 0
+    known: int = 0
+    unreadable: list[tuple[str, str]] = field(default_factory=list)
+    diagnosed: int = 0
+    failed: list[tuple[str, str, str]] = field(default_factory=list)
+    requeued: int = 0
+    by_engine: dict[str, Counter[str]] = field(default_factory=lambda: defaultdict(Counter))
+    findings: dict[str, list[str]] = field(default_factory=lambda: defaultdict(list))
+
+    def text(self) -> str:
+        """The summary for people: per engine, counts by status and the findings."""
+        lines = [
+            f"batch: {self.registered} recording(s) registered, {self.known} already known, "
+            f"{self.diagnosed} diagnosed, {len(self.failed)} failed"
+            + (f", {self.requeued} resumed from an interrupted run" if self.requeued else "")
+        ]
+        for engine_id in sorted(self.by_engine):
+            counts = self.by_engine[engine_id]
+            status = ", ".join(f"{counts[s]} {s}" for s in ("healthy", "warning", "alarm") if counts[s])
+            lines.append(f"  {engine_id}: {status}")
+            lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
+        for name, reason in self.unreadable:
+            lines.append(f"  not a readable recording: {name}: {reason}")
+        for name, reason, state in self.failed:
+            again = "set aside (too many attempts)" if state == "set_aside" else "will be retried"
+            lines.append(f"  failed: {name}: {reason} ({again})")
+        return "\n".join(lines)
+
+
+def _files(root: Path) -> list[Path]:
+    if root.is_file():
+        return [root]
+    if not root.is_dir():
+        raise MonitorError(f"{root}: no such file or folder")
+    return sorted(p for p in root.rglob("*") if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES)
+
+
+def run_batch(
+    store: Store,
+    fleet_id: int,
+    *,
+    path: Path | None = None,
+    since: datetime | None = None,
+    baselines: dict[str, dict[str, Any]] | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> BatchSummary:
+    """Register, queue and diagnose (see the module docstring).
+
+    Parameters
+    ----------
+    store : Store
+    fleet_id : int
+    path : Path, optional
+        A recording file or a folder searched recursively.
+    since : datetime, optional
+        Instead of ``path``: the fleet's stored recordings uploaded since then.
+    baselines : dict, optional
+        Baseline documents (``engine-monitor calibrate``) by engine id.
+    workers : int, optional
+        Worker processes; default: one per core.
+    progress : callable, optional
+        Called with (jobs done, jobs in this run) after each job.
+
+    Returns
+    -------
+    BatchSummary
+    """
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    summary = BatchSummary()
+    scope: list[int] = []
+    if path is not None:
+        for file in _files(path):
+            try:
+                recording_id, created = register(store, fleet_id, file)
+            except (MonitorError, OSError) as error:
+                summary.unreadable.append((file.name, str(error)))
+                continue
+            summary.registered += created
+            summary.known += not created
+            scope.append(recording_id)
+    else:
+        offset = 0
+        while page := store.recordings(fleet_id, since=since, offset=offset, limit=500):
+            scope += [r.id for r in page]
+            offset += len(page)
+    summary.requeued = store.requeue_running(ANALYSIS_VERSION, recording_ids=scope)
+    pending: list[Job] = []
+    for recording_id in scope:
+        job = store.enqueue(recording_id, ANALYSIS_VERSION)
+        if job.state == "queued":
+            pending.append(job)
+    total = len(pending)
+    if total == 0:
+        return summary
+    engines: dict[str, dict[str, Any] | None] = {}
+    count = workers or os.cpu_count() or 1
+    with ProcessPoolExecutor(max_workers=max(1, min(count, total))) as pool:
+        running: dict[Future[tuple[str, dict[str, Any]]], tuple[Job, str, str]] = {}
+        queue = list(pending)
+
+        def submit() -> None:
+            while queue and len(running) < 2 * count:
+                job = queue.pop(0)
+                claimed = store.claim_job(job.id)
+                if claimed is None:  # another worker took it, or it is no longer queued
+                    continue
+                row = store.recording(fleet_id, claimed.recording_id)
+                assert row is not None
+                if row.engine_id not in engines:
+                    engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
+                future = pool.submit(
+                    diagnose_file, row.path, engines[row.engine_id], (baselines or {}).get(row.engine_id)
+                )
+                running[future] = (claimed, row.filename, row.engine_id)
+
+        submit()
+        done_count = 0
+        while running:
+            finished, _ = wait(list(running), return_when=FIRST_COMPLETED)
+            for future in finished:
+                job, name, engine_id = running.pop(future)
+                try:
+                    status, document = future.result()
+                except Exception as error:  # a worker's failure is recorded, never fatal to the batch
+                    reason = f"{type(error).__name__}: {error}"
+                    summary.failed.append((name, reason, store.fail(job, reason)))
+                else:
+                    store.complete(job, {DIAGNOSIS: (status, document)})
+                    summary.diagnosed += 1
+                    summary.by_engine[engine_id][status] += 1
+                    summary.findings[engine_id] += [f"{name}: {f['summary']}" for f in document["findings"]]
+                done_count += 1
+                if progress is not None:
+                    progress(done_count, total)
+            submit()
+    return summary
+
+
+def progress_bar(stream: Any = None) -> Callable[[int, int], None]:
+    """A progress bar on a terminal (nothing otherwise)."""
+    out = stream or sys.stderr
+
+    def show(done: int, total: int) -> None:
+        if out.isatty():
+            bar = "#" * round(30 * done / total)
+            print(
+                f"\rdiagnosing [{bar:30s}] {done}/{total}",
+                end="" if done < total else "\n",
+                file=out,
+                flush=True,
+            )
+
+    return show

@@ -1,0 +1,462 @@
+"""The results store: fleets, keys, engines, recordings, analysis jobs and their results.
+
+One data layer (SQLAlchemy Core) over two databases:
+
+- SQLite by default, embedded, nothing to install: a file, in WAL mode (readers
+  never wait for the writer), foreign keys on, a busy timeout so that
+  concurrent writers queue instead of failing;
+- PostgreSQL by a connection URL (``postgresql+psycopg://user@host/db``).
+
+:func:`open_store` brings the schema up to date with its migrations
+(``monitor/store/migrations``, Alembic) before anything else. Every write is a
+transaction: a result is stored whole or not at all, and the unique keys make
+a second write of the same result (same recording, analysis version and
+kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
+
+Jobs move ``queued -> running -> done``; a failure records why and puts the
+job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
+A job left ``running`` by a crash is queued again by :meth:`Store.requeue_running`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.engine import Connection, Engine
+
+from monitor.errors import MonitorError
+from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
+
+__all__ = [
+    "DEFAULT_URL_ENV",
+    "MAX_ATTEMPTS",
+    "Job",
+    "RecordingRow",
+    "Store",
+    "StoreError",
+    "default_url",
+    "key_digest",
+    "open_store",
+]
+
+DEFAULT_URL_ENV = "ENGINE_MONITOR_DB"  # environment variable with the store's URL
+MAX_ATTEMPTS = 3  # a job that failed this many times is set aside
+
+
+class StoreError(MonitorError):
+    """The store cannot do what was asked (unreachable database, unknown fleet, ...)."""
+
+
+def default_url(folder: str | Path = ".") -> str:
+    """The store's URL: ``$ENGINE_MONITOR_DB``, else an SQLite file ``engine-monitor.db`` in ``folder``."""
+    url = os.environ.get(DEFAULT_URL_ENV)
+    if url:
+        return url
+    return f"sqlite:///{Path(folder).resolve() / 'engine-monitor.db'}"
+
+
+def key_digest(key: str) -> str:
+    """The stored form of an API key: its SHA-256 digest (hex)."""
+    return hashlib.sha256(key.encode("utf-8")).hexdigest()
+
+
+def _now() -> datetime:
+    return datetime.now(UTC)
+
+
+@dataclass(frozen=True)
+class RecordingRow:
+    """A stored recording."""
+
+    id: int
+    fleet_id: int
+    content_hash: str
+    engine_id: str
+    filename: str
+    path: str
+    size_bytes: int
+    recorded_at: str
+    uploaded_at: datetime
+
+
+@dataclass(frozen=True)
+class Job:
+    """One analysis of one recording at one analysis version."""
+
+    id: int
+    recording_id: int
+    analysis_version: str
+    state: str
+    attempts: int
+    error: str
+
+
+def _recording(row: Any) -> RecordingRow:
+    return RecordingRow(
+        row.id,
+        row.fleet_id,
+        row.content_hash,
+        row.engine_id,
+        row.filename,
+        row.path,
+        int(row.size_bytes),
+        row.recorded_at,
+        row.uploaded_at,
+    )
+
+
+def _job(row: Any) -> Job:
+    return Job(row.id, row.recording_id, row.analysis_version, row.state, int(row.attempts), row.error)
+
+
+class Store:
+    """The store behind one SQLAlchemy engine (see the module docstring). Use :func:`open_store`."""
+
+    def __init__(self, engine: Engine) -> None:
+        self.db = engine
+
+    @property
+    def dialect(self) -> str:
+        """ "sqlite" or "postgresql"."""
+        return str(self.db.dialect.name)
+
+    @contextmanager
+    def transaction(self) -> Iterator[Connection]:
+        """A connection in one transaction: committed on success, rolled back on any error."""
+        with self.db.begin() as connection:
+            yield connection
+
+    def close(self) -> None:
+        """Release the connections."""
+        self.db.dispose()
+
+    # ------------------------------------------------------------------------------- fleets, keys
+    def create_fleet(self, name: str) -> int:
+        """A new fleet's id (a fleet of that name already there is refused)."""
+        with self.transaction() as c:
+            if c.execute(sa.select(fleets.c.id).where(fleets.c.name == name)).first() is not None:
+                raise StoreError(f"fleet {name!r} exists already")
+            c.execute(sa.insert(fleets).values(name=name, created_at=_now()))
+            return int(c.execute(sa.select(fleets.c.id).where(fleets.c.name == name)).scalar_one())
+
+    def fleet_id(self, name: str) -> int:
+        """The id of a fleet by name."""
+        with self.db.connect() as c:
+            row = c.execute(sa.select(fleets.c.id).where(fleets.c.name == name)).first()
+        if row is None:
+            raise StoreError(f"no fleet {name!r}")
+        return int(row.id)
+
+    def create_key(self, fleet_id: int, label: str = "") -> str:
+        """A new API key for a fleet; only its digest is stored, so this is the one time it is seen."""
+        key = secrets.token_urlsafe(32)
+        with self.transaction() as c:
+            c.execute(
+                sa.insert(api_keys).values(
+                    fleet_id=fleet_id, digest=key_digest(key), label=label, created_at=_now()
+                )
+            )
+        return key
+
+    def fleet_of_key(self, key: str) -> int | None:
+        """The fleet a key belongs to, or None for an unknown key."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(api_keys.c.fleet_id).where(api_keys.c.digest == key_digest(key))
+            ).first()
+        return None if row is None else int(row.fleet_id)
+
+    # -------------------------------------------------------------------------------------- engines
+    def put_engine(self, fleet_id: int, engine_id: str, description: dict[str, Any]) -> bool:
+        """Store or replace a fleet's engine description; True if it was new."""
+        now = _now()
+        with self.transaction() as c:
+            where = (engines.c.fleet_id == fleet_id) & (engines.c.engine_id == engine_id)
+            if c.execute(sa.select(engines.c.id).where(where)).first() is None:
+                c.execute(
+                    sa.insert(engines).values(
+                        fleet_id=fleet_id,
+                        engine_id=engine_id,
+                        description=description,
+                        created_at=now,
+                        updated_at=now,
+                    )
+                )
+                return True
+            c.execute(sa.update(engines).where(where).values(description=description, updated_at=now))
+            return False
+
+    def engine(self, fleet_id: int, engine_id: str) -> dict[str, Any] | None:
+        """A fleet's engine description, or None."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(engines.c.description).where(
+                    (engines.c.fleet_id == fleet_id) & (engines.c.engine_id == engine_id)
+                )
+            ).first()
+        return None if row is None else dict(row.description)
+
+    def engines(self, fleet_id: int) -> list[str]:
+        """A fleet's engine ids, sorted."""
+        with self.db.connect() as c:
+            rows = c.execute(
+                sa.select(engines.c.engine_id)
+                .where(engines.c.fleet_id == fleet_id)
+                .order_by(engines.c.engine_id)
+            )
+            return [r.engine_id for r in rows]
+
+    # ----------------------------------------------------------------------------------- recordings
+    def add_recording(
+        self,
+        fleet_id: int,
+        *,
+        content_hash: str,
+        engine_id: str,
+        filename: str,
+        path: str,
+        size_bytes: int,
+        recorded_at: str = "",
+    ) -> tuple[RecordingRow, bool]:
+        """Store a recording's row, or find the one with the same content: ``(row, created)``."""
+        with self.transaction() as c:
+            where = (recordings.c.fleet_id == fleet_id) & (recordings.c.content_hash == content_hash)
+            row = c.execute(sa.select(recordings).where(where)).first()
+            if row is not None:
+                return _recording(row), False
+            c.execute(
+                sa.insert(recordings).values(
+                    fleet_id=fleet_id,
+                    content_hash=content_hash,
+                    engine_id=engine_id,
+                    filename=filename,
+                    path=path,
+                    size_bytes=size_bytes,
+                    recorded_at=recorded_at,
+                    uploaded_at=_now(),
+                )
+            )
+            return _recording(c.execute(sa.select(recordings).where(where)).one()), True
+
+    def recording(self, fleet_id: int, recording_id: int) -> RecordingRow | None:
+        """A fleet's recording by id (another fleet's answers None, as an unknown one)."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(recordings).where(
+                    (recordings.c.id == recording_id) & (recordings.c.fleet_id == fleet_id)
+                )
+            ).first()
+        return None if row is None else _recording(row)
+
+    def recordings(
+        self,
+        fleet_id: int,
+        *,
+        engine_id: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+        offset: int = 0,
+        limit: int = 100,
+    ) -> list[RecordingRow]:
+        """A fleet's recordings, newest first, filtered by engine and upload time, a page at a time."""
+        query = sa.select(recordings).where(recordings.c.fleet_id == fleet_id)
+        if engine_id is not None:
+            query = query.where(recordings.c.engine_id == engine_id)
+        if since is not None:
+            query = query.where(recordings.c.uploaded_at >= since)
+        if until is not None:
+            query = query.where(recordings.c.uploaded_at < until)
+        query = (
+            query.order_by(recordings.c.uploaded_at.desc(), recordings.c.id.desc())
+            .offset(offset)
+            .limit(limit)
+        )
+        with self.db.connect() as c:
+            return [_recording(r) for r in c.execute(query)]
+
+    # ------------------------------------------------------------------------------- jobs, results
+    def enqueue(self, recording_id: int, analysis_version: str) -> Job:
+        """The job of a recording at an analysis version, queued if it did not exist."""
+        now = _now()
+        with self.transaction() as c:
+            where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
+            row = c.execute(sa.select(jobs).where(where)).first()
+            if row is None:
+                c.execute(
+                    sa.insert(jobs).values(
+                        recording_id=recording_id,
+                        analysis_version=analysis_version,
+                        state="queued",
+                        attempts=0,
+                        error="",
+                        created_at=now,
+                        updated_at=now,
+                    )
+                )
+                row = c.execute(sa.select(jobs).where(where)).one()
+            return _job(row)
+
+    def claim(self, analysis_version: str) -> Job | None:
+        """Take the oldest queued job of this version (marking it running), or None if there is none.
+
+        Two workers never take the same job: the state changes only where it is still "queued".
+        """
+        while True:
+            with self.transaction() as c:
+                row = c.execute(
+                    sa.select(jobs)
+                    .where((jobs.c.state == "queued") & (jobs.c.analysis_version == analysis_version))
+                    .order_by(jobs.c.id)
+                    .limit(1)
+                ).first()
+                if row is None:
+                    return None
+                taken = c.execute(
+                    sa.update(jobs)
+                    .where((jobs.c.id == row.id) & (jobs.c.state == "queued"))
+                    .values(state="running", attempts=jobs.c.attempts + 1, updated_at=_now())
+                ).rowcount
+                if taken == 1:
+                    return _job(c.execute(sa.select(jobs).where(jobs.c.id == row.id)).one())
+
+    def complete(self, job: Job, documents: dict[str, tuple[str, dict[str, Any]]]) -> None:
+        """Store a job's results (``kind -> (status, document)``) and mark it done, in one transaction.
+
+        A result already stored for the same recording, version and kind is kept as it is.
+        """
+        with self.transaction() as c:
+            for kind, (status, document) in documents.items():
+                exists = c.execute(
+                    sa.select(results.c.id).where(
+                        (results.c.recording_id == job.recording_id)
+                        & (results.c.analysis_version == job.analysis_version)
+                        & (results.c.kind == kind)
+                    )
+                ).first()
+                if exists is None:
+                    c.execute(
+                        sa.insert(results).values(
+                            recording_id=job.recording_id,
+                            analysis_version=job.analysis_version,
+                            kind=kind,
+                            status=status,
+                            document=document,
+                            created_at=_now(),
+                        )
+                    )
+            c.execute(
+                sa.update(jobs).where(jobs.c.id == job.id).values(state="done", error="", updated_at=_now())
+            )
+
+    def fail(self, job: Job, error: str) -> str:
+        """Record why a job failed; queue it again, or set it aside after :data:`MAX_ATTEMPTS`.
+
+        Returns the job's new state.
+        """
+        with self.transaction() as c:
+            attempts = c.execute(sa.select(jobs.c.attempts).where(jobs.c.id == job.id)).scalar_one()
+            state = "set_aside" if attempts >= MAX_ATTEMPTS else "queued"
+            c.execute(
+                sa.update(jobs)
+                .where(jobs.c.id == job.id)
+                .values(state=state, error=error[:4000], updated_at=_now())
+            )
+        return state
+
+    def claim_job(self, job_id: int) -> Job | None:
+        """Take one job if it is still queued (marking it running), else None."""
+        with self.transaction() as c:
+            taken = c.execute(
+                sa.update(jobs)
+                .where((jobs.c.id == job_id) & (jobs.c.state == "queued"))
+                .values(state="running", attempts=jobs.c.attempts + 1, updated_at=_now())
+            ).rowcount
+            if taken != 1:
+                return None
+            return _job(c.execute(sa.select(jobs).where(jobs.c.id == job_id)).one())
+
+    def requeue_running(self, analysis_version: str, *, recording_ids: list[int] | None = None) -> int:
+        """Queue again the jobs a crash left running (of these recordings only, if given); how many."""
+        where = (jobs.c.state == "running") & (jobs.c.analysis_version == analysis_version)
+        if recording_ids is not None:
+            where &= jobs.c.recording_id.in_(recording_ids)
+        with self.transaction() as c:
+            return int(
+                c.execute(sa.update(jobs).where(where).values(state="queued", updated_at=_now())).rowcount
+            )
+
+    def job(self, recording_id: int, analysis_version: str) -> Job | None:
+        """The job of a recording at a version, or None."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(jobs).where(
+                    (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
+                )
+            ).first()
+        return None if row is None else _job(row)
+
+    def result(self, recording_id: int, analysis_version: str, kind: str) -> dict[str, Any] | None:
+        """A stored result document, or None."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(results.c.document).where(
+                    (results.c.recording_id == recording_id)
+                    & (results.c.analysis_version == analysis_version)
+                    & (results.c.kind == kind)
+                )
+            ).first()
+        return None if row is None else dict(row.document)
+
+    def count(self, table: str) -> int:
+        """Rows in a table (for checks and summaries)."""
+        with self.db.connect() as c:
+            return int(c.execute(sa.select(sa.func.count()).select_from(metadata.tables[table])).scalar_one())
+
+
+def _sqlite_pragmas(connection: Any, _: Any) -> None:
+    cursor = connection.cursor()
+    cursor.execute("PRAGMA journal_mode=WAL")
+    cursor.execute("PRAGMA foreign_keys=ON")
+    cursor.execute("PRAGMA busy_timeout=30000")
+    cursor.execute("PRAGMA synchronous=NORMAL")
+    cursor.close()
+
+
+def open_store(url: str | None = None) -> Store:
+    """Open (and migrate to the newest schema) the store at ``url`` (default: :func:`default_url`).
+
+    Raises
+    ------
+    StoreError
+        If the database cannot be reached or migrated; the message names the URL without its password.
+    """
+    from alembic import command
+    from alembic.config import Config
+
+    target = url or default_url()
+    try:
+        engine = sa.create_engine(target, pool_pre_ping=True)
+    except (sa.exc.ArgumentError, ImportError) as error:
+        raise StoreError(f"store URL {target!r}: {error}") from error
+    if engine.dialect.name == "sqlite":
+        sa.event.listen(engine, "connect", _sqlite_pragmas)
+    config = Config()
+    config.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
+    try:
+        with engine.begin() as connection:
+            config.attributes["connection"] = connection
+            command.upgrade(config, "head")
+    except sa.exc.OperationalError as error:
+        engine.dispose()
+        shown = engine.url.render_as_string(hide_password=True)
+        raise StoreError(f"store {shown}: cannot be reached or migrated ({error.orig})") from error
+    return Store(engine)

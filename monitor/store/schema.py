@@ -1,0 +1,100 @@
+"""The results store's tables (SQLAlchemy Core): one schema for SQLite and PostgreSQL.
+
+- ``fleets``: who owns engines and recordings;
+- ``api_keys``: a fleet's keys, stored as SHA-256 digests (the keys are random
+  tokens of 256 bits, so a fast digest suffices; the key itself is never stored);
+- ``engines``: a fleet's engine descriptions (the validated TOML as JSON);
+- ``recordings``: stored recordings by content hash (the same content is
+  stored once per fleet), the file's place in the recording folder;
+- ``jobs``: one analysis of one recording at one analysis version, with its
+  state (queued, running, done, failed, set_aside), attempts and last error;
+- ``results``: the documents an analysis wrote, at most one per recording,
+  analysis version and kind.
+
+Changes to these tables go through migrations (``monitor/store/migrations``).
+"""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+
+__all__ = ["JOB_STATES", "api_keys", "engines", "fleets", "jobs", "metadata", "recordings", "results"]
+
+JOB_STATES = ("queued", "running", "done", "failed", "set_aside")
+
+metadata = sa.MetaData()
+
+fleets = sa.Table(
+    "fleets",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(200), nullable=False, unique=True),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+)
+
+api_keys = sa.Table(
+    "api_keys",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("digest", sa.String(64), nullable=False, unique=True),
+    sa.Column("label", sa.String(200), nullable=False, server_default=""),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+)
+
+engines = sa.Table(
+    "engines",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("engine_id", sa.String(200), nullable=False),
+    sa.Column("description", sa.JSON, nullable=False),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("updated_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("fleet_id", "engine_id", name="uq_engines_fleet_engine"),
+)
+
+recordings = sa.Table(
+    "recordings",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("content_hash", sa.String(64), nullable=False),
+    sa.Column("engine_id", sa.String(200), nullable=False),
+    sa.Column("filename", sa.String(255), nullable=False),
+    sa.Column("path", sa.String(1024), nullable=False),
+    sa.Column("size_bytes", sa.BigInteger, nullable=False),
+    sa.Column("recorded_at", sa.String(64), nullable=False, server_default=""),
+    sa.Column("uploaded_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("fleet_id", "content_hash", name="uq_recordings_fleet_content"),
+    sa.Index("ix_recordings_fleet_engine_uploaded", "fleet_id", "engine_id", "uploaded_at"),
+)
+
+jobs = sa.Table(
+    "jobs",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer, sa.ForeignKey("recordings.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("analysis_version", sa.String(32), nullable=False),
+    sa.Column("state", sa.String(16), nullable=False),
+    sa.Column("attempts", sa.Integer, nullable=False, server_default="0"),
+    sa.Column("error", sa.Text, nullable=False, server_default=""),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("updated_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("recording_id", "analysis_version", name="uq_jobs_recording_version"),
+    sa.CheckConstraint(f"state IN ({', '.join(repr(s) for s in JOB_STATES)})", name="ck_jobs_state"),
+    sa.Index("ix_jobs_state", "state"),
+)
+
+results = sa.Table(
+    "results",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer, sa.ForeignKey("recordings.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("analysis_version", sa.String(32), nullable=False),
+    sa.Column("kind", sa.String(32), nullable=False),
+    sa.Column("status", sa.String(16), nullable=False, server_default=""),
+    sa.Column("document", sa.JSON, nullable=False),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("recording_id", "analysis_version", "kind", name="uq_results_recording_version_kind"),
+)

@@ -1,0 +1,158 @@
+"""The nightly batch: idempotent, resumable after a crash, failures retried then set aside."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import pytest
+
+from monitor.batch import content_hash, run_batch
+from monitor.cli import main
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.io.hdf5 import read_hdf5, write_hdf5
+from monitor.scene import load_scene, simulate
+from monitor.store import MAX_ATTEMPTS, open_store
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = ROOT / "recordings" / "samples"
+SCENES = ROOT / "recordings" / "scenes"
+
+
+@pytest.fixture
+def folder(tmp_path: Path) -> Path:
+    """The three bundled samples, a copy of one under another name, and a file that is no recording."""
+    out = tmp_path / "recordings"
+    (out / "ship-a").mkdir(parents=True)
+    for path in SAMPLES.glob("*.h5"):
+        shutil.copy(path, out / "ship-a" / path.name)
+    shutil.copy(SAMPLES / "7k98mc-baseline.h5", out / "copy-of-baseline.h5")
+    (out / "notes.h5").write_text("not a recording")
+    return out
+
+
+def test_a_batch_diagnoses_each_recording_once_and_a_rerun_does_nothing(folder: Path, store_url: str) -> None:
+    store = open_store(store_url)
+    try:
+        fleet = store.create_fleet("ships")
+        first = run_batch(store, fleet, path=folder, workers=2)
+        assert (first.registered, first.known, first.diagnosed, first.failed) == (3, 1, 3, [])
+        assert [name for name, _ in first.unreadable] == ["notes.h5"]
+        assert dict(first.by_engine["man-b-w-7k98mc"]) == {"healthy": 1, "alarm": 1}
+        assert dict(first.by_engine["medium-speed-6l32"]) == {"alarm": 1}
+        text = first.text()
+        assert (
+            "7k98mc-misfire-cyl4.h5: cylinder 4 at" in text and "6l32-misfire-cyl3.h5: cylinder 3 at" in text
+        )
+        again = run_batch(store, fleet, path=folder, workers=2)
+        assert (again.registered, again.known, again.diagnosed) == (0, 4, 0)
+        assert store.count("results") == 3 and store.count("jobs") == 3 and store.count("recordings") == 3
+        recording = next(r for r in store.recordings(fleet) if r.filename == "7k98mc-misfire-cyl4.h5")
+        document = store.result(recording.id, ANALYSIS_VERSION, "diagnosis")
+        assert document is not None and [f["subject"] for f in document["findings"]] == ["cylinder 4"]
+    finally:
+        store.close()
+
+
+def test_a_failing_recording_is_retried_then_set_aside(tmp_path: Path) -> None:
+    """A readable recording of an engine nobody describes fails with the reason, each run retries
+    it, and after MAX_ATTEMPTS it is set aside and left alone."""
+    unknown = tmp_path / "unknown-engine.h5"
+    write_hdf5(replace(read_hdf5(SAMPLES / "7k98mc-baseline.h5"), engine_id="unknown-engine"), unknown)
+    store = open_store(f"sqlite:///{tmp_path / 's.db'}")
+    try:
+        fleet = store.create_fleet("ships")
+        states = []
+        for _ in range(MAX_ATTEMPTS + 1):
+            summary = run_batch(store, fleet, path=unknown, workers=1)
+            states += [state for _, _, state in summary.failed]
+            if summary.failed:
+                assert (
+                    "engine 'unknown-engine' is neither in the fleet's engines nor bundled"
+                    in summary.failed[0][1]
+                )
+        assert states == ["queued"] * (MAX_ATTEMPTS - 1) + ["set_aside"]
+        assert store.count("results") == 0
+    finally:
+        store.close()
+
+
+def test_a_batch_over_the_stores_recordings_since_a_date(tmp_path: Path) -> None:
+    store = open_store(f"sqlite:///{tmp_path / 's.db'}")
+    try:
+        fleet = store.create_fleet("ships")
+        path = SAMPLES / "6l32-misfire-cyl3.h5"
+        store.add_recording(
+            fleet,
+            content_hash=content_hash(path),
+            engine_id="medium-speed-6l32",
+            filename=path.name,
+            path=str(path),
+            size_bytes=path.stat().st_size,
+        )
+        tomorrow = datetime.now(UTC) + timedelta(days=1)
+        assert run_batch(store, fleet, since=tomorrow).diagnosed == 0
+        assert run_batch(store, fleet, since=tomorrow - timedelta(days=2)).diagnosed == 1
+        assert store.count("results") == 1
+    finally:
+        store.close()
+
+
+def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> None:
+    """Six recordings, one worker: the batch process (and its worker) is killed once the first
+    result is stored; the next run finishes the others, and each has exactly one result."""
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0})
+    for seed in range(6):
+        write_hdf5(simulate(scene, seed=100 + seed).recording, folder / f"r{seed}.h5")
+    url = f"sqlite:///{tmp_path / 's.db'}"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "monitor", "batch", str(folder), "--store", url, "--workers", "1"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+        cwd=ROOT,
+    )
+    deadline = time.monotonic() + 120
+    results = 0
+    while time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.2)
+        try:
+            store = open_store(url)
+            results = store.count("results")
+            store.close()
+        except Exception:  # the batch may be creating the file
+            results = 0
+        if results >= 1:
+            break
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert 1 <= results < 6, "the batch should have been killed part way"
+    store = open_store(url)
+    try:
+        fleet = store.fleet_id("local")
+        summary = run_batch(store, fleet, path=folder, workers=2)
+        assert summary.diagnosed == 6 - results
+        assert store.count("results") == 6 and store.count("jobs") == 6
+    finally:
+        store.close()
+
+
+def test_the_batch_command_prints_the_summary(
+    folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    url = f"sqlite:///{tmp_path / 's.db'}"
+    assert main(["batch", str(folder), "--store", url, "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "3 recording(s) registered, 1 already known, 3 diagnosed, 0 failed" in out
+    assert "man-b-w-7k98mc: 1 healthy, 1 alarm" in out
+    assert main(["batch", "--since", "yesterday", "--store", url]) == 2
+    assert "expected a date or time in ISO 8601" in capsys.readouterr().err

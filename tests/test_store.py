@@ -1,0 +1,163 @@
+"""The results store on SQLite (embedded, WAL) and on the PostgreSQL server on loopback."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from monitor.store import MAX_ATTEMPTS, Store, StoreError, key_digest, open_store
+from monitor.store.schema import metadata
+
+
+@pytest.fixture
+def store(store_url: str) -> Iterator[Store]:
+    opened = open_store(store_url)
+    try:
+        yield opened
+    finally:
+        opened.close()
+
+
+def _recording(store: Store, fleet: int, content: str = "a" * 64) -> int:
+    row, _ = store.add_recording(
+        fleet,
+        content_hash=content,
+        engine_id="man-b-w-7k98mc",
+        filename="r.h5",
+        path="/x/r.h5",
+        size_bytes=10,
+    )
+    return row.id
+
+
+def test_the_migrated_schema_is_the_declared_one(store: Store) -> None:
+    """The migrations produce exactly the tables the code declares (Alembic's comparison finds nothing)."""
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+
+    with store.db.connect() as c:
+        assert compare_metadata(MigrationContext.configure(c), metadata) == []
+
+
+def test_opening_twice_migrates_once(store: Store) -> None:
+    url = store.db.url.render_as_string(hide_password=False)
+    again = open_store(url)
+    try:
+        with again.db.connect() as c:
+            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0001"
+    finally:
+        again.close()
+
+
+def test_sqlite_runs_in_wal_mode(tmp_path: Path) -> None:
+    store = open_store(f"sqlite:///{tmp_path / 's.db'}")
+    try:
+        with store.db.connect() as c:
+            assert c.exec_driver_sql("PRAGMA journal_mode").scalar_one() == "wal"
+            assert c.exec_driver_sql("PRAGMA foreign_keys").scalar_one() == 1
+    finally:
+        store.close()
+
+
+def test_an_unreachable_database_is_a_clear_error() -> None:
+    with pytest.raises(
+        StoreError, match=r"store postgresql\+psycopg://nobody:\*\*\*@127.0.0.1:9/x: cannot be reached"
+    ):
+        open_store("postgresql+psycopg://nobody:secret@127.0.0.1:9/x")
+    with pytest.raises(StoreError, match="store URL 'nonsense'"):
+        open_store("nonsense")
+
+
+def test_keys_are_stored_hashed_and_name_their_fleet(store: Store) -> None:
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    key = store.create_key(a, "ci")
+    assert store.fleet_of_key(key) == a and store.fleet_of_key(key + "x") is None
+    with store.db.connect() as c:
+        digests = [r.digest for r in c.execute(sa.text("SELECT digest FROM api_keys"))]
+    assert digests == [key_digest(key)] and key not in digests
+    assert store.fleet_of_key(store.create_key(b)) == b
+    with pytest.raises(StoreError, match="fleet 'a' exists already"):
+        store.create_fleet("a")
+
+
+def test_the_same_content_is_stored_once_per_fleet(store: Store) -> None:
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    first = _recording(store, a)
+    row, created = store.add_recording(
+        a, content_hash="a" * 64, engine_id="man-b-w-7k98mc", filename="other.h5", path="/y", size_bytes=10
+    )
+    assert (row.id, created) == (first, False)
+    assert _recording(store, b) != first  # another fleet's upload of the same bytes is its own
+    assert store.recording(b, first) is None  # and another fleet's id is not found
+    assert store.count("recordings") == 2
+
+
+def test_recordings_are_listed_newest_first_by_engine_and_date(store: Store) -> None:
+    fleet = store.create_fleet("a")
+    ids = [_recording(store, fleet, f"{i:064d}") for i in range(5)]
+    store.add_recording(
+        fleet, content_hash="f" * 64, engine_id="other", filename="o", path="/o", size_bytes=1
+    )
+    listed = store.recordings(fleet, engine_id="man-b-w-7k98mc", limit=3)
+    assert [r.id for r in listed] == ids[::-1][:3]
+    assert [r.id for r in store.recordings(fleet, engine_id="man-b-w-7k98mc", offset=3)] == ids[1::-1]
+    later = datetime.now(UTC) + timedelta(hours=1)
+    assert store.recordings(fleet, since=later) == []
+
+
+def test_a_job_runs_once_and_its_result_is_written_once(store: Store) -> None:
+    """Claims are exclusive (eight threads race for one job), and completing twice keeps one result."""
+    fleet = store.create_fleet("a")
+    recording = _recording(store, fleet)
+    job = store.enqueue(recording, "1")
+    assert store.enqueue(recording, "1") == job
+    with ThreadPoolExecutor(8) as pool:
+        claims = list(pool.map(lambda _: store.claim_job(job.id), range(8)))
+    taken = [c for c in claims if c is not None]
+    assert len(taken) == 1 and taken[0].state == "running" and taken[0].attempts == 1
+    store.complete(taken[0], {"diagnosis": ("alarm", {"status": "alarm"})})
+    store.complete(taken[0], {"diagnosis": ("healthy", {"status": "healthy"})})
+    assert store.count("results") == 1
+    assert store.result(recording, "1", "diagnosis") == {"status": "alarm"}
+    assert store.job(recording, "1").state == "done"  # type: ignore[union-attr]
+    assert store.claim("1") is None
+
+
+def test_a_failing_job_is_retried_then_set_aside(store: Store) -> None:
+    fleet = store.create_fleet("a")
+    recording = _recording(store, fleet)
+    store.enqueue(recording, "1")
+    states = []
+    for _ in range(MAX_ATTEMPTS):
+        job = store.claim("1")
+        assert job is not None
+        states.append(store.fail(job, "RuntimeError: boom"))
+    assert states == ["queued"] * (MAX_ATTEMPTS - 1) + ["set_aside"]
+    final = store.job(recording, "1")
+    assert final is not None and final.error == "RuntimeError: boom" and final.attempts == MAX_ATTEMPTS
+    assert store.claim("1") is None
+
+
+def test_jobs_left_running_by_a_crash_are_queued_again(store: Store) -> None:
+    fleet = store.create_fleet("a")
+    first, second = _recording(store, fleet), _recording(store, fleet, "b" * 64)
+    for recording in (first, second):
+        store.enqueue(recording, "1")
+        store.claim("1")
+    assert store.requeue_running("1", recording_ids=[first]) == 1
+    assert store.job(first, "1").state == "queued"  # type: ignore[union-attr]
+    assert store.job(second, "1").state == "running"  # type: ignore[union-attr]
+    assert store.requeue_running("1") == 1
+
+
+def test_engines_are_created_and_updated(store: Store) -> None:
+    fleet = store.create_fleet("a")
+    assert store.put_engine(fleet, "e1", {"id": "e1", "cylinders": 6}) is True
+    assert store.put_engine(fleet, "e1", {"id": "e1", "cylinders": 7}) is False
+    assert store.engine(fleet, "e1") == {"id": "e1", "cylinders": 7}
+    assert store.engines(fleet) == ["e1"] and store.engine(store.create_fleet("b"), "e1") is None
