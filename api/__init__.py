@@ -1,1 +1,1 @@
-"""The HTTP service (FastAPI). Empty until the service is built: no endpoints yet."""
+"""The HTTP service (FastAPI): uploads, results, engines; see :mod:`api.app`."""

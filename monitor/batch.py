@@ -76,9 +76,23 @@ def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
 
 
 def diagnose_file(
-    path: str, engine_description: dict[str, Any] | None, baseline_document: dict[str, Any] | None
-) -> tuple[str, dict[str, Any]]:
-    """Diagnose one recording file (run in a worker process): ``(status, JSON document)``."""
+    path: str,
+    engine_description: dict[str, Any] | None,
+    baseline_document: dict[str, Any] | None,
+    plot: str | None = None,
+    name: str | None = None,
+) -> dict[str, tuple[str, dict[str, Any]]]:
+    """Diagnose one recording file (run in a worker process).
+
+    Returns the result documents by kind: ``"diagnosis"`` (the ``compare --json`` document) and
+    ``"spectrum"`` (the measured order spectra of every channel), each with the status. With
+    ``plot``, the diagnosis plot is also written there as PNG (through a temporary file). ``name``
+    is the recording's name in the documents (default: the file's).
+    """
+    import math
+
+    import numpy as np
+
     from monitor.diagnosis import Baseline, diagnose
     from monitor.diagnosis.report import diagnosis_document
     from monitor.engine import bundled_engines, load_engine, parse_engine
@@ -97,7 +111,36 @@ def diagnose_file(
             )
         baseline = Baseline.from_document(baseline_document) if baseline_document is not None else None
         diagnosis = diagnose(recording, engine, baseline=baseline)
-    return diagnosis.status, diagnosis_document(diagnosis, recording=Path(path).name)
+    name = name or Path(path).name
+    measured = diagnosis.spectra
+    spectrum = {
+        "recording": name,
+        "engine_id": engine.id,
+        "mean_speed_rpm": measured.mean_speed * 30 / math.pi,
+        "cycle_revolutions": measured.cycle_revolutions,
+        "channels": {
+            channel: {
+                "unit": measured.units[channel],
+                "blocks": s.blocks,
+                "orders": s.orders.tolist(),
+                "amplitude": np.abs(s.amplitude).tolist(),
+                "phase_deg": np.degrees(np.angle(s.amplitude)).tolist(),
+                "standard_error": s.standard_error.tolist(),
+            }
+            for channel, s in measured.spectra.items()
+        },
+    }
+    if plot is not None:
+        from monitor.plots import plot_diagnosis
+
+        target = Path(plot)
+        partial = target.with_name(target.stem + ".partial.png")
+        plot_diagnosis(diagnosis, partial, title=f"{name}: {engine.id} at {diagnosis.speed_rpm:.1f} rpm")
+        partial.replace(target)
+    return {
+        DIAGNOSIS: (diagnosis.status, diagnosis_document(diagnosis, recording=name)),
+        "spectrum": (diagnosis.status, spectrum),
+    }
 
 
 @dataclass
@@ -221,7 +264,7 @@ def run_batch(
     engines: dict[str, dict[str, Any] | None] = {}
     count = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=max(1, min(count, total))) as pool:
-        running: dict[Future[tuple[str, dict[str, Any]]], tuple[Job, str, str]] = {}
+        running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
         queue = list(pending)
 
         def submit() -> None:
@@ -235,7 +278,12 @@ def run_batch(
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
                 future = pool.submit(
-                    diagnose_file, row.path, engines[row.engine_id], (baselines or {}).get(row.engine_id)
+                    diagnose_file,
+                    row.path,
+                    engines[row.engine_id],
+                    (baselines or {}).get(row.engine_id),
+                    None,
+                    row.filename,
                 )
                 running[future] = (claimed, row.filename, row.engine_id)
 
@@ -246,12 +294,13 @@ def run_batch(
             for future in finished:
                 job, name, engine_id = running.pop(future)
                 try:
-                    status, document = future.result()
+                    documents = future.result()
                 except Exception as error:  # a worker's failure is recorded, never fatal to the batch
                     reason = f"{type(error).__name__}: {error}"
                     summary.failed.append((name, reason, store.fail(job, reason)))
                 else:
-                    store.complete(job, {DIAGNOSIS: (status, document)})
+                    store.complete(job, documents)
+                    status, document = documents[DIAGNOSIS]
                     summary.diagnosed += 1
                     summary.by_engine[engine_id][status] += 1
                     summary.findings[engine_id] += [f"{name}: {f['summary']}" for f in document["findings"]]

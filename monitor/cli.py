@@ -240,6 +240,44 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     batch.add_argument("--workers", type=int, help="worker processes (default: one per core)")
 
+    serve = sub.add_parser(
+        "serve",
+        help="run the HTTP service (uploads, diagnoses, engines) with its analysis worker",
+        description="Run the HTTP service with uvicorn. Recordings are kept under --data; results in the "
+        "store. OpenAPI at /openapi.json, pages at /docs.",
+    )
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    serve.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    serve.add_argument(
+        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)"
+    )
+    serve.add_argument(
+        "--data", default="data", metavar="DIR", help="folder for recordings and plots (default ./data)"
+    )
+    serve.add_argument("--max-upload-mb", type=_positive_float, default=4096.0, help="upload size limit [MB]")
+    serve.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="analysis processes in this server (0: a separate worker runs them)",
+    )
+    serve.add_argument(
+        "--lease",
+        type=_positive_float,
+        default=30.0,
+        metavar="S",
+        help="seconds after which a running analysis whose worker went silent is taken back (default 30)",
+    )
+
+    keys = sub.add_parser("keys", help="create a fleet's API key for the HTTP service")
+    keys.add_argument("--fleet", required=True, help="the fleet (created if new)")
+    keys.add_argument("--label", default="", help="what the key is for")
+    keys.add_argument(
+        "--store",
+        metavar="URL",
+        help="the store (default: $ENGINE_MONITOR_DB, else ./data/engine-monitor.db)",
+    )
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
@@ -330,6 +368,49 @@ def _run_batch(args: argparse.Namespace) -> int:
     finally:
         store.close()
     print(summary.text())
+    return 0
+
+
+def _service_store_url(given: str | None, data: str) -> str:
+    from monitor.store import default_url
+
+    return given or default_url(Path(data))
+
+
+def _run_serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from api.app import Settings, create_app
+
+    data = Path(args.data)
+    data.mkdir(parents=True, exist_ok=True)
+    settings = Settings(
+        store_url=_service_store_url(args.store, args.data),
+        data_dir=data.resolve(),
+        max_upload_bytes=int(args.max_upload_mb * 1e6),
+        workers=max(0, args.workers),
+        lease_s=args.lease,
+    )
+    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
+    return 0
+
+
+def _run_keys(args: argparse.Namespace) -> int:
+    from monitor.store import StoreError, open_store
+
+    if args.store is None:
+        Path("data").mkdir(exist_ok=True)
+    store = open_store(_service_store_url(args.store, "data"))
+    try:
+        try:
+            fleet_id = store.fleet_id(args.fleet)
+        except StoreError:
+            fleet_id = store.create_fleet(args.fleet)
+        key = store.create_key(fleet_id, args.label)
+    finally:
+        store.close()
+    print(key)
+    print(f"API key of fleet {args.fleet!r}: shown once, stored only as its digest", file=sys.stderr)
     return 0
 
 
@@ -644,6 +725,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "compare": _run_compare,
         "calibrate": _run_calibrate,
         "batch": _run_batch,
+        "serve": _run_serve,
+        "keys": _run_keys,
     }
     try:
         return handlers[args.command](args)

@@ -53,7 +53,8 @@ def test_a_batch_diagnoses_each_recording_once_and_a_rerun_does_nothing(folder: 
         )
         again = run_batch(store, fleet, path=folder, workers=2)
         assert (again.registered, again.known, again.diagnosed) == (0, 4, 0)
-        assert store.count("results") == 3 and store.count("jobs") == 3 and store.count("recordings") == 3
+        # a diagnosis and a spectrum per recording, once each
+        assert store.count("results") == 6 and store.count("jobs") == 3 and store.count("recordings") == 3
         recording = next(r for r in store.recordings(fleet) if r.filename == "7k98mc-misfire-cyl4.h5")
         document = store.result(recording.id, ANALYSIS_VERSION, "diagnosis")
         assert document is not None and [f["subject"] for f in document["findings"]] == ["cylinder 4"]
@@ -100,14 +101,14 @@ def test_a_batch_over_the_stores_recordings_since_a_date(tmp_path: Path) -> None
         tomorrow = datetime.now(UTC) + timedelta(days=1)
         assert run_batch(store, fleet, since=tomorrow).diagnosed == 0
         assert run_batch(store, fleet, since=tomorrow - timedelta(days=2)).diagnosed == 1
-        assert store.count("results") == 1
+        assert store.count("results") == 2
     finally:
         store.close()
 
 
 def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> None:
     """Six recordings, one worker: the batch process (and its worker) is killed once the first
-    result is stored; the next run finishes the others, and each has exactly one result."""
+    results are stored; the next run finishes the others, and each has its two results once."""
     folder = tmp_path / "recordings"
     folder.mkdir()
     scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0})
@@ -131,17 +132,17 @@ def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> Non
             store.close()
         except Exception:  # the batch may be creating the file
             results = 0
-        if results >= 1:
+        if results >= 2:
             break
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
-    assert 1 <= results < 6, "the batch should have been killed part way"
+    assert 2 <= results < 12, "the batch should have been killed part way"
     store = open_store(url)
     try:
         fleet = store.fleet_id("local")
         summary = run_batch(store, fleet, path=folder, workers=2)
-        assert summary.diagnosed == 6 - results
-        assert store.count("results") == 6 and store.count("jobs") == 6
+        assert summary.diagnosed == 6 - results // 2
+        assert store.count("results") == 12 and store.count("jobs") == 6
     finally:
         store.close()
 

@@ -26,7 +26,7 @@ import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -100,6 +100,11 @@ class Job:
     error: str
 
 
+def _utc(moment: datetime) -> datetime:
+    """SQLite keeps no time zone: every stored time is UTC."""
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+
+
 def _recording(row: Any) -> RecordingRow:
     return RecordingRow(
         row.id,
@@ -110,7 +115,7 @@ def _recording(row: Any) -> RecordingRow:
         row.path,
         int(row.size_bytes),
         row.recorded_at,
-        row.uploaded_at,
+        _utc(row.uploaded_at),
     )
 
 
@@ -257,6 +262,12 @@ class Store:
             ).first()
         return None if row is None else _recording(row)
 
+    def recording_by_id(self, recording_id: int) -> RecordingRow | None:
+        """A recording by id, whatever its fleet (for workers, never for answers to a key)."""
+        with self.db.connect() as c:
+            row = c.execute(sa.select(recordings).where(recordings.c.id == recording_id)).first()
+        return None if row is None else _recording(row)
+
     def recordings(
         self,
         fleet_id: int,
@@ -269,6 +280,12 @@ class Store:
     ) -> list[RecordingRow]:
         """A fleet's recordings, newest first, filtered by engine and upload time, a page at a time."""
         query = sa.select(recordings).where(recordings.c.fleet_id == fleet_id)
+        # stored times are UTC (SQLite keeps no zone): compare in UTC; a time without a zone is UTC
+        since = _utc(since).astimezone(UTC) if since is not None else None
+        until = _utc(until).astimezone(UTC) if until is not None else None
+        if self.dialect == "sqlite":
+            since = since.replace(tzinfo=None) if since is not None else None
+            until = until.replace(tzinfo=None) if until is not None else None
         if engine_id is not None:
             query = query.where(recordings.c.engine_id == engine_id)
         if since is not None:
@@ -394,6 +411,35 @@ class Store:
                 c.execute(sa.update(jobs).where(where).values(state="queued", updated_at=_now())).rowcount
             )
 
+    def touch(self, job: Job) -> None:
+        """A running job's heartbeat: its worker is alive."""
+        with self.transaction() as c:
+            c.execute(
+                sa.update(jobs)
+                .where((jobs.c.id == job.id) & (jobs.c.state == "running"))
+                .values(updated_at=_now())
+            )
+
+    def requeue_stale(self, analysis_version: str, older_than: timedelta) -> int:
+        """Queue again running jobs whose worker has not been heard of for ``older_than``; how many.
+
+        A worker touches its running jobs (:meth:`touch`) more often than that, so only the jobs of a
+        worker that died (a killed server, a crashed machine) are taken back.
+        """
+        cutoff = _now() - older_than
+        with self.transaction() as c:
+            return int(
+                c.execute(
+                    sa.update(jobs)
+                    .where(
+                        (jobs.c.state == "running")
+                        & (jobs.c.analysis_version == analysis_version)
+                        & (jobs.c.updated_at < cutoff)
+                    )
+                    .values(state="queued", updated_at=_now())
+                ).rowcount
+            )
+
     def job(self, recording_id: int, analysis_version: str) -> Job | None:
         """The job of a recording at a version, or None."""
         with self.db.connect() as c:
@@ -415,6 +461,18 @@ class Store:
                 )
             ).first()
         return None if row is None else dict(row.document)
+
+    def result_status(self, recording_id: int, analysis_version: str, kind: str) -> str | None:
+        """The status stored with a result (healthy, warning, alarm), or None."""
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(results.c.status).where(
+                    (results.c.recording_id == recording_id)
+                    & (results.c.analysis_version == analysis_version)
+                    & (results.c.kind == kind)
+                )
+            ).first()
+        return None if row is None else str(row.status)
 
     def count(self, table: str) -> int:
         """Rows in a table (for checks and summaries)."""

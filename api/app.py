@@ -1,0 +1,450 @@
+"""The HTTP service: upload recordings, read their spectra and diagnoses, manage engines.
+
+Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
+
+- Every route but ``/health`` needs an API key (header ``X-API-Key``); a key
+  sees only its fleet's engines and recordings, and another fleet's id
+  answers 404 as an unknown one.
+- ``POST /recordings?filename=NAME`` takes the file as the request body
+  (``application/octet-stream``), streamed to a temporary file on disk
+  (never whole in memory) up to :attr:`Settings.max_upload_bytes`, validated
+  by the product's readers in a child process with memory and time limits,
+  then stored whole or not at all: fsync, atomic rename to its content hash,
+  fsync of the folder. The same content uploaded twice is stored once.
+- Every error has one body shape: ``{"error": {"status", "code", "message"}}``.
+
+Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
+``/openapi.json``, its pages at ``/docs``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import tempfile
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Annotated, Any
+
+from fastapi import Depends, FastAPI, Query, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse
+from pydantic import BaseModel, Field
+from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from api.validate import validate
+from api.worker import Worker, plot_path
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.store import RecordingRow, Store, open_store
+
+__all__ = ["ApiError", "Settings", "create_app"]
+
+
+@dataclass
+class Settings:
+    """The service's settings (``engine-monitor serve`` fills them from its options).
+
+    Attributes
+    ----------
+    store_url : str
+    data_dir : Path
+        Stored recordings (``recordings/``), uploads in progress (``incoming/``), plots.
+    max_upload_bytes : int
+    validation_memory_bytes, validation_timeout_s : int, float
+        Limits of the validating child process.
+    workers : int
+        Analysis processes in this server (0: none; a separate worker runs them).
+    lease_s : float
+        A running analysis whose worker has been silent this long is taken back [s].
+    """
+
+    store_url: str
+    data_dir: Path
+    max_upload_bytes: int = 4 << 30
+    validation_memory_bytes: int = 2 << 30
+    validation_timeout_s: float = 120.0
+    workers: int = 1
+    lease_s: float = 30.0
+
+
+class ApiError(Exception):
+    """An error answered with the service's one error body."""
+
+    def __init__(self, status: int, code: str, message: str) -> None:
+        super().__init__(message)
+        self.status, self.code, self.message = status, code, message
+
+
+def _error(status: int, code: str, message: str) -> JSONResponse:
+    return JSONResponse({"error": {"status": status, "code": code, "message": message}}, status_code=status)
+
+
+class ErrorBody(BaseModel):
+    status: int
+    code: str
+    message: str
+
+
+class ErrorResponse(BaseModel):
+    error: ErrorBody
+
+
+class RecordingOut(BaseModel):
+    id: int
+    engine_id: str
+    filename: str
+    content_hash: str
+    size_bytes: int
+    recorded_at: str
+    uploaded_at: datetime
+    analysis_version: str
+    status: str = Field(description="the analysis: queued, running, done, failed (retried), set_aside")
+    attempts: int
+    error: str
+    diagnosis_status: str = Field(description="healthy, warning or alarm once done; empty before")
+
+
+class UploadOut(RecordingOut):
+    created: bool = Field(description="false when the same content was stored before")
+
+
+class RecordingPage(BaseModel):
+    items: list[RecordingOut]
+    offset: int
+    limit: int
+    next_offset: int | None
+
+
+class EngineOut(BaseModel):
+    engine_id: str
+    description: dict[str, Any]
+
+
+class Health(BaseModel):
+    status: str
+    store: str
+    analysis_version: str
+
+
+_NAME = re.compile(r"^[^/\\\x00-\x1f\x7f]{1,255}$")
+ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422)
+}
+
+
+def _filename(name: str) -> str:
+    """A plain file name, or a clear 400: no folders, no control characters, at most 255 bytes."""
+    if not _NAME.match(name) or name in (".", "..") or len(name.encode("utf-8")) > 255:
+        raise ApiError(
+            400,
+            "bad_filename",
+            "filename: expected a plain file name of 1 to 255 bytes, without '/', '\\', NUL or control "
+            "characters, and not '.' or '..'",
+        )
+    return name
+
+
+def _fleet(request: Request) -> int:
+    """The fleet of the request's API key (401 without a known key)."""
+    key = request.headers.get("x-api-key")
+    if not key:
+        raise ApiError(401, "missing_key", "an API key is needed: send it in the X-API-Key header")
+    store: Store = request.app.state.store
+    found = store.fleet_of_key(key)
+    if found is None:
+        raise ApiError(401, "unknown_key", "the API key is not known")
+    return found
+
+
+Fleet = Annotated[int, Depends(_fleet)]
+
+
+class EngineIn(BaseModel):
+    description: dict[str, Any] = Field(description="the engine description (the TOML's content as JSON)")
+
+
+def create_app(settings: Settings) -> FastAPI:
+    """The FastAPI application for these settings."""
+    state: dict[str, Any] = {}
+
+    @asynccontextmanager
+    async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        store = open_store(settings.store_url)
+        for folder in ("recordings", "incoming", "plots"):
+            (settings.data_dir / folder).mkdir(parents=True, exist_ok=True)
+        state["store"] = store
+        app.state.store = store
+        worker = (
+            Worker(store, settings.data_dir, settings.workers, lease=timedelta(seconds=settings.lease_s))
+            if settings.workers > 0
+            else None
+        )
+        state["worker"] = worker
+        if worker is not None:
+            worker.start()
+        try:
+            yield
+        finally:
+            if worker is not None:
+                worker.stop()
+            store.close()
+
+    app = FastAPI(
+        title="engine-monitor",
+        summary="Condition monitoring of large reciprocating engines",
+        description=__doc__,
+        version=ANALYSIS_VERSION,
+        lifespan=lifespan,
+    )
+
+    @app.exception_handler(ApiError)
+    async def api_error(_: Request, error: ApiError) -> JSONResponse:
+        return _error(error.status, error.code, error.message)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(_: Request, error: StarletteHTTPException) -> JSONResponse:
+        code = {404: "not_found", 405: "method_not_allowed"}.get(error.status_code, "http_error")
+        return _error(error.status_code, code, str(error.detail))
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(_: Request, error: RequestValidationError) -> JSONResponse:
+        parts = [f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()]
+        return _error(422, "invalid_request", "; ".join(parts))
+
+    @app.exception_handler(Exception)
+    async def unexpected(_: Request, error: Exception) -> JSONResponse:
+        return _error(500, "internal_error", f"the service failed ({type(error).__name__}); it was logged")
+
+    def store() -> Store:
+        found: Store = state["store"]
+        return found
+
+    def recording_out(row: RecordingRow) -> dict[str, Any]:
+        job = store().job(row.id, ANALYSIS_VERSION)
+        status = ""
+        if job is not None and job.state == "done":
+            status = (store().result_status(row.id, ANALYSIS_VERSION, "diagnosis")) or ""
+        return {
+            "id": row.id,
+            "engine_id": row.engine_id,
+            "filename": row.filename,
+            "content_hash": row.content_hash,
+            "size_bytes": row.size_bytes,
+            "recorded_at": row.recorded_at,
+            "uploaded_at": row.uploaded_at,
+            "analysis_version": ANALYSIS_VERSION,
+            "status": job.state if job is not None else "none",
+            "attempts": job.attempts if job is not None else 0,
+            "error": job.error if job is not None else "",
+            "diagnosis_status": status,
+        }
+
+    def own(fleet_id: int, recording_id: int) -> RecordingRow:
+        row = store().recording(fleet_id, recording_id)
+        if row is None:
+            raise ApiError(404, "not_found", f"no recording {recording_id}")
+        return row
+
+    @app.get("/health", response_model=Health, tags=["service"])
+    def health() -> dict[str, str]:
+        """Whether the service and its store answer (no key needed)."""
+        store().count("fleets")
+        return {"status": "ok", "store": store().dialect, "analysis_version": ANALYSIS_VERSION}
+
+    @app.post(
+        "/recordings",
+        status_code=201,
+        response_model=UploadOut,
+        responses={**ERRORS, 200: {"model": UploadOut, "description": "the same content was stored before"}},
+        tags=["recordings"],
+    )
+    async def upload(
+        request: Request,
+        fleet_id: Fleet,
+        filename: Annotated[str, Query(min_length=1, max_length=1024, description="the file's name")],
+    ) -> JSONResponse:
+        """Upload a recording (HDF5 or MCAP) as the request body; its analysis is queued."""
+        name = _filename(filename)
+        declared = request.headers.get("content-length")
+        if declared is not None and declared.isdigit() and int(declared) > settings.max_upload_bytes:
+            raise ApiError(
+                413, "too_large", f"the file is over the limit of {settings.max_upload_bytes} bytes"
+            )
+        incoming = settings.data_dir / "incoming"
+        handle, temporary = tempfile.mkstemp(dir=incoming, suffix=".part")
+        digest = hashlib.sha256()
+        size = 0
+        try:
+            with os.fdopen(handle, "wb") as out:
+                async for chunk in request.stream():
+                    size += len(chunk)
+                    if size > settings.max_upload_bytes:
+                        raise ApiError(
+                            413,
+                            "too_large",
+                            f"the file is over the limit of {settings.max_upload_bytes} bytes",
+                        )
+                    digest.update(chunk)
+                    out.write(chunk)
+                out.flush()
+                os.fsync(out.fileno())
+            if size == 0:
+                raise ApiError(400, "empty", "the request body is empty: send the recording's bytes")
+            checked = await run_in_threadpool(
+                validate,
+                Path(temporary),
+                memory_bytes=settings.validation_memory_bytes,
+                timeout_s=settings.validation_timeout_s,
+            )
+            if not checked.ok:
+                message = checked.message.replace(temporary, name)  # the reader names the file it read
+                raise ApiError(
+                    422, "not_a_recording", f"{name}: {message}" if name not in message else message
+                )
+            content = digest.hexdigest()
+            with open(temporary, "rb") as fh:
+                suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
+            final = settings.data_dir / "recordings" / f"{content}{suffix}"
+            if final.exists():
+                os.unlink(temporary)
+            else:
+                os.replace(temporary, final)
+                directory = os.open(final.parent, os.O_RDONLY)
+                try:
+                    os.fsync(directory)
+                finally:
+                    os.close(directory)
+        except BaseException:
+            if os.path.exists(temporary):
+                os.unlink(temporary)
+            raise
+        row, created = store().add_recording(
+            fleet_id,
+            content_hash=content,
+            engine_id=checked.engine_id,
+            filename=name,
+            path=str(final),
+            size_bytes=size,
+            recorded_at=checked.start_time,
+        )
+        store().enqueue(row.id, ANALYSIS_VERSION)
+        if state["worker"] is not None:
+            state["worker"].wake()
+        return JSONResponse(
+            UploadOut(**recording_out(row), created=created).model_dump(mode="json"),
+            status_code=201 if created else 200,
+        )
+
+    @app.get("/recordings", response_model=RecordingPage, responses=ERRORS, tags=["recordings"])
+    def list_recordings(
+        fleet_id: Fleet,
+        engine_id: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+        offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+        limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    ) -> dict[str, Any]:
+        """The fleet's recordings, newest first; filter by engine and upload time."""
+        rows = store().recordings(
+            fleet_id, engine_id=engine_id, since=since, until=until, offset=offset, limit=limit + 1
+        )
+        more = len(rows) > limit
+        return {
+            "items": [recording_out(r) for r in rows[:limit]],
+            "offset": offset,
+            "limit": limit,
+            "next_offset": offset + limit if more else None,
+        }
+
+    @app.get("/recordings/{recording_id}", response_model=RecordingOut, responses=ERRORS, tags=["recordings"])
+    def get_recording(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+        """A recording's metadata and the state of its analysis."""
+        return recording_out(own(fleet_id, recording_id))
+
+    def result(fleet_id: int, recording_id: int, kind: str) -> dict[str, Any]:
+        row = own(fleet_id, recording_id)
+        document = store().result(row.id, ANALYSIS_VERSION, kind)
+        if document is None:
+            job = store().job(row.id, ANALYSIS_VERSION)
+            state_now = job.state if job is not None else "none"
+            detail = f" ({job.error})" if job is not None and job.error else ""
+            raise ApiError(409, "not_ready", f"recording {recording_id}: its analysis is {state_now}{detail}")
+        return document
+
+    @app.get("/recordings/{recording_id}/diagnosis", responses=ERRORS, tags=["results"])
+    def get_diagnosis(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+        """The diagnosis (the document of ``engine-monitor compare --json``, docs/diagnosis.md)."""
+        return result(fleet_id, recording_id, "diagnosis")
+
+    @app.get("/recordings/{recording_id}/spectrum", responses=ERRORS, tags=["results"])
+    def get_spectrum(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+        """The measured order spectra of every channel (peak amplitudes, phases in degrees)."""
+        return result(fleet_id, recording_id, "spectrum")
+
+    @app.get(
+        "/recordings/{recording_id}/plot",
+        response_class=FileResponse,
+        responses={**ERRORS, 200: {"content": {"image/png": {}}}},
+        tags=["results"],
+    )
+    def get_plot(fleet_id: Fleet, recording_id: int) -> FileResponse:
+        """The diagnosis plot (PNG): measured against predicted orders, cylinder strengths."""
+        result(fleet_id, recording_id, "diagnosis")
+        path = plot_path(settings.data_dir, recording_id)
+        if not path.exists():
+            raise ApiError(404, "not_found", f"recording {recording_id}: no plot was kept")
+        return FileResponse(path, media_type="image/png")
+
+    def checked_engine(engine_id: str, description: dict[str, Any]) -> dict[str, Any]:
+        from monitor.engine import parse_engine
+        from monitor.errors import MonitorError
+
+        try:
+            engine = parse_engine(description, origin="engine")
+        except (MonitorError, ValueError) as error:
+            raise ApiError(422, "invalid_engine", str(error)) from error
+        if engine.id != engine_id:
+            raise ApiError(
+                422, "invalid_engine", f"the description's id is {engine.id!r}, the path's {engine_id!r}"
+            )
+        return description
+
+    @app.get("/engines", response_model=list[str], responses=ERRORS, tags=["engines"])
+    def list_engines(fleet_id: Fleet) -> list[str]:
+        """The fleet's engine ids (recordings of bundled engines need none)."""
+        return store().engines(fleet_id)
+
+    @app.post("/engines", status_code=201, response_model=EngineOut, responses=ERRORS, tags=["engines"])
+    def create_engine(fleet_id: Fleet, body: EngineIn) -> dict[str, Any]:
+        """Add an engine description (validated as an engine file is)."""
+        engine_id = str(body.description.get("id", ""))
+        description = checked_engine(engine_id, body.description)
+        if store().engine(fleet_id, engine_id) is not None:
+            raise ApiError(
+                409, "exists", f"engine {engine_id!r} exists already: PUT /engines/{engine_id} replaces it"
+            )
+        store().put_engine(fleet_id, engine_id, description)
+        return {"engine_id": engine_id, "description": description}
+
+    @app.get("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
+    def get_engine(fleet_id: Fleet, engine_id: str) -> dict[str, Any]:
+        """An engine description of the fleet."""
+        description = store().engine(fleet_id, engine_id)
+        if description is None:
+            raise ApiError(404, "not_found", f"no engine {engine_id!r}")
+        return {"engine_id": engine_id, "description": description}
+
+    @app.put("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
+    def put_engine(fleet_id: Fleet, engine_id: str, body: EngineIn) -> dict[str, Any]:
+        """Replace an engine description (later analyses use it)."""
+        if store().engine(fleet_id, engine_id) is None:
+            raise ApiError(404, "not_found", f"no engine {engine_id!r}")
+        store().put_engine(fleet_id, engine_id, checked_engine(engine_id, body.description))
+        return {"engine_id": engine_id, "description": body.description}
+
+    return app

@@ -1,0 +1,113 @@
+"""Background analysis: a worker takes queued jobs from the store and runs them in a process.
+
+The job state lives in the store, so it survives the server: at start the
+worker queues again the jobs whose worker has not been heard of for
+:data:`LEASE` (a server killed mid-analysis), and while a job runs its worker
+touches it every :data:`HEARTBEAT`. The analysis runs in a separate process
+(a crash there fails the job, not the server); its result is written with the
+job's completion in one transaction, once. A job that fails records why and
+is retried, then set aside (:data:`monitor.store.MAX_ATTEMPTS`).
+"""
+
+from __future__ import annotations
+
+import threading
+from concurrent.futures import ProcessPoolExecutor, TimeoutError
+from datetime import timedelta
+from pathlib import Path
+
+from monitor.batch import diagnose_file
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.store import Job, Store
+
+__all__ = ["HEARTBEAT", "LEASE", "Worker", "plot_path"]
+
+HEARTBEAT = 5.0  # seconds between a running job's touches
+LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
+IDLE = 0.5  # seconds between looks at an empty queue
+
+
+def plot_path(data_dir: Path, recording_id: int) -> Path:
+    """Where the diagnosis plot of a recording is kept."""
+    return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
+
+
+class Worker:
+    """A thread that runs queued analyses, ``processes`` at a time in child processes.
+
+    Parameters
+    ----------
+    store : Store
+    data_dir : Path
+        The service's data folder (plots are written under it).
+    processes : int, optional
+    lease : timedelta, optional
+        A running job untouched this long has lost its worker (touched three times as often).
+    """
+
+    def __init__(self, store: Store, data_dir: Path, processes: int = 1, *, lease: timedelta = LEASE) -> None:
+        self.store = store
+        self.lease = lease
+        self.heartbeat = min(HEARTBEAT, lease.total_seconds() / 3)
+        self.data_dir = data_dir
+        self.processes = max(1, processes)
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._pool: ProcessPoolExecutor | None = None
+
+    def start(self) -> None:
+        """Take back the jobs of dead workers, then start the loops."""
+        self.store.requeue_stale(ANALYSIS_VERSION, self.lease)
+        (self.data_dir / "plots").mkdir(parents=True, exist_ok=True)
+        self._pool = ProcessPoolExecutor(max_workers=self.processes)
+        for i in range(self.processes):
+            thread = threading.Thread(target=self._loop, name=f"analysis-{i}", daemon=True)
+            thread.start()
+            self._threads.append(thread)
+
+    def wake(self) -> None:
+        """A job was queued: look now."""
+        self._wake.set()
+
+    def stop(self) -> None:
+        """Stop taking jobs; a job that is running keeps its state and is taken back after the lease."""
+        self._stop.set()
+        self._wake.set()
+        for thread in self._threads:
+            thread.join(timeout=5)
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+
+    def _loop(self) -> None:
+        while not self._stop.is_set():
+            job = self.store.claim(ANALYSIS_VERSION)
+            if job is None:
+                self._wake.wait(IDLE)
+                self._wake.clear()
+                continue
+            self._run(job)
+
+    def _run(self, job: Job) -> None:
+        assert self._pool is not None
+        row = self.store.recording_by_id(job.recording_id)
+        if row is None:  # deleted meanwhile
+            self.store.fail(job, "the recording is no longer stored")
+            return
+        engine = self.store.engine(row.fleet_id, row.engine_id)
+        future = self._pool.submit(
+            diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+        )
+        while True:
+            try:
+                documents = future.result(timeout=self.heartbeat)
+            except TimeoutError:
+                if self._stop.is_set():
+                    return  # the lease hands the job to the next worker
+                self.store.touch(job)
+                continue
+            except Exception as error:  # the analysis failed: recorded, retried, then set aside
+                self.store.fail(job, f"{type(error).__name__}: {error}")
+                return
+            self.store.complete(job, documents)
+            return

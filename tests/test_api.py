@@ -1,0 +1,262 @@
+"""The HTTP service end to end: a real uvicorn server on loopback, in its own process."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import tomllib
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import httpx
+import pytest
+
+from monitor.cli import main
+from monitor.io.hdf5 import write_hdf5
+from monitor.scene import load_scene, simulate
+from monitor.store import open_store
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = ROOT / "recordings" / "samples"
+SCENES = ROOT / "recordings" / "scenes"
+LIMIT_MB = 8.0  # the test server's upload limit (the samples are 1.3 MB, the long recording 4 MB)
+
+
+@dataclass
+class Server:
+    url: str
+    store_url: str
+    data: Path
+    keys: dict[str, str]
+    process: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        port = _free_port()
+        self.url = f"http://127.0.0.1:{port}"
+        self.process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "monitor",
+                "serve",
+                "--port",
+                str(port),
+                "--store",
+                self.store_url,
+                "--data",
+                str(self.data),
+                "--max-upload-mb",
+                str(LIMIT_MB),
+                "--lease",
+                "2",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+            cwd=ROOT,
+        )
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                if httpx.get(f"{self.url}/health", timeout=1).status_code == 200:
+                    return
+            except httpx.TransportError:
+                time.sleep(0.2)
+        raise RuntimeError("the server did not start")
+
+    def kill(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            self.process.wait()
+
+    def client(self, fleet: str = "a") -> httpx.Client:
+        return httpx.Client(base_url=self.url, headers={"X-API-Key": self.keys[fleet]}, timeout=60)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def server(tmp_path: Path) -> Iterator[Server]:
+    url = f"sqlite:///{tmp_path / 'store.db'}"
+    store = open_store(url)
+    keys = {name: store.create_key(store.create_fleet(name)) for name in ("a", "b")}
+    store.close()
+    running = Server("", url, tmp_path / "data", keys)
+    running.start()
+    try:
+        yield running
+    finally:
+        running.kill()
+
+
+def _upload(client: httpx.Client, path: Path, name: str | None = None) -> httpx.Response:
+    return client.post("/recordings", params={"filename": name or path.name}, content=path.read_bytes())
+
+
+def _wait_done(client: httpx.Client, recording: int, timeout: float = 90) -> dict:  # type: ignore[type-arg]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        body = client.get(f"/recordings/{recording}").json()
+        if body["status"] in ("done", "set_aside"):
+            return body  # type: ignore[no-any-return]
+        time.sleep(0.2)
+    raise AssertionError(f"recording {recording} not analysed in {timeout} s")
+
+
+def test_upload_poll_and_read_the_same_findings_as_the_cli(
+    server: Server, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sample = SAMPLES / "7k98mc-misfire-cyl4.h5"
+    with server.client() as client:
+        answer = _upload(client, sample)
+        assert answer.status_code == 201, answer.text
+        created = answer.json()
+        assert created["created"] is True and created["engine_id"] == "man-b-w-7k98mc"
+        done = _wait_done(client, created["id"])
+        assert (done["status"], done["diagnosis_status"]) == ("done", "alarm")
+        diagnosis = client.get(f"/recordings/{created['id']}/diagnosis").json()
+        spectrum = client.get(f"/recordings/{created['id']}/spectrum").json()
+        plot = client.get(f"/recordings/{created['id']}/plot")
+        again = _upload(client, sample, "same-bytes-other-name.h5")
+    assert main(["compare", str(sample), "--json"]) == 2
+    cli = json.loads(capsys.readouterr().out)
+    assert [(f["subject"], f["severity"]) for f in diagnosis["findings"]] == [
+        (f["subject"], f["severity"]) for f in cli["findings"]
+    ]
+    assert diagnosis["recording"] == sample.name
+    assert set(spectrum["channels"]) >= {"mb2-vertical", "mb5-vertical", "crank speed"}
+    assert plot.status_code == 200 and plot.headers["content-type"] == "image/png"
+    assert plot.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (
+        again.status_code == 200 and again.json()["id"] == created["id"] and again.json()["created"] is False
+    )
+    assert len(list((server.data / "recordings").iterdir())) == 1
+
+
+def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp_path: Path) -> None:
+    truncated = tmp_path / "cut.h5"
+    truncated.write_bytes((SAMPLES / "7k98mc-baseline.h5").read_bytes()[:600_000])
+    too_big = tmp_path / "big.h5"
+    too_big.write_bytes(b"\0" * int(LIMIT_MB * 1e6 + 1))
+    not_a_recording = tmp_path / "notes.h5"
+    not_a_recording.write_text("hello")
+    cases = [
+        (not_a_recording, "notes.h5", 422, "not_a_recording"),
+        (truncated, "cut.h5", 422, "not_a_recording"),
+        (too_big, "big.h5", 413, "too_large"),
+        (SAMPLES / "7k98mc-baseline.h5", "../../etc/passwd", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "/absolute/path.h5", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "nul\x00byte.h5", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "x" * 300 + ".h5", 400, "bad_filename"),
+    ]
+    with server.client() as client:
+        for path, name, status, code in cases:
+            answer = _upload(client, path, name)
+            assert answer.status_code == status, (name[:40], answer.text)
+            body = answer.json()
+            assert body["error"]["code"] == code and body["error"]["status"] == status
+            assert str(server.data) not in body["error"]["message"]  # no server paths in messages
+        assert client.get("/recordings").json()["items"] == []
+    assert list((server.data / "incoming").iterdir()) == []
+    assert list((server.data / "recordings").iterdir()) == []
+    anonymous = httpx.post(f"{server.url}/recordings", params={"filename": "a.h5"}, content=b"123")
+    assert anonymous.status_code == 401 and anonymous.json()["error"]["code"] == "missing_key"
+    wrong = httpx.get(f"{server.url}/recordings", headers={"X-API-Key": "not-a-key"})
+    assert wrong.status_code == 401 and wrong.json()["error"]["code"] == "unknown_key"
+    assert httpx.get(f"{server.url}/health").status_code == 200  # the one route without a key
+
+
+def test_a_key_sees_only_its_fleet(server: Server) -> None:
+    with server.client("a") as a, server.client("b") as b:
+        mine = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        for path in ("", "/diagnosis", "/spectrum", "/plot"):
+            answer = b.get(f"/recordings/{mine}{path}")
+            assert answer.status_code == 404 and answer.json()["error"]["code"] == "not_found"
+        assert b.get("/recordings").json()["items"] == []
+        assert a.get("/recordings/999999").status_code == 404
+
+
+def test_recordings_are_paged_and_filtered(server: Server) -> None:
+    with server.client() as client:
+        for path in sorted(SAMPLES.glob("*.h5")):
+            assert _upload(client, path).status_code == 201
+        first = client.get("/recordings", params={"limit": 2}).json()
+        assert len(first["items"]) == 2 and first["next_offset"] == 2
+        rest = client.get("/recordings", params={"limit": 2, "offset": 2}).json()
+        assert len(rest["items"]) == 1 and rest["next_offset"] is None
+        seven = client.get("/recordings", params={"engine_id": "man-b-w-7k98mc"}).json()["items"]
+        assert {r["filename"] for r in seven} == {"7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5"}
+        future = client.get("/recordings", params={"since": "2999-01-01T00:00:00Z"}).json()
+        assert future["items"] == []
+        bad = client.get("/recordings", params={"limit": 0})
+        assert bad.status_code == 422 and bad.json()["error"]["code"] == "invalid_request"
+
+
+def test_engines_are_created_read_and_updated_with_validation(server: Server) -> None:
+    description = tomllib.loads((ROOT / "recordings" / "engines" / "medium-speed-6l32.toml").read_text())
+    description["id"] = "ship-a-main-engine"
+    description.pop("pressure_trace", None)
+    with server.client("a") as a, server.client("b") as b:
+        broken = {**description, "cylinders": 0}
+        answer = a.post("/engines", json={"description": broken})
+        assert answer.status_code == 422 and "cylinders" in answer.json()["error"]["message"]
+        assert a.post("/engines", json={"description": description}).status_code == 201
+        assert a.post("/engines", json={"description": description}).status_code == 409
+        assert a.get("/engines").json() == ["ship-a-main-engine"]
+        changed = {**description, "name": "renamed"}
+        assert a.put("/engines/ship-a-main-engine", json={"description": changed}).status_code == 200
+        assert a.get("/engines/ship-a-main-engine").json()["description"]["name"] == "renamed"
+        assert b.get("/engines/ship-a-main-engine").status_code == 404
+        assert a.put("/engines/other", json={"description": changed}).status_code == 404
+
+
+def test_the_openapi_document_lists_every_route(server: Server) -> None:
+    paths = httpx.get(f"{server.url}/openapi.json").json()["paths"]
+    assert set(paths) >= {
+        "/health",
+        "/recordings",
+        "/recordings/{recording_id}",
+        "/recordings/{recording_id}/diagnosis",
+        "/recordings/{recording_id}/spectrum",
+        "/recordings/{recording_id}/plot",
+        "/engines",
+        "/engines/{engine_id}",
+    }
+
+
+def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Server, tmp_path: Path) -> None:
+    """The server is killed while the analysis runs; restarted on the same store and data, it takes the
+    job back after the lease (2 s here), completes it, and stores each result once."""
+    long = tmp_path / "long.h5"
+    write_hdf5(simulate(load_scene(SCENES / "6l32-baseline.toml")).recording, long)
+    with server.client() as client:
+        recording = _upload(client, long).json()["id"]
+        deadline = time.monotonic() + 60
+        while client.get(f"/recordings/{recording}").json()["status"] != "running":
+            assert time.monotonic() < deadline, "the analysis did not start"
+            time.sleep(0.05)
+    server.kill()
+    store = open_store(server.store_url)
+    try:
+        assert store.count("results") == 0  # killed before it finished
+    finally:
+        store.close()
+    server.start()
+    with server.client() as client:
+        done = _wait_done(client, recording)
+    assert done["status"] == "done" and done["attempts"] == 2
+    store = open_store(server.store_url)
+    try:
+        assert store.count("results") == 2  # the diagnosis and the spectrum, once each
+    finally:
+        store.close()
