@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade "pip>=24"
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,import]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,import,cluster]'
 	@touch $(STAMP)
 
 ## demo: the main job on bundled data: diagnose the 7K98MC misfire recording against its healthy baseline
@@ -56,7 +56,7 @@ lock:
 	rm -rf .lock-venv
 	$(PYTHON) -m venv .lock-venv
 	.lock-venv/bin/python -m pip install --quiet --upgrade "pip>=24"
-	.lock-venv/bin/python -m pip install --quiet -e '.[test,import]'
+	.lock-venv/bin/python -m pip install --quiet -e '.[test,import,cluster]'
 	.lock-venv/bin/python -m pip freeze --exclude-editable --exclude pip > constraints.txt
 	rm -rf .lock-venv
 

@@ -31,8 +31,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, Query, Request
+from fastapi import Path as FastPath
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
+from fastapi.routing import APIRoute
 from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -162,6 +164,20 @@ def _fleet(request: Request) -> int:
 
 
 Fleet = Annotated[int, Depends(_fleet)]
+RecordingId = Annotated[int, FastPath(ge=1, le=2**62, description="the recording's id")]
+EngineId = Annotated[str, FastPath(min_length=1, max_length=200, description="the engine's id")]
+
+
+def _moment(name: str, text: str | None) -> datetime | None:
+    """An ISO 8601 time (UTC if it has no zone), or a clear 422."""
+    if text is None:
+        return None
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        raise ApiError(
+            422, "invalid_request", f"{name}: expected an ISO 8601 date or time, got {text!r}"
+        ) from None
 
 
 class EngineIn(BaseModel):
@@ -207,9 +223,19 @@ def create_app(settings: Settings) -> FastAPI:
         return _error(error.status, error.code, error.message)
 
     @app.exception_handler(StarletteHTTPException)
-    async def http_error(_: Request, error: StarletteHTTPException) -> JSONResponse:
+    async def http_error(request: Request, error: StarletteHTTPException) -> JSONResponse:
         code = {404: "not_found", 405: "method_not_allowed"}.get(error.status_code, "http_error")
-        return _error(error.status_code, code, str(error.detail))
+        answer = _error(error.status_code, code, str(error.detail))
+        answer.headers.update(error.headers or {})
+        if error.status_code == 405:  # Allow: every method of every route of this path, not the first's
+            allowed = {
+                method
+                for route in app.routes
+                if isinstance(route, APIRoute) and route.path_regex.match(request.url.path)
+                for method in route.methods or ()
+            }
+            answer.headers["Allow"] = ", ".join(sorted(allowed))
+        return answer
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, error: RequestValidationError) -> JSONResponse:
@@ -343,15 +369,26 @@ def create_app(settings: Settings) -> FastAPI:
     @app.get("/recordings", response_model=RecordingPage, responses=ERRORS, tags=["recordings"])
     def list_recordings(
         fleet_id: Fleet,
-        engine_id: str | None = None,
-        since: datetime | None = None,
-        until: datetime | None = None,
+        engine_id: Annotated[str | None, Query(min_length=1, max_length=200)] = None,
+        since: Annotated[
+            str | None,
+            Query(description="uploaded at or after (ISO 8601)", json_schema_extra={"format": "date-time"}),
+        ] = None,
+        until: Annotated[
+            str | None,
+            Query(description="uploaded before (ISO 8601)", json_schema_extra={"format": "date-time"}),
+        ] = None,
         offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
         limit: Annotated[int, Query(ge=1, le=500)] = 50,
     ) -> dict[str, Any]:
         """The fleet's recordings, newest first; filter by engine and upload time."""
         rows = store().recordings(
-            fleet_id, engine_id=engine_id, since=since, until=until, offset=offset, limit=limit + 1
+            fleet_id,
+            engine_id=engine_id,
+            since=_moment("since", since),
+            until=_moment("until", until),
+            offset=offset,
+            limit=limit + 1,
         )
         more = len(rows) > limit
         return {
@@ -362,7 +399,7 @@ def create_app(settings: Settings) -> FastAPI:
         }
 
     @app.get("/recordings/{recording_id}", response_model=RecordingOut, responses=ERRORS, tags=["recordings"])
-    def get_recording(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+    def get_recording(fleet_id: Fleet, recording_id: RecordingId) -> dict[str, Any]:
         """A recording's metadata and the state of its analysis."""
         return recording_out(own(fleet_id, recording_id))
 
@@ -377,12 +414,12 @@ def create_app(settings: Settings) -> FastAPI:
         return document
 
     @app.get("/recordings/{recording_id}/diagnosis", responses=ERRORS, tags=["results"])
-    def get_diagnosis(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+    def get_diagnosis(fleet_id: Fleet, recording_id: RecordingId) -> dict[str, Any]:
         """The diagnosis (the document of ``engine-monitor compare --json``, docs/diagnosis.md)."""
         return result(fleet_id, recording_id, "diagnosis")
 
     @app.get("/recordings/{recording_id}/spectrum", responses=ERRORS, tags=["results"])
-    def get_spectrum(fleet_id: Fleet, recording_id: int) -> dict[str, Any]:
+    def get_spectrum(fleet_id: Fleet, recording_id: RecordingId) -> dict[str, Any]:
         """The measured order spectra of every channel (peak amplitudes, phases in degrees)."""
         return result(fleet_id, recording_id, "spectrum")
 
@@ -392,7 +429,7 @@ def create_app(settings: Settings) -> FastAPI:
         responses={**ERRORS, 200: {"content": {"image/png": {}}}},
         tags=["results"],
     )
-    def get_plot(fleet_id: Fleet, recording_id: int) -> FileResponse:
+    def get_plot(fleet_id: Fleet, recording_id: RecordingId) -> FileResponse:
         """The diagnosis plot (PNG): measured against predicted orders, cylinder strengths."""
         result(fleet_id, recording_id, "diagnosis")
         path = plot_path(settings.data_dir, recording_id)
@@ -432,7 +469,7 @@ def create_app(settings: Settings) -> FastAPI:
         return {"engine_id": engine_id, "description": description}
 
     @app.get("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
-    def get_engine(fleet_id: Fleet, engine_id: str) -> dict[str, Any]:
+    def get_engine(fleet_id: Fleet, engine_id: EngineId) -> dict[str, Any]:
         """An engine description of the fleet."""
         description = store().engine(fleet_id, engine_id)
         if description is None:
@@ -440,7 +477,7 @@ def create_app(settings: Settings) -> FastAPI:
         return {"engine_id": engine_id, "description": description}
 
     @app.put("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
-    def put_engine(fleet_id: Fleet, engine_id: str, body: EngineIn) -> dict[str, Any]:
+    def put_engine(fleet_id: Fleet, engine_id: EngineId, body: EngineIn) -> dict[str, Any]:
         """Replace an engine description (later analyses use it)."""
         if store().engine(fleet_id, engine_id) is None:
             raise ApiError(404, "not_found", f"no engine {engine_id!r}")

@@ -6,7 +6,8 @@ before, under any name, is not registered twice), queues a diagnosis job for
 each recording that has no result at the current analysis version, and runs
 the queued jobs in a local process pool. ``engine-monitor batch --since DATE``
 does the same for the recordings already in the store (uploaded over HTTP)
-since that date.
+since that date. With ``--scheduler tcp://host:8786`` the jobs run on a Dask
+distributed cluster instead (the recordings' paths must be readable there).
 
 Each job's result is written in one transaction with the job's completion,
 and the store's unique keys refuse a second result for the same recording and
@@ -26,8 +27,9 @@ import hashlib
 import os
 import sys
 from collections import Counter, defaultdict
-from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -211,6 +213,7 @@ def run_batch(
     baselines: dict[str, dict[str, Any]] | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    scheduler: str | None = None,
 ) -> BatchSummary:
     """Register, queue and diagnose (see the module docstring).
 
@@ -228,6 +231,10 @@ def run_batch(
         Worker processes; default: one per core.
     progress : callable, optional
         Called with (jobs done, jobs in this run) after each job.
+    scheduler : str, optional
+        A Dask distributed scheduler's address (``tcp://host:8786``): the jobs run on its workers
+        instead of a local process pool. A worker lost mid-batch has its tasks run again on the
+        others (by the scheduler); a task that fails is recorded as any failure.
 
     Returns
     -------
@@ -262,8 +269,7 @@ def run_batch(
     if total == 0:
         return summary
     engines: dict[str, dict[str, Any] | None] = {}
-    count = workers or os.cpu_count() or 1
-    with ProcessPoolExecutor(max_workers=max(1, min(count, total))) as pool:
+    with _executor(scheduler, workers, total) as (pool, count):
         running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
         queue = list(pending)
 
@@ -309,6 +315,30 @@ def run_batch(
                     progress(done_count, total)
             submit()
     return summary
+
+
+@contextmanager
+def _executor(scheduler: str | None, workers: int | None, total: int) -> Iterator[tuple[Executor, int]]:
+    """A local process pool, or a Dask cluster's executor; with how many jobs to keep in flight each."""
+    if scheduler is None:
+        count = workers or os.cpu_count() or 1
+        with ProcessPoolExecutor(max_workers=max(1, min(count, total))) as pool:
+            yield pool, count
+        return
+    try:
+        from distributed import Client
+    except ImportError as error:
+        raise MonitorError("--scheduler needs Dask distributed: install engine-monitor[cluster]") from error
+    try:
+        client = Client(scheduler, timeout="10s")
+    except OSError as error:
+        raise MonitorError(f"Dask scheduler {scheduler}: cannot be reached ({error})") from error
+    try:
+        count = workers or max(1, sum(client.nthreads().values()))
+        with client.get_executor(pure=False) as pool:
+            yield pool, count
+    finally:
+        client.close()
 
 
 def progress_bar(stream: Any = None) -> Callable[[int, int], None]:

@@ -239,6 +239,9 @@ def _build_parser() -> argparse.ArgumentParser:
         help="a baseline (from 'calibrate'), per engine",
     )
     batch.add_argument("--workers", type=int, help="worker processes (default: one per core)")
+    batch.add_argument(
+        "--scheduler", metavar="ADDRESS", help="run on a Dask distributed cluster (tcp://host:8786) instead"
+    )
 
     serve = sub.add_parser(
         "serve",
@@ -364,6 +367,7 @@ def _run_batch(args: argparse.Namespace) -> int:
             baselines=baselines,
             workers=args.workers,
             progress=progress_bar(),
+            scheduler=args.scheduler,
         )
     finally:
         store.close()

@@ -157,3 +157,46 @@ def test_the_batch_command_prints_the_summary(
     assert "man-b-w-7k98mc: 1 healthy, 1 alarm" in out
     assert main(["batch", "--since", "yesterday", "--store", url]) == 2
     assert "expected a date or time in ISO 8601" in capsys.readouterr().err
+
+
+def test_a_batch_on_a_dask_cluster_survives_a_worker_killed_midway(tmp_path: Path) -> None:
+    """A local Dask cluster of two worker processes; one is killed once the first results are stored.
+    The scheduler runs its tasks again on the other (or on the worker its nanny restarts): every
+    recording is diagnosed, each result stored once."""
+    import threading
+
+    distributed = pytest.importorskip("distributed", reason="Dask distributed is the cluster extra")
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0})
+    for seed in range(8):
+        write_hdf5(simulate(scene, seed=200 + seed).recording, folder / f"r{seed}.h5")
+    store = open_store(f"sqlite:///{tmp_path / 's.db'}")
+    fleet = store.create_fleet("ships")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        pids = list(client.run(os.getpid).values())
+        outcome: dict[str, object] = {}
+
+        def batch() -> None:
+            outcome["summary"] = run_batch(store, fleet, path=folder, scheduler=cluster.scheduler_address)
+
+        thread = threading.Thread(target=batch)
+        thread.start()
+        deadline = time.monotonic() + 120
+        while store.count("results") < 2 and time.monotonic() < deadline and thread.is_alive():
+            time.sleep(0.05)
+        killed = store.count("results") < 16
+        os.kill(pids[0], signal.SIGKILL)
+        thread.join(timeout=300)
+    try:
+        assert killed, "the worker should have been killed part way"
+        summary = outcome["summary"]
+        assert summary.diagnosed == 8 and summary.failed == []  # type: ignore[attr-defined]
+        assert store.count("results") == 16 and store.count("jobs") == 8
+    finally:
+        store.close()
