@@ -272,6 +272,23 @@ def _build_parser() -> argparse.ArgumentParser:
         help="seconds after which a running analysis whose worker went silent is taken back (default 30)",
     )
 
+    work = sub.add_parser(
+        "worker",
+        help="run the service's analyses apart from the HTTP server (until stopped)",
+        description="Take queued analyses from the store and run them, PROCESSES at a time, until SIGTERM "
+        "or Ctrl-C; for a server started with --workers 0 (the container's worker).",
+    )
+    work.add_argument(
+        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)"
+    )
+    work.add_argument(
+        "--data", default="data", metavar="DIR", help="the service's data folder (default ./data)"
+    )
+    work.add_argument("--processes", type=int, default=1, help="analyses at a time (default 1)")
+    work.add_argument(
+        "--lease", type=_positive_float, default=30.0, metavar="S", help="as for serve (default 30)"
+    )
+
     keys = sub.add_parser("keys", help="create a fleet's API key for the HTTP service")
     keys.add_argument("--fleet", required=True, help="the fleet (created if new)")
     keys.add_argument("--label", default="", help="what the key is for")
@@ -396,6 +413,35 @@ def _run_serve(args: argparse.Namespace) -> int:
         lease_s=args.lease,
     )
     uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
+    return 0
+
+
+def _run_worker(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+    from datetime import timedelta
+
+    from api.worker import Worker
+    from monitor.store import open_store
+
+    data = Path(args.data)
+    data.mkdir(parents=True, exist_ok=True)
+    store = open_store(_service_store_url(args.store, args.data))
+    worker = Worker(store, data.resolve(), max(1, args.processes), lease=timedelta(seconds=args.lease))
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    worker.start()
+    print(
+        f"worker: {worker.processes} process(es) on {store.dialect}; stop with SIGTERM or Ctrl-C",
+        file=sys.stderr,
+    )
+    try:
+        stop.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        worker.stop()
+        store.close()
     return 0
 
 
@@ -731,6 +777,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "batch": _run_batch,
         "serve": _run_serve,
         "keys": _run_keys,
+        "worker": _run_worker,
     }
     try:
         return handlers[args.command](args)

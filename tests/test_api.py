@@ -35,6 +35,7 @@ class Server:
     data: Path
     keys: dict[str, str]
     process: subprocess.Popen[bytes] | None = None
+    workers: int = 1
 
     def start(self) -> None:
         port = _free_port()
@@ -55,6 +56,8 @@ class Server:
                 str(LIMIT_MB),
                 "--lease",
                 "2",
+                "--workers",
+                str(self.workers),
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -260,6 +263,38 @@ def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Ser
         assert store.count("results") == 2  # the diagnosis and the spectrum, once each
     finally:
         store.close()
+
+
+def test_a_separate_worker_runs_the_analyses_of_a_server_without_one(server: Server) -> None:
+    """A server started with --workers 0 queues; 'engine-monitor worker' on the same store and data runs
+    the job, and stops cleanly on SIGTERM."""
+    server.kill()
+    server.workers = 0
+    server.start()
+    with server.client() as client:
+        recording = _upload(client, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        time.sleep(1.0)
+        assert client.get(f"/recordings/{recording}").json()["status"] == "queued"
+        worker = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "monitor",
+                "worker",
+                "--store",
+                server.store_url,
+                "--data",
+                str(server.data),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            cwd=ROOT,
+        )
+        try:
+            assert _wait_done(client, recording)["diagnosis_status"] == "alarm"
+        finally:
+            worker.send_signal(signal.SIGTERM)
+            assert worker.wait(timeout=30) == 0
 
 
 # ------------------------------------------------------------------------ property-based (OpenAPI)
