@@ -265,6 +265,59 @@ def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Ser
         store.close()
 
 
+def test_fifty_readers_and_four_uploads_at_once(server: Server, tmp_path: Path) -> None:
+    """A bounded load on loopback: 50 clients read results (5 requests each) while 4 clients upload
+    distinct recordings. No 5xx, every upload stored and listed. (Latency and throughput are measured
+    by benchmarks/service_load.py, not here.)"""
+    import threading
+
+    scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 2.0})
+    uploads = []
+    for seed in range(4):
+        path = tmp_path / f"u{seed}.h5"
+        write_hdf5(simulate(scene, seed=500 + seed).recording, path)
+        uploads.append(path)
+    with server.client() as client:
+        first = _upload(client, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        _wait_done(client, first)
+    paths = [
+        "/recordings",
+        f"/recordings/{first}",
+        f"/recordings/{first}/diagnosis",
+        f"/recordings/{first}/spectrum",
+    ]
+    statuses: list[int] = []
+    stored: list[int] = []
+    lock = threading.Lock()
+
+    def read(i: int) -> None:
+        with server.client() as client:
+            for n in range(5):
+                code = client.get(paths[(i + n) % len(paths)]).status_code
+                with lock:
+                    statuses.append(code)
+
+    def upload(path: Path) -> None:
+        with server.client() as client:
+            answer = _upload(client, path)
+            with lock:
+                statuses.append(answer.status_code)
+                if answer.status_code == 201:
+                    stored.append(answer.json()["id"])
+
+    threads = [threading.Thread(target=read, args=(i,)) for i in range(50)]
+    threads += [threading.Thread(target=upload, args=(p,)) for p in uploads]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=300)
+    assert len(statuses) == 50 * 5 + 4
+    assert all(code < 500 for code in statuses) and set(statuses) <= {200, 201}
+    with server.client() as client:
+        listed = {r["id"] for r in client.get("/recordings", params={"limit": 500}).json()["items"]}
+    assert len(stored) == 4 and set(stored) <= listed
+
+
 def test_a_separate_worker_runs_the_analyses_of_a_server_without_one(server: Server) -> None:
     """A server started with --workers 0 queues; 'engine-monitor worker' on the same store and data runs
     the job, and stops cleanly on SIGTERM."""
