@@ -179,6 +179,24 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
     assert httpx.get(f"{server.url}/health").status_code == 200  # the one route without a key
 
 
+def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Server, tmp_path: Path) -> None:
+    """A readable recording of an engine nobody described: each attempt fails with the reason, and
+    after three the job is set aside; the diagnosis answers 409 and says why."""
+    from dataclasses import replace
+
+    from monitor.io.hdf5 import read_hdf5
+
+    unknown = tmp_path / "unknown.h5"
+    write_hdf5(replace(read_hdf5(SAMPLES / "7k98mc-baseline.h5"), engine_id="ship-x-main-engine"), unknown)
+    with server.client() as client:
+        recording = _upload(client, unknown).json()["id"]
+        done = _wait_done(client, recording)
+        assert (done["status"], done["attempts"]) == ("set_aside", 3)
+        assert "engine 'ship-x-main-engine' is neither in the fleet's engines nor bundled" in done["error"]
+        answer = client.get(f"/recordings/{recording}/diagnosis")
+        assert answer.status_code == 409 and "set_aside" in answer.json()["error"]["message"]
+
+
 def test_a_key_sees_only_its_fleet(server: Server) -> None:
     with server.client("a") as a, server.client("b") as b:
         mine = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
