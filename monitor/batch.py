@@ -45,7 +45,16 @@ DIAGNOSIS = "diagnosis"  # the kind of result a job writes
 
 
 def content_hash(path: str | Path) -> str:
-    """SHA-256 of a file's bytes (hex), read in 1 MiB blocks."""
+    """SHA-256 of a file's bytes (hex), read in 1 MiB blocks.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    str
+    """
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -55,6 +64,13 @@ def content_hash(path: str | Path) -> str:
 
 def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
     """Register a recording file in the store: ``(recording id, created)``.
+
+    Parameters
+    ----------
+    store : Store
+    fleet_id : int
+    path : Path
+        A recording (HDF5 or MCAP); its engine and start time are read from it.
 
     Raises
     ------
@@ -88,8 +104,20 @@ def diagnose_file(
 
     Returns the result documents by kind: ``"diagnosis"`` (the ``compare --json`` document) and
     ``"spectrum"`` (the measured order spectra of every channel), each with the status. With
-    ``plot``, the diagnosis plot is also written there as PNG (through a temporary file). ``name``
-    is the recording's name in the documents (default: the file's).
+    ``plot``, the diagnosis plot is also written there as PNG (through a temporary file).
+
+    Parameters
+    ----------
+    path : str
+        The recording file.
+    engine_description : dict or None
+        The engine file's content (a fleet's description from the store); None: the bundled engine.
+    baseline_document : dict or None
+        A baseline (``engine-monitor calibrate``) for the bearing comparisons.
+    plot : str, optional
+        Where to write the diagnosis plot (PNG).
+    name : str, optional
+        The recording's name in the documents (default: the file's).
     """
     import math
 

@@ -57,7 +57,12 @@ class StoreError(MonitorError):
 
 
 def default_url(folder: str | Path = ".") -> str:
-    """The store's URL: ``$ENGINE_MONITOR_DB``, else an SQLite file ``engine-monitor.db`` in ``folder``."""
+    """The store's URL: ``$ENGINE_MONITOR_DB``, else an SQLite file ``engine-monitor.db`` in ``folder``.
+
+    Parameters
+    ----------
+    folder : str or Path, optional
+    """
     url = os.environ.get(DEFAULT_URL_ENV)
     if url:
         return url
@@ -65,7 +70,12 @@ def default_url(folder: str | Path = ".") -> str:
 
 
 def key_digest(key: str) -> str:
-    """The stored form of an API key: its SHA-256 digest (hex)."""
+    """The stored form of an API key: its SHA-256 digest (hex).
+
+    Parameters
+    ----------
+    key : str
+    """
     return hashlib.sha256(key.encode("utf-8")).hexdigest()
 
 
@@ -124,7 +134,13 @@ def _job(row: Any) -> Job:
 
 
 class Store:
-    """The store behind one SQLAlchemy engine (see the module docstring). Use :func:`open_store`."""
+    """The store behind one SQLAlchemy engine (see the module docstring). Use :func:`open_store`.
+
+    Parameters
+    ----------
+    engine : sqlalchemy.engine.Engine
+        Connected to a migrated database.
+    """
 
     def __init__(self, engine: Engine) -> None:
         self.db = engine
@@ -490,7 +506,12 @@ def _sqlite_pragmas(connection: Any, _: Any) -> None:
 
 
 def open_store(url: str | None = None) -> Store:
-    """Open (and migrate to the newest schema) the store at ``url`` (default: :func:`default_url`).
+    """Open (and migrate to the newest schema) the store at ``url``.
+
+    Parameters
+    ----------
+    url : str, optional
+        ``sqlite:///PATH`` or ``postgresql+psycopg://...``; default: :func:`default_url`.
 
     Raises
     ------
