@@ -30,7 +30,7 @@ class Validation:
 
 
 def _check(path: str) -> dict[str, object]:
-    from monitor.pipeline import open_recording
+    from monitor.io import open_recording
 
     with open_recording(path) as recording:  # every sample read by slices: checksums checked, memory bounded
         for channel in recording.channels:

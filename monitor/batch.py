@@ -77,7 +77,7 @@ def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
     MonitorError
         If the file is not a recording the product can read.
     """
-    from monitor.pipeline import open_recording
+    from monitor.io import open_recording
 
     with open_recording(path) as recording:
         engine_id, recorded_at = recording.engine_id, recording.start_time
@@ -127,7 +127,7 @@ def diagnose_file(
     from monitor.diagnosis.report import diagnosis_document
     from monitor.engine import bundled_engines, load_engine, parse_engine
     from monitor.errors import DiagnosisError
-    from monitor.pipeline import open_recording
+    from monitor.io import open_recording
 
     with open_recording(path) as recording:
         if engine_description is not None:

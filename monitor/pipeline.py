@@ -26,18 +26,16 @@ speed of the recording; a grid given too coarse for that is refused.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
-from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
-from monitor.recording import Channel, FormatError, Recording
+from monitor.io import open_recording, read_recording
+from monitor.recording import Channel, Recording
 from monitor.signal.angle_domain import (
     AngleDomainSignal,
     AngleGrid,
@@ -64,67 +62,6 @@ __all__ = [
 
 SPEED_CHANNEL = "crank speed"
 ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
-
-
-def read_recording(path: str | Path) -> Recording:
-    """Read a recording in the product's HDF5 or MCAP format (by the file's signature).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    Recording
-    """
-    from monitor.io import HDF5_SIGNATURE, MCAP_MAGIC, file_signature
-
-    source = Path(path)
-    head = file_signature(source)
-    if head == HDF5_SIGNATURE:
-        from monitor.io.hdf5 import read_hdf5
-
-        return read_hdf5(source)
-    if head == MCAP_MAGIC:
-        from monitor.io.mcap_io import read_mcap
-
-        return read_mcap(source)
-    raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
-
-
-@contextlib.contextmanager
-def open_recording(path: str | Path) -> Iterator[Recording]:
-    """Open a recording for analysis in bounded memory: waveform samples are read by slices.
-
-    HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`), an
-    indexed MCAP file's are read topic by topic (:func:`monitor.io.mcap_io.open_mcap`;
-    a file without its index, or cut short, is read whole).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Yields
-    ------
-    Recording
-        Valid while the context is open.
-    """
-    from monitor.io import HDF5_SIGNATURE, MCAP_MAGIC, file_signature
-
-    source = Path(path)
-    head = file_signature(source)
-    if head == HDF5_SIGNATURE:
-        from monitor.io.hdf5 import open_hdf5
-
-        with open_hdf5(source) as recording:
-            yield recording
-    elif head == MCAP_MAGIC:
-        from monitor.io.mcap_io import open_mcap
-
-        with open_mcap(source) as recording:
-            yield recording
-    else:
-        yield read_recording(source)  # refuses it with the reason
 
 
 @dataclass(frozen=True)

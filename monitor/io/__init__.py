@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
-from monitor.recording import FormatError
+from monitor.recording import FormatError, Recording
 
-__all__ = ["HDF5_SIGNATURE", "MCAP_MAGIC", "file_signature"]
+__all__ = ["HDF5_SIGNATURE", "MCAP_MAGIC", "file_signature", "open_recording", "read_recording"]
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -33,3 +35,60 @@ def file_signature(path: str | Path) -> bytes:
             return fh.read(8)
     except OSError as error:
         raise FormatError(f"{path}: cannot read: {error}") from None
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Read a recording in the product's HDF5 or MCAP format (by the file's signature).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Recording
+    """
+    source = Path(path)
+    head = file_signature(source)
+    if head == HDF5_SIGNATURE:
+        from monitor.io.hdf5 import read_hdf5
+
+        return read_hdf5(source)
+    if head == MCAP_MAGIC:
+        from monitor.io.mcap_io import read_mcap
+
+        return read_mcap(source)
+    raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
+
+
+@contextlib.contextmanager
+def open_recording(path: str | Path) -> Iterator[Recording]:
+    """Open a recording for analysis in bounded memory: waveform samples are read by slices.
+
+    HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`), an
+    indexed MCAP file's are read topic by topic (:func:`monitor.io.mcap_io.open_mcap`;
+    a file without its index, or cut short, is read whole).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Yields
+    ------
+    Recording
+        Valid while the context is open.
+    """
+    source = Path(path)
+    head = file_signature(source)
+    if head == HDF5_SIGNATURE:
+        from monitor.io.hdf5 import open_hdf5
+
+        with open_hdf5(source) as recording:
+            yield recording
+    elif head == MCAP_MAGIC:
+        from monitor.io.mcap_io import open_mcap
+
+        with open_mcap(source) as recording:
+            yield recording
+    else:
+        yield read_recording(source)  # refuses it with the reason
