@@ -14,7 +14,7 @@ Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
 - Every error has one body shape: ``{"error": {"status", "code", "message"}}``.
 
 Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
-``/openapi.json``, its pages at ``/docs``.
+``/openapi.json`` (with a key, as every route but ``/health``).
 """
 
 from __future__ import annotations
@@ -216,6 +216,9 @@ def create_app(settings: Settings) -> FastAPI:
         description=__doc__,
         version=ANALYSIS_VERSION,
         lifespan=lifespan,
+        openapi_url=None,  # served below, behind the key like every route but /health
+        docs_url=None,
+        redoc_url=None,
     )
 
     @app.exception_handler(ApiError)
@@ -275,6 +278,11 @@ def create_app(settings: Settings) -> FastAPI:
         if row is None:
             raise ApiError(404, "not_found", f"no recording {recording_id}")
         return row
+
+    @app.get("/openapi.json", include_in_schema=False)
+    def openapi(_: Fleet) -> JSONResponse:
+        """The OpenAPI document (with a key, as every route but /health)."""
+        return JSONResponse(app.openapi())
 
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> dict[str, str]:
