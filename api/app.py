@@ -23,10 +23,11 @@ import hashlib
 import os
 import re
 import tempfile
+import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -139,6 +140,11 @@ ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
+def _sync(out: Any) -> None:
+    out.flush()
+    os.fsync(out.fileno())
+
+
 def _filename(name: str) -> str:
     """A plain file name, or a clear 400: no folders, no control characters, at most 255 bytes."""
     if not _NAME.match(name) or name in (".", "..") or len(name.encode("utf-8")) > 255:
@@ -164,7 +170,7 @@ def _fleet(request: Request) -> int:
 
 
 Fleet = Annotated[int, Depends(_fleet)]
-RecordingId = Annotated[int, FastPath(ge=1, le=2**62, description="the recording's id")]
+RecordingId = Annotated[int, FastPath(ge=1, le=2**31 - 1, description="the recording's id")]
 EngineId = Annotated[str, FastPath(min_length=1, max_length=200, description="the engine's id")]
 
 
@@ -173,10 +179,13 @@ def _moment(name: str, text: str | None) -> datetime | None:
     if text is None:
         return None
     try:
-        return datetime.fromisoformat(text)
-    except ValueError:
+        moment = datetime.fromisoformat(text)
+        if moment.tzinfo is not None:  # the store compares in UTC; at the calendar's ends that overflows
+            moment = moment.astimezone(UTC)
+        return moment
+    except (ValueError, OverflowError):
         raise ApiError(
-            422, "invalid_request", f"{name}: expected an ISO 8601 date or time, got {text!r}"
+            422, "invalid_request", f"{name}: expected an ISO 8601 date or time in years 1-9999, got {text!r}"
         ) from None
 
 
@@ -193,6 +202,8 @@ def create_app(settings: Settings) -> FastAPI:
         store = open_store(settings.store_url)
         for folder in ("recordings", "incoming", "plots"):
             (settings.data_dir / folder).mkdir(parents=True, exist_ok=True)
+        for leftover in (settings.data_dir / "incoming").glob("*.part"):  # uploads a killed server left
+            leftover.unlink(missing_ok=True)
         state["store"] = store
         app.state.store = store
         worker = (
@@ -290,6 +301,43 @@ def create_app(settings: Settings) -> FastAPI:
         store().count("fleets")
         return {"status": "ok", "store": store().dialect, "analysis_version": ANALYSIS_VERSION}
 
+    validations = threading.BoundedSemaphore(2)  # each child may take validation_memory_bytes
+
+    def keep(fleet_id: int, name: str, temporary: Path, content: str, size: int) -> tuple[RecordingRow, bool]:
+        """Validate an uploaded file, move it to its content's name, register it and queue its analysis."""
+        with validations:
+            checked = validate(
+                temporary,
+                memory_bytes=settings.validation_memory_bytes,
+                timeout_s=settings.validation_timeout_s,
+            )
+        if not checked.ok:
+            message = checked.message.replace(str(temporary), name)  # the reader names the file it read
+            raise ApiError(422, "not_a_recording", message if name in message else f"{name}: {message}")
+        if len(checked.engine_id) > 200 or "\x00" in checked.engine_id:
+            raise ApiError(422, "not_a_recording", f"{name}: its engine id is longer than 200 characters")
+        with open(temporary, "rb") as fh:
+            suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
+        final = settings.data_dir / "recordings" / f"{content}{suffix}"
+        if not final.exists():
+            os.replace(temporary, final)
+            directory = os.open(final.parent, os.O_RDONLY)
+            try:
+                os.fsync(directory)
+            finally:
+                os.close(directory)
+        row, created = store().add_recording(
+            fleet_id,
+            content_hash=content,
+            engine_id=checked.engine_id,
+            filename=name,
+            path=str(final),
+            size_bytes=size,
+            recorded_at=checked.start_time,
+        )
+        store().enqueue(row.id, ANALYSIS_VERSION)
+        return row, created
+
     @app.post(
         "/recordings",
         status_code=201,
@@ -324,54 +372,21 @@ def create_app(settings: Settings) -> FastAPI:
                             f"the file is over the limit of {settings.max_upload_bytes} bytes",
                         )
                     digest.update(chunk)
-                    out.write(chunk)
-                out.flush()
-                os.fsync(out.fileno())
+                    await run_in_threadpool(out.write, chunk)  # the disk never blocks the event loop
+                await run_in_threadpool(_sync, out)
             if size == 0:
                 raise ApiError(400, "empty", "the request body is empty: send the recording's bytes")
-            checked = await run_in_threadpool(
-                validate,
-                Path(temporary),
-                memory_bytes=settings.validation_memory_bytes,
-                timeout_s=settings.validation_timeout_s,
+            row, created = await run_in_threadpool(
+                keep, fleet_id, name, Path(temporary), digest.hexdigest(), size
             )
-            if not checked.ok:
-                message = checked.message.replace(temporary, name)  # the reader names the file it read
-                raise ApiError(
-                    422, "not_a_recording", f"{name}: {message}" if name not in message else message
-                )
-            content = digest.hexdigest()
-            with open(temporary, "rb") as fh:
-                suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
-            final = settings.data_dir / "recordings" / f"{content}{suffix}"
-            if final.exists():
-                os.unlink(temporary)
-            else:
-                os.replace(temporary, final)
-                directory = os.open(final.parent, os.O_RDONLY)
-                try:
-                    os.fsync(directory)
-                finally:
-                    os.close(directory)
-        except BaseException:
+        finally:
             if os.path.exists(temporary):
                 os.unlink(temporary)
-            raise
-        row, created = store().add_recording(
-            fleet_id,
-            content_hash=content,
-            engine_id=checked.engine_id,
-            filename=name,
-            path=str(final),
-            size_bytes=size,
-            recorded_at=checked.start_time,
-        )
-        store().enqueue(row.id, ANALYSIS_VERSION)
         if state["worker"] is not None:
             state["worker"].wake()
+        body = await run_in_threadpool(recording_out, row)
         return JSONResponse(
-            UploadOut(**recording_out(row), created=created).model_dump(mode="json"),
-            status_code=201 if created else 200,
+            UploadOut(**body, created=created).model_dump(mode="json"), status_code=201 if created else 200
         )
 
     @app.get("/recordings", response_model=RecordingPage, responses=ERRORS, tags=["recordings"])
@@ -453,6 +468,8 @@ def create_app(settings: Settings) -> FastAPI:
             engine = parse_engine(description, origin="engine")
         except (MonitorError, ValueError) as error:
             raise ApiError(422, "invalid_engine", str(error)) from error
+        if len(engine.id) > 200:
+            raise ApiError(422, "invalid_engine", f"id: at most 200 characters, got {len(engine.id)}")
         if engine.id != engine_id:
             raise ApiError(
                 422, "invalid_engine", f"the description's id is {engine.id!r}, the path's {engine_id!r}"

@@ -1,8 +1,9 @@
 """Validate an uploaded file with the product's readers, in a process of its own.
 
-``python -m api.validate PATH`` prints the recording's engine, start time and
-channels as JSON (exit 0), or the reader's refusal (exit 3). The service runs
-it with a memory limit (``RLIMIT_AS``) and a time limit: a malformed file that
+``python -m api.validate MEMORY_BYTES PATH`` limits its own address space,
+then prints the recording's engine, start time and channels as JSON (exit 0),
+or the reader's refusal (exit 3). The service runs it with that memory limit
+(``RLIMIT_AS``) and a time limit: a malformed file that
 makes a reader allocate without bound or loop cannot take the server down.
 """
 
@@ -48,18 +49,16 @@ def _check(path: str) -> dict[str, object]:
 def validate(path: Path, *, memory_bytes: int, timeout_s: float) -> Validation:
     """Run the validator on ``path`` in a child process with the given limits."""
 
-    def limit() -> None:  # in the child, before it runs
-        resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
-
     try:
-        out = subprocess.run(
-            [sys.executable, "-m", "api.validate", str(path)],
-            capture_output=True,
-            text=True,
-            timeout=timeout_s,
-            preexec_fn=limit,
-            check=False,
-            cwd=Path(__file__).resolve().parents[1],
+        out = (
+            subprocess.run(  # the child sets its own memory limit first (no preexec_fn in a threaded server)
+                [sys.executable, "-m", "api.validate", str(memory_bytes), str(path)],
+                capture_output=True,
+                text=True,
+                timeout=timeout_s,
+                check=False,
+                cwd=Path(__file__).resolve().parents[1],
+            )
         )
     except subprocess.TimeoutExpired:
         return Validation(False, message=f"the file took longer than {timeout_s:g} s to read: refused")
@@ -75,10 +74,12 @@ def validate(path: Path, *, memory_bytes: int, timeout_s: float) -> Validation:
 
 
 def main() -> None:
+    limit = int(sys.argv[1])
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     from monitor.errors import MonitorError
 
     try:
-        data = _check(sys.argv[1])
+        data = _check(sys.argv[2])
     except (MonitorError, OSError, ValueError) as error:
         print(str(error), file=sys.stderr)
         sys.exit(3)

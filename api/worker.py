@@ -1,18 +1,23 @@
 """Background analysis: a worker takes queued jobs from the store and runs them in a process.
 
-The job state lives in the store, so it survives the server: at start the
-worker queues again the jobs whose worker has not been heard of for
-:data:`LEASE` (a server killed mid-analysis), and while a job runs its worker
-touches it every :data:`HEARTBEAT`. The analysis runs in a separate process
-(a crash there fails the job, not the server); its result is written with the
-job's completion in one transaction, once. A job that fails records why and
-is retried, then set aside (:data:`monitor.store.MAX_ATTEMPTS`).
+The job state lives in the store, so it survives the server: at start, and
+then every heartbeat, the worker takes back the jobs whose worker has not
+been heard of for :data:`LEASE` (a server killed mid-analysis), and while a
+job runs its worker touches it every :data:`HEARTBEAT` (or a third of the
+lease). Only the job's taker may complete or fail it (its token). The
+analysis runs in a separate process: its crash fails the job and a fresh
+process takes the next, never stopping the worker. The result is written
+with the job's completion in one transaction, once. A job that fails records
+why and is retried, then set aside (:data:`monitor.store.MAX_ATTEMPTS`).
 """
 
 from __future__ import annotations
 
+import logging
 import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, TimeoutError
+from concurrent.futures.process import BrokenProcessPool
 from datetime import timedelta
 from pathlib import Path
 
@@ -21,6 +26,8 @@ from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.store import Job, Store
 
 __all__ = ["HEARTBEAT", "LEASE", "Worker", "plot_path"]
+
+log = logging.getLogger("engine_monitor.worker")
 
 HEARTBEAT = 5.0  # seconds between a running job's touches
 LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
@@ -55,12 +62,13 @@ class Worker:
         self._wake = threading.Event()
         self._threads: list[threading.Thread] = []
         self._pool: ProcessPoolExecutor | None = None
+        self._lock = threading.Lock()
 
     def start(self) -> None:
         """Take back the jobs of dead workers, then start the loops."""
         self.store.requeue_stale(ANALYSIS_VERSION, self.lease)
         (self.data_dir / "plots").mkdir(parents=True, exist_ok=True)
-        self._pool = ProcessPoolExecutor(max_workers=self.processes)
+        self._fresh_pool()
         for i in range(self.processes):
             thread = threading.Thread(target=self._loop, name=f"analysis-{i}", daemon=True)
             thread.start()
@@ -80,24 +88,45 @@ class Worker:
             self._pool.shutdown(wait=False, cancel_futures=True)
 
     def _loop(self) -> None:
+        last_sweep = 0.0
         while not self._stop.is_set():
-            job = self.store.claim(ANALYSIS_VERSION)
-            if job is None:
-                self._wake.wait(IDLE)
-                self._wake.clear()
-                continue
-            self._run(job)
+            try:
+                now = time.monotonic()
+                if now - last_sweep > self.heartbeat:  # take back the jobs of workers that died since
+                    self.store.requeue_stale(ANALYSIS_VERSION, self.lease)
+                    last_sweep = now
+                job = self.store.claim(ANALYSIS_VERSION)
+                if job is None:
+                    self._wake.wait(IDLE)
+                    self._wake.clear()
+                    continue
+                self._run(job)
+            except Exception:  # the store unreachable a moment, ...: log, wait, go on; never stop the loop
+                log.exception("analysis worker: an error outside an analysis; going on")
+                self._stop.wait(IDLE)
+
+    def _fresh_pool(self) -> ProcessPoolExecutor:
+        with self._lock:
+            if self._pool is None or getattr(self._pool, "_broken", False):
+                if self._pool is not None:
+                    self._pool.shutdown(wait=False, cancel_futures=True)
+                self._pool = ProcessPoolExecutor(max_workers=self.processes)
+            return self._pool
 
     def _run(self, job: Job) -> None:
-        assert self._pool is not None
         row = self.store.recording_by_id(job.recording_id)
         if row is None:  # deleted meanwhile
             self.store.fail(job, "the recording is no longer stored")
             return
         engine = self.store.engine(row.fleet_id, row.engine_id)
-        future = self._pool.submit(
-            diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
-        )
+        try:
+            future = self._fresh_pool().submit(
+                diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+            )
+        except BrokenProcessPool:
+            future = self._fresh_pool().submit(
+                diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+            )
         while True:
             try:
                 documents = future.result(timeout=self.heartbeat)
@@ -106,6 +135,10 @@ class Worker:
                     return  # the lease hands the job to the next worker
                 self.store.touch(job)
                 continue
+            except BrokenProcessPool:  # the analysis process died (killed, out of memory): a failure
+                self.store.fail(job, "the analysis process died (killed, or out of memory)")
+                self._fresh_pool()
+                return
             except Exception as error:  # the analysis failed: recorded, retried, then set aside
                 self.store.fail(job, f"{type(error).__name__}: {error}")
                 return

@@ -31,7 +31,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -242,6 +242,8 @@ def run_batch(
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     scheduler: str | None = None,
+    data_dir: Path | None = None,
+    lease: timedelta = timedelta(seconds=30),
 ) -> BatchSummary:
     """Register, queue and diagnose (see the module docstring).
 
@@ -263,6 +265,11 @@ def run_batch(
         A Dask distributed scheduler's address (``tcp://host:8786``): the jobs run on its workers
         instead of a local process pool. A worker lost mid-batch has its tasks run again on the
         others (by the scheduler); a task that fails is recorded as any failure.
+    data_dir : Path, optional
+        The service's data folder: each diagnosis plot is kept there, as the service keeps it.
+    lease : timedelta, optional
+        Jobs in scope that have been running silently this long (a killed batch or worker) are
+        taken back; this batch touches its own running jobs three times as often.
 
     Returns
     -------
@@ -287,7 +294,8 @@ def run_batch(
         while page := store.recordings(fleet_id, since=since, offset=offset, limit=500):
             scope += [r.id for r in page]
             offset += len(page)
-    summary.requeued = store.requeue_running(ANALYSIS_VERSION, recording_ids=scope)
+    # jobs of a batch or worker that died (silent for the lease) are taken back; live ones are left
+    summary.requeued = store.requeue_stale(ANALYSIS_VERSION, lease, recording_ids=scope)
     pending: list[Job] = []
     for recording_id in scope:
         job = store.enqueue(recording_id, ANALYSIS_VERSION)
@@ -311,20 +319,26 @@ def run_batch(
                 assert row is not None
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
+                plot = str(data_dir / "plots" / f"{row.id}-v{ANALYSIS_VERSION}.png") if data_dir else None
                 future = pool.submit(
                     diagnose_file,
                     row.path,
                     engines[row.engine_id],
                     (baselines or {}).get(row.engine_id),
-                    None,
+                    plot,
                     row.filename,
                 )
                 running[future] = (claimed, row.filename, row.engine_id)
 
+        if data_dir is not None:
+            (data_dir / "plots").mkdir(parents=True, exist_ok=True)
         submit()
         done_count = 0
+        beat = lease.total_seconds() / 3
         while running:
-            finished, _ = wait(list(running), return_when=FIRST_COMPLETED)
+            finished, _ = wait(list(running), timeout=beat, return_when=FIRST_COMPLETED)
+            for job, _, _ in running.values():  # the heartbeat of the jobs this batch runs
+                store.touch(job)
             for future in finished:
                 job, name, engine_id = running.pop(future)
                 try:

@@ -226,7 +226,10 @@ def _build_parser() -> argparse.ArgumentParser:
         "--since", metavar="DATE", help="the store's recordings uploaded since DATE (ISO 8601)"
     )
     batch.add_argument(
-        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else ./engine-monitor.db)"
+        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)"
+    )
+    batch.add_argument(
+        "--data", default="data", metavar="DIR", help="the service's data folder (default ./data)"
     )
     batch.add_argument(
         "--fleet", default="local", help="the fleet the recordings belong to (default 'local')"
@@ -347,12 +350,13 @@ def _run_calibrate(args: argparse.Namespace) -> int:
 
 
 def _run_batch(args: argparse.Namespace) -> int:
+    import os
     from datetime import UTC, datetime
 
     from monitor.batch import progress_bar, run_batch
     from monitor.diagnosis import Baseline
     from monitor.errors import ModelError
-    from monitor.store import StoreError, open_store
+    from monitor.store import DEFAULT_URL_ENV, StoreError, open_store
 
     since = None
     if args.since:
@@ -370,12 +374,20 @@ def _run_batch(args: argparse.Namespace) -> int:
     for path in args.baseline:
         baseline = Baseline.read(path)
         baselines[baseline.engine_id] = baseline.to_document()
-    store = open_store(args.store)
+    data = Path(args.data)
+    if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in DATA
+        data.mkdir(parents=True, exist_ok=True)
+    store = open_store(_service_store_url(args.store, args.data))
     try:
         try:
             fleet_id = store.fleet_id(args.fleet)
         except StoreError:
+            if args.since:  # the store's recordings: a fleet it does not know has none
+                raise StoreError(
+                    f"no fleet {args.fleet!r} in the store: give the fleet whose recordings to diagnose"
+                ) from None
             fleet_id = store.create_fleet(args.fleet)
+            print(f"fleet {args.fleet!r} created in the store", file=sys.stderr)
         summary = run_batch(
             store,
             fleet_id,
@@ -385,6 +397,7 @@ def _run_batch(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=progress_bar(),
             scheduler=args.scheduler,
+            data_dir=data.resolve(),
         )
     finally:
         store.close()
@@ -446,9 +459,11 @@ def _run_worker(args: argparse.Namespace) -> int:
 
 
 def _run_keys(args: argparse.Namespace) -> int:
-    from monitor.store import StoreError, open_store
+    import os
 
-    if args.store is None:
+    from monitor.store import DEFAULT_URL_ENV, StoreError, open_store
+
+    if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in ./data
         Path("data").mkdir(exist_ok=True)
     store = open_store(_service_store_url(args.store, "data"))
     try:

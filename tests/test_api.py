@@ -197,6 +197,31 @@ def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Ser
         assert answer.status_code == 409 and "set_aside" in answer.json()["error"]["message"]
 
 
+def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(
+    server: Server, tmp_path: Path
+) -> None:
+    """The analysis child process is killed mid-analysis: its job records why and is retried, and the
+    worker goes on with a fresh process (later uploads are analysed)."""
+    psutil = pytest.importorskip("psutil", reason="psutil comes with the cluster extra")
+    long = tmp_path / "long.h5"
+    write_hdf5(simulate(load_scene(SCENES / "6l32-baseline.toml")).recording, long)
+    with server.client() as client:
+        recording = _upload(client, long).json()["id"]
+        deadline = time.monotonic() + 60
+        while client.get(f"/recordings/{recording}").json()["status"] != "running":
+            assert time.monotonic() < deadline, "the analysis did not start"
+            time.sleep(0.05)
+        assert server.process is not None
+        children = psutil.Process(server.process.pid).children(recursive=True)
+        assert children, "the analysis runs in a child process"
+        for child in children:
+            child.kill()
+        done = _wait_done(client, recording)
+        assert done["status"] == "done" and done["attempts"] == 2
+        later = _upload(client, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        assert _wait_done(client, later)["diagnosis_status"] == "alarm"
+
+
 def test_a_key_sees_only_its_fleet(server: Server) -> None:
     with server.client("a") as a, server.client("b") as b:
         mine = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
@@ -221,6 +246,10 @@ def test_recordings_are_paged_and_filtered(server: Server) -> None:
         assert future["items"] == []
         bad = client.get("/recordings", params={"limit": 0})
         assert bad.status_code == 422 and bad.json()["error"]["code"] == "invalid_request"
+        for extreme in ("0001-01-01T00:00:00+01:00", "9999-12-31T23:59:59-01:00", "0.5", "yesterday"):
+            answer = client.get("/recordings", params={"since": extreme})
+            assert answer.status_code == 422 and "ISO 8601" in answer.json()["error"]["message"]
+        assert client.get(f"/recordings/{2**31}").status_code == 422  # beyond the ids the store holds
 
 
 def test_engines_are_created_read_and_updated_with_validation(server: Server) -> None:

@@ -108,7 +108,8 @@ def test_a_batch_over_the_stores_recordings_since_a_date(tmp_path: Path) -> None
 
 def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> None:
     """Six recordings, one worker: the batch process (and its worker) is killed once the first
-    results are stored; the next run finishes the others, and each has its two results once."""
+    results are stored. The next run takes back the killed batch's job once it has been silent for
+    the lease (1 s here), finishes the others, and each recording has its two results once."""
     folder = tmp_path / "recordings"
     folder.mkdir()
     scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0})
@@ -137,10 +138,12 @@ def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> Non
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     assert 2 <= results < 12, "the batch should have been killed part way"
+    time.sleep(1.5)
     store = open_store(url)
     try:
         fleet = store.fleet_id("local")
-        summary = run_batch(store, fleet, path=folder, workers=2)
+        summary = run_batch(store, fleet, path=folder, workers=2, lease=timedelta(seconds=1))
+        assert 1 <= summary.requeued <= 2  # it keeps two jobs per worker claimed
         assert summary.diagnosed == 6 - results // 2
         assert store.count("results") == 12 and store.count("jobs") == 6
     finally:

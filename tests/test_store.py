@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from datetime import UTC, datetime, timedelta
@@ -49,7 +50,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     again = open_store(url)
     try:
         with again.db.connect() as c:
-            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0001"
+            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0002"
     finally:
         again.close()
 
@@ -71,6 +72,9 @@ def test_an_unreachable_database_is_a_clear_error() -> None:
         open_store("postgresql+psycopg://nobody:secret@127.0.0.1:9/x")
     with pytest.raises(StoreError, match="store URL 'nonsense'"):
         open_store("nonsense")
+    with pytest.raises(StoreError) as info:  # a password never shows in a message
+        open_store("nosuchdriver://monitor:s3cret@host/db")
+    assert "s3cret" not in str(info.value)
 
 
 def test_keys_are_stored_hashed_and_name_their_fleet(store: Store) -> None:
@@ -143,16 +147,71 @@ def test_a_failing_job_is_retried_then_set_aside(store: Store) -> None:
     assert store.claim("1") is None
 
 
-def test_jobs_left_running_by_a_crash_are_queued_again(store: Store) -> None:
+def test_jobs_whose_taker_went_silent_are_taken_back(store: Store) -> None:
+    """A running job untouched for the lease is queued again (set aside after MAX_ATTEMPTS); a touched
+    one is left to its taker; only the taker (by its token) completes or fails it."""
     fleet = store.create_fleet("a")
     first, second = _recording(store, fleet), _recording(store, fleet, "b" * 64)
     for recording in (first, second):
         store.enqueue(recording, "1")
-        store.claim("1")
-    assert store.requeue_running("1", recording_ids=[first]) == 1
+    a, b = store.claim("1"), store.claim("1")
+    assert a is not None and b is not None and a.token != b.token
+    time.sleep(0.05)
+    assert store.touch(b)
+    assert store.requeue_stale("1", timedelta(seconds=0.03), recording_ids=[first, second]) == 1
     assert store.job(first, "1").state == "queued"  # type: ignore[union-attr]
     assert store.job(second, "1").state == "running"  # type: ignore[union-attr]
-    assert store.requeue_running("1") == 1
+    # the silent taker of the first job wakes up: it can no longer touch, fail or complete it
+    assert not store.touch(a)
+    assert store.fail(a, "late") == "queued"
+    again = store.claim("1")
+    assert again is not None and again.recording_id == first and again.attempts == 2
+    assert store.complete(a, {"diagnosis": ("healthy", {"by": "late"})}) is False  # its result is kept
+    assert store.job(first, "1").state == "running"  # type: ignore[union-attr]  # still the new taker's
+    assert store.complete(again, {"diagnosis": ("healthy", {"by": "again"})}) is True
+    assert store.job(first, "1").state == "done"  # type: ignore[union-attr]
+    assert store.result(first, "1", "diagnosis") == {"by": "late"} and store.count("results") == 1
+
+
+def test_a_job_whose_worker_keeps_dying_is_set_aside(store: Store) -> None:
+    fleet = store.create_fleet("a")
+    recording = _recording(store, fleet)
+    store.enqueue(recording, "1")
+    for _ in range(MAX_ATTEMPTS):
+        assert store.claim("1") is not None
+        time.sleep(0.02)
+        store.requeue_stale("1", timedelta(seconds=0.01))
+    job = store.job(recording, "1")
+    assert job is not None and job.state == "set_aside" and "stopped answering" in job.error
+
+
+def test_concurrent_writers_store_one_row(store_url: str) -> None:
+    """Eight processes add the same recording and create the same engine at once: one row each, no
+    error (the unique keys decide, atomically)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    opened = open_store(store_url)
+    fleet = opened.create_fleet("a")
+    opened.close()
+    with ProcessPoolExecutor(8) as pool:
+        outcomes = list(pool.map(_add_same, [store_url] * 8, [fleet] * 8))
+    assert sum(created for created, _ in outcomes) == 1 and sum(new for _, new in outcomes) == 1
+    opened = open_store(store_url)
+    try:
+        assert opened.count("recordings") == 1 and opened.count("engines") == 1
+    finally:
+        opened.close()
+
+
+def _add_same(url: str, fleet: int) -> tuple[bool, bool]:
+    store = open_store(url)
+    try:
+        _, created = store.add_recording(
+            fleet, content_hash="c" * 64, engine_id="e", filename="f.h5", path="/p", size_bytes=1
+        )
+        return created, store.put_engine(fleet, "e", {"id": "e"}, replace=False)
+    finally:
+        store.close()
 
 
 def test_engines_are_created_and_updated(store: Store) -> None:

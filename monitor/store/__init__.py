@@ -15,7 +15,8 @@ kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
 
 Jobs move ``queued -> running -> done``; a failure records why and puts the
 job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
-A job left ``running`` by a crash is queued again by :meth:`Store.requeue_running`.
+A job whose taker stopped touching it (a crash) is taken back by :meth:`Store.requeue_stale`; only
+its taker, by the token it got, may complete or fail a running job.
 """
 
 from __future__ import annotations
@@ -108,6 +109,7 @@ class Job:
     state: str
     attempts: int
     error: str
+    token: str = ""
 
 
 def _utc(moment: datetime) -> datetime:
@@ -130,7 +132,20 @@ def _recording(row: Any) -> RecordingRow:
 
 
 def _job(row: Any) -> Job:
-    return Job(row.id, row.recording_id, row.analysis_version, row.state, int(row.attempts), row.error)
+    return Job(
+        row.id, row.recording_id, row.analysis_version, row.state, int(row.attempts), row.error, row.token
+    )
+
+
+def _insert_new(c: Connection, table: sa.Table, values: dict[str, Any], keys: list[str]) -> bool:
+    """Insert a row unless one with the same unique ``keys`` exists (atomic, for concurrent writers)."""
+    if c.dialect.name == "postgresql":
+        from sqlalchemy.dialects.postgresql import insert
+    else:
+        from sqlalchemy.dialects.sqlite import insert  # type: ignore[assignment]
+    statement = insert(table).values(**values).on_conflict_do_nothing(index_elements=keys)
+    # RETURNING says whether a row went in (rowcount is not reliable for this on every driver)
+    return c.execute(statement.returning(table.c.id)).first() is not None
 
 
 class Store:
@@ -197,24 +212,32 @@ class Store:
         return None if row is None else int(row.fleet_id)
 
     # -------------------------------------------------------------------------------------- engines
-    def put_engine(self, fleet_id: int, engine_id: str, description: dict[str, Any]) -> bool:
-        """Store or replace a fleet's engine description; True if it was new."""
+    def put_engine(
+        self, fleet_id: int, engine_id: str, description: dict[str, Any], *, replace: bool = True
+    ) -> bool:
+        """Store a fleet's engine description; True if it was new. With ``replace=False`` an existing
+        one is kept (and False returned): concurrent creations store one."""
         now = _now()
         with self.transaction() as c:
-            where = (engines.c.fleet_id == fleet_id) & (engines.c.engine_id == engine_id)
-            if c.execute(sa.select(engines.c.id).where(where)).first() is None:
+            created = _insert_new(
+                c,
+                engines,
+                {
+                    "fleet_id": fleet_id,
+                    "engine_id": engine_id,
+                    "description": description,
+                    "created_at": now,
+                    "updated_at": now,
+                },
+                ["fleet_id", "engine_id"],
+            )
+            if not created and replace:
                 c.execute(
-                    sa.insert(engines).values(
-                        fleet_id=fleet_id,
-                        engine_id=engine_id,
-                        description=description,
-                        created_at=now,
-                        updated_at=now,
-                    )
+                    sa.update(engines)
+                    .where((engines.c.fleet_id == fleet_id) & (engines.c.engine_id == engine_id))
+                    .values(description=description, updated_at=now)
                 )
-                return True
-            c.execute(sa.update(engines).where(where).values(description=description, updated_at=now))
-            return False
+            return created
 
     def engine(self, fleet_id: int, engine_id: str) -> dict[str, Any] | None:
         """A fleet's engine description, or None."""
@@ -248,25 +271,32 @@ class Store:
         size_bytes: int,
         recorded_at: str = "",
     ) -> tuple[RecordingRow, bool]:
-        """Store a recording's row, or find the one with the same content: ``(row, created)``."""
-        with self.transaction() as c:
-            where = (recordings.c.fleet_id == fleet_id) & (recordings.c.content_hash == content_hash)
-            row = c.execute(sa.select(recordings).where(where)).first()
-            if row is not None:
-                return _recording(row), False
-            c.execute(
-                sa.insert(recordings).values(
-                    fleet_id=fleet_id,
-                    content_hash=content_hash,
-                    engine_id=engine_id,
-                    filename=filename,
-                    path=path,
-                    size_bytes=size_bytes,
-                    recorded_at=recorded_at,
-                    uploaded_at=_now(),
-                )
+        """Store a recording's row, or find the one with the same content: ``(row, created)``.
+
+        Concurrent uploads of the same content store one row (the unique key decides, atomically).
+        """
+        if len(engine_id) > 200 or len(filename) > 255 or "\x00" in engine_id + filename:
+            raise StoreError(
+                "a recording's engine id must be at most 200 characters and its file name 255, without NUL"
             )
-            return _recording(c.execute(sa.select(recordings).where(where)).one()), True
+        with self.transaction() as c:
+            created = _insert_new(
+                c,
+                recordings,
+                {
+                    "fleet_id": fleet_id,
+                    "content_hash": content_hash,
+                    "engine_id": engine_id,
+                    "filename": filename,
+                    "path": path,
+                    "size_bytes": size_bytes,
+                    "recorded_at": recorded_at,
+                    "uploaded_at": _now(),
+                },
+                ["fleet_id", "content_hash"],
+            )
+            where = (recordings.c.fleet_id == fleet_id) & (recordings.c.content_hash == content_hash)
+            return _recording(c.execute(sa.select(recordings).where(where)).one()), created
 
     def recording(self, fleet_id: int, recording_id: int) -> RecordingRow | None:
         """A fleet's recording by id (another fleet's answers None, as an unknown one)."""
@@ -321,140 +351,149 @@ class Store:
         """The job of a recording at an analysis version, queued if it did not exist."""
         now = _now()
         with self.transaction() as c:
+            _insert_new(
+                c,
+                jobs,
+                {
+                    "recording_id": recording_id,
+                    "analysis_version": analysis_version,
+                    "state": "queued",
+                    "attempts": 0,
+                    "error": "",
+                    "token": "",
+                    "created_at": now,
+                    "updated_at": now,
+                },
+                ["recording_id", "analysis_version"],
+            )
             where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
-            row = c.execute(sa.select(jobs).where(where)).first()
-            if row is None:
-                c.execute(
-                    sa.insert(jobs).values(
-                        recording_id=recording_id,
-                        analysis_version=analysis_version,
-                        state="queued",
-                        attempts=0,
-                        error="",
-                        created_at=now,
-                        updated_at=now,
-                    )
-                )
-                row = c.execute(sa.select(jobs).where(where)).one()
-            return _job(row)
+            return _job(c.execute(sa.select(jobs).where(where)).one())
+
+    def _take(self, c: Connection, job_id: int) -> Job | None:
+        token = secrets.token_hex(16)
+        taken = c.execute(
+            sa.update(jobs)
+            .where((jobs.c.id == job_id) & (jobs.c.state == "queued"))
+            .values(state="running", attempts=jobs.c.attempts + 1, token=token, updated_at=_now())
+        ).rowcount
+        if taken != 1:
+            return None
+        return _job(c.execute(sa.select(jobs).where(jobs.c.id == job_id)).one())
 
     def claim(self, analysis_version: str) -> Job | None:
         """Take the oldest queued job of this version (marking it running), or None if there is none.
 
-        Two workers never take the same job: the state changes only where it is still "queued".
+        Two workers never take the same job: the state changes only where it is still "queued", and
+        the taker's token (in the returned job) is what later updates of the job must show.
         """
         while True:
             with self.transaction() as c:
                 row = c.execute(
-                    sa.select(jobs)
+                    sa.select(jobs.c.id)
                     .where((jobs.c.state == "queued") & (jobs.c.analysis_version == analysis_version))
                     .order_by(jobs.c.id)
                     .limit(1)
                 ).first()
                 if row is None:
                     return None
-                taken = c.execute(
-                    sa.update(jobs)
-                    .where((jobs.c.id == row.id) & (jobs.c.state == "queued"))
-                    .values(state="running", attempts=jobs.c.attempts + 1, updated_at=_now())
-                ).rowcount
-                if taken == 1:
-                    return _job(c.execute(sa.select(jobs).where(jobs.c.id == row.id)).one())
-
-    def complete(self, job: Job, documents: dict[str, tuple[str, dict[str, Any]]]) -> None:
-        """Store a job's results (``kind -> (status, document)``) and mark it done, in one transaction.
-
-        A result already stored for the same recording, version and kind is kept as it is.
-        """
-        with self.transaction() as c:
-            for kind, (status, document) in documents.items():
-                exists = c.execute(
-                    sa.select(results.c.id).where(
-                        (results.c.recording_id == job.recording_id)
-                        & (results.c.analysis_version == job.analysis_version)
-                        & (results.c.kind == kind)
-                    )
-                ).first()
-                if exists is None:
-                    c.execute(
-                        sa.insert(results).values(
-                            recording_id=job.recording_id,
-                            analysis_version=job.analysis_version,
-                            kind=kind,
-                            status=status,
-                            document=document,
-                            created_at=_now(),
-                        )
-                    )
-            c.execute(
-                sa.update(jobs).where(jobs.c.id == job.id).values(state="done", error="", updated_at=_now())
-            )
-
-    def fail(self, job: Job, error: str) -> str:
-        """Record why a job failed; queue it again, or set it aside after :data:`MAX_ATTEMPTS`.
-
-        Returns the job's new state.
-        """
-        with self.transaction() as c:
-            attempts = c.execute(sa.select(jobs.c.attempts).where(jobs.c.id == job.id)).scalar_one()
-            state = "set_aside" if attempts >= MAX_ATTEMPTS else "queued"
-            c.execute(
-                sa.update(jobs)
-                .where(jobs.c.id == job.id)
-                .values(state=state, error=error[:4000], updated_at=_now())
-            )
-        return state
+                job = self._take(c, row.id)
+                if job is not None:
+                    return job
 
     def claim_job(self, job_id: int) -> Job | None:
         """Take one job if it is still queued (marking it running), else None."""
         with self.transaction() as c:
-            taken = c.execute(
-                sa.update(jobs)
-                .where((jobs.c.id == job_id) & (jobs.c.state == "queued"))
-                .values(state="running", attempts=jobs.c.attempts + 1, updated_at=_now())
-            ).rowcount
-            if taken != 1:
-                return None
-            return _job(c.execute(sa.select(jobs).where(jobs.c.id == job_id)).one())
+            return self._take(c, job_id)
 
-    def requeue_running(self, analysis_version: str, *, recording_ids: list[int] | None = None) -> int:
-        """Queue again the jobs a crash left running (of these recordings only, if given); how many."""
-        where = (jobs.c.state == "running") & (jobs.c.analysis_version == analysis_version)
-        if recording_ids is not None:
-            where &= jobs.c.recording_id.in_(recording_ids)
-        with self.transaction() as c:
-            return int(
-                c.execute(sa.update(jobs).where(where).values(state="queued", updated_at=_now())).rowcount
-            )
+    @staticmethod
+    def _mine(job: Job) -> Any:
+        """The job, still running under this taker's token (not taken back meanwhile)."""
+        return (jobs.c.id == job.id) & (jobs.c.state == "running") & (jobs.c.token == job.token)
 
-    def touch(self, job: Job) -> None:
-        """A running job's heartbeat: its worker is alive."""
-        with self.transaction() as c:
-            c.execute(
-                sa.update(jobs)
-                .where((jobs.c.id == job.id) & (jobs.c.state == "running"))
-                .values(updated_at=_now())
-            )
+    def complete(self, job: Job, documents: dict[str, tuple[str, dict[str, Any]]]) -> bool:
+        """Store a job's results (``kind -> (status, document)``) and mark it done, in one transaction.
 
-    def requeue_stale(self, analysis_version: str, older_than: timedelta) -> int:
-        """Queue again running jobs whose worker has not been heard of for ``older_than``; how many.
-
-        A worker touches its running jobs (:meth:`touch`) more often than that, so only the jobs of a
-        worker that died (a killed server, a crashed machine) are taken back.
+        A result already stored for the same recording, version and kind is kept as it is. Returns
+        False if the job had been taken back from this taker meanwhile (its results are kept all the
+        same: they are the analysis of the same recording at the same version).
         """
-        cutoff = _now() - older_than
         with self.transaction() as c:
-            return int(
+            for kind, (status, document) in documents.items():
+                _insert_new(
+                    c,
+                    results,
+                    {
+                        "recording_id": job.recording_id,
+                        "analysis_version": job.analysis_version,
+                        "kind": kind,
+                        "status": status,
+                        "document": document,
+                        "created_at": _now(),
+                    },
+                    ["recording_id", "analysis_version", "kind"],
+                )
+            mine = c.execute(
+                sa.update(jobs)
+                .where(self._mine(job))
+                .values(state="done", error="", token="", updated_at=_now())
+            ).rowcount
+            if mine != 1:  # taken back and maybe queued again: with its results stored, it is done
                 c.execute(
                     sa.update(jobs)
-                    .where(
-                        (jobs.c.state == "running")
-                        & (jobs.c.analysis_version == analysis_version)
-                        & (jobs.c.updated_at < cutoff)
-                    )
-                    .values(state="queued", updated_at=_now())
-                ).rowcount
-            )
+                    .where((jobs.c.id == job.id) & (jobs.c.state == "queued"))
+                    .values(state="done", error="", updated_at=_now())
+                )
+            return mine == 1
+
+    def fail(self, job: Job, error: str) -> str:
+        """Record why a job failed; queue it again, or set it aside after :data:`MAX_ATTEMPTS`.
+
+        Returns the job's new state (its current one, unchanged, if it was taken back meanwhile).
+        """
+        with self.transaction() as c:
+            state = "set_aside" if job.attempts >= MAX_ATTEMPTS else "queued"
+            changed = c.execute(
+                sa.update(jobs)
+                .where(self._mine(job))
+                .values(state=state, error=error[:4000], token="", updated_at=_now())
+            ).rowcount
+            if changed != 1:
+                return str(c.execute(sa.select(jobs.c.state).where(jobs.c.id == job.id)).scalar_one())
+            return state
+
+    def touch(self, job: Job) -> bool:
+        """A running job's heartbeat: its taker is alive. False if the job was taken back."""
+        with self.transaction() as c:
+            return c.execute(sa.update(jobs).where(self._mine(job)).values(updated_at=_now())).rowcount == 1
+
+    def requeue_stale(
+        self, analysis_version: str, older_than: timedelta, *, recording_ids: list[int] | None = None
+    ) -> int:
+        """Take back running jobs whose taker has not been heard of for ``older_than``; how many.
+
+        Takers touch their running jobs (:meth:`touch`) more often than that, so only the jobs of a
+        taker that died (a killed server, worker or batch) are taken back: queued again, or set aside
+        once they have been tried :data:`MAX_ATTEMPTS` times (a recording that kills its worker).
+        """
+        cutoff = _now() - older_than
+        where = (
+            (jobs.c.state == "running")
+            & (jobs.c.analysis_version == analysis_version)
+            & (jobs.c.updated_at < cutoff)
+        )
+        if recording_ids is not None:
+            where &= jobs.c.recording_id.in_(recording_ids)
+        lost = "its worker stopped answering while it ran (killed, or out of memory)"
+        with self.transaction() as c:
+            aside = c.execute(
+                sa.update(jobs)
+                .where(where & (jobs.c.attempts >= MAX_ATTEMPTS))
+                .values(state="set_aside", error=lost, token="", updated_at=_now())
+            ).rowcount
+            again = c.execute(
+                sa.update(jobs).where(where).values(state="queued", token="", updated_at=_now())
+            ).rowcount
+            return int(aside + again)
 
     def job(self, recording_id: int, analysis_version: str) -> Job | None:
         """The job of a recording at a version, or None."""
@@ -496,6 +535,14 @@ class Store:
             return int(c.execute(sa.select(sa.func.count()).select_from(metadata.tables[table])).scalar_one())
 
 
+def _without_password(url: str) -> str:
+    """The URL with its password masked (for messages)."""
+    try:
+        return sa.engine.make_url(url).render_as_string(hide_password=True)
+    except sa.exc.ArgumentError:
+        return url if "@" not in url else "***@" + url.rsplit("@", 1)[1]
+
+
 def _sqlite_pragmas(connection: Any, _: Any) -> None:
     cursor = connection.cursor()
     cursor.execute("PRAGMA journal_mode=WAL")
@@ -525,13 +572,16 @@ def open_store(url: str | None = None) -> Store:
     try:
         engine = sa.create_engine(target, pool_pre_ping=True)
     except (sa.exc.ArgumentError, ImportError) as error:
-        raise StoreError(f"store URL {target!r}: {error}") from error
+        shown = _without_password(target)
+        raise StoreError(f"store URL {shown!r}: {str(error).replace(target, shown)}") from None
     if engine.dialect.name == "sqlite":
         sa.event.listen(engine, "connect", _sqlite_pragmas)
     config = Config()
     config.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
     try:
         with engine.begin() as connection:
+            if engine.dialect.name == "postgresql":  # one migrator at a time (an API and a worker starting)
+                connection.execute(sa.text("SELECT pg_advisory_xact_lock(4242020601)"))
             config.attributes["connection"] = connection
             command.upgrade(config, "head")
     except sa.exc.OperationalError as error:
