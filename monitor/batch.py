@@ -213,7 +213,8 @@ class BatchSummary:
         ]
         for engine_id in sorted(self.by_engine):
             counts = self.by_engine[engine_id]
-            status = ", ".join(f"{counts[s]} {s}" for s in ("healthy", "warning", "alarm") if counts[s])
+            kinds = ("healthy", "warning", "alarm", "inconclusive")
+            status = ", ".join(f"{counts[s]} {s}" for s in kinds if counts[s])
             lines.append(f"  {engine_id}: {status}")
             lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
         for name, reason in self.unreadable:

@@ -333,14 +333,19 @@ def _run_calibrate(args: argparse.Namespace) -> int:
     from monitor.diagnosis import calibrate
     from monitor.pipeline import open_recording
 
+    if Path(args.output).suffix.lower() not in (".json", ".toml"):
+        raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
     with open_recording(args.recording) as recording:
         engine = _engine_of(recording, args.engine)
         baseline = calibrate(recording, engine, load=args.load, source=Path(args.recording).name)
-    if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
-        path = Path(args.output)
-        path.write_text(baseline.to_toml())
-    else:
-        path = baseline.write(args.output)
+    try:
+        if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
+            path = Path(args.output)
+            path.write_text(baseline.to_toml())
+        else:
+            path = baseline.write(args.output)
+    except OSError as error:
+        raise MonitorError(f"-o {args.output}: cannot be written ({error.strerror or error})") from None
     sensors = ", ".join(f"{n} (main bearing {s.bearing})" for n, s in baseline.sensors.items())
     print(
         f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",
@@ -488,6 +493,11 @@ def _run_compare(args: argparse.Namespace) -> int:
     with open_recording(args.recording) as recording:
         engine = _engine_of(recording, args.engine)
         if args.baseline:
+            if Path(args.baseline).suffix.lower() == ".toml":
+                raise MonitorError(
+                    f"--baseline {args.baseline}: sensor transfers (TOML) belong in the engine file, given "
+                    "with --engine; --baseline takes a baseline (.json) or a healthy recording"
+                )
             if Path(args.baseline).suffix.lower() == ".json":
                 baseline = Baseline.read(args.baseline)
             else:
@@ -514,11 +524,17 @@ def _run_compare(args: argparse.Namespace) -> int:
     if args.plot:
         from monitor.plots import plot_diagnosis
 
-        path = plot_diagnosis(
-            diagnosis, args.plot, title=f"{name}: {engine.id} at {diagnosis.speed_rpm:.1f} rpm", table=table
-        )
+        try:
+            path = plot_diagnosis(
+                diagnosis,
+                args.plot,
+                title=f"{name}: {engine.id} at {diagnosis.speed_rpm:.1f} rpm",
+                table=table,
+            )
+        except OSError as error:
+            raise MonitorError(f"--plot {args.plot}: cannot be written ({error.strerror or error})") from None
         print(f"plot written to {path}", file=sys.stderr)
-    return {"healthy": 0, "warning": 1, "alarm": 2}[diagnosis.status]
+    return {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}[diagnosis.status]
 
 
 def _run_orders(args: argparse.Namespace) -> int:

@@ -145,7 +145,8 @@ def test_the_predicted_crank_speed_is_the_simulated_truth(baselines: dict[str, B
 def test_the_shaft_line_transfer_names_a_misfire_the_rigid_body_cannot() -> None:
     """The misfire scene with the shaft line's forced response as the crank speed, at 70 rpm (between
     the engine-propeller mode and the crankshaft's own): the shaft-line receptance names cylinder 3;
-    the rigid body does not fit those orders, names nothing and says it fits poorly."""
+    the rigid body does not fit those orders, names nothing, says it fits poorly and calls the
+    recording inconclusive, not healthy."""
     scene = load_scene(SCENES / "7k98mc-misfire-cyl3.toml")
     effects = {**scene.effects, "crank_speed": {"model": "shaft_line"}}
     point = scene.operating_point.model_copy(update={"speed_rpm": 70.0})
@@ -153,7 +154,7 @@ def test_the_shaft_line_transfer_names_a_misfire_the_rigid_body_cannot() -> None
     elastic = diagnose(recording, _engine("7k98mc"), transfer="shaft-line")
     assert [f.subject for f in elastic.findings] == ["cylinder 3"]
     rigid = diagnose(recording, _engine("7k98mc"), transfer="rigid")
-    assert [f for f in rigid.findings if f.kind == "cylinder"] == []
+    assert [f for f in rigid.findings if f.kind == "cylinder"] == [] and rigid.status == "inconclusive"
     assert any("fits the measured orders poorly" in note and "shaft-line" in note for note in rigid.notes)
 
 
@@ -195,6 +196,7 @@ def test_a_keyphasor_alone_diagnoses_without_naming_a_cylinder() -> None:
     assert diagnosis.balance is None
     assert any("cylinder balance not done" in note for note in diagnosis.notes)
     assert all(f.kind != "cylinder" for f in diagnosis.findings)
+    assert diagnosis.status == "inconclusive"  # a misfire it cannot see is not "healthy"
 
 
 def test_a_recording_of_another_engine_than_its_description_is_refused() -> None:
@@ -302,18 +304,31 @@ def test_compare_exits_with_the_health_it_found(tmp_path: Path, capsys: pytest.C
 
 
 def test_compare_exits_3_when_it_cannot_diagnose(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Errors and usage errors exit 3, so that 2 always means an alarm."""
+    """Errors and usage errors exit 3, so that 2 always means an alarm; so does a recording that cannot
+    be called healthy though nothing was found (an unresolved balance); output that cannot be written
+    is a message, not a traceback."""
     bad = tmp_path / "b.json"
     bad.write_text("{}")
     assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", str(bad)]) == 3
     assert "expected 'engine-monitor baseline 1'" in capsys.readouterr().err
-    other = str(SAMPLES / "6l32-misfire-cyl3.h5")
-    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", other]) == 3
+    unhealthy = str(SAMPLES / "6l32-misfire-cyl3.h5")
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", unhealthy]) == 3
+    assert "not healthy enough to calibrate on: cylinder 3 at" in capsys.readouterr().err
+    other = tmp_path / "6l32.json"
+    healthy_6l32 = simulate(load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0}))
+    calibrate(healthy_6l32.recording, _engine("6l32")).write(other)
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", str(other)]) == 3
     assert "baseline is of engine 'medium-speed-6l32'" in capsys.readouterr().err
     with pytest.raises(SystemExit) as info:
         main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--transfer", "elastic"])
     assert info.value.code == 3
     assert main(["compare", str(tmp_path / "missing.h5")]) == 3
+    capsys.readouterr()
+    assert main(["compare", str(SAMPLES / "7k98mc-misfire-cyl4.h5"), "--transfer", "shaft-line"]) == 3
+    assert "status: INCONCLUSIVE" in capsys.readouterr().out
+    assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--plot", str(tmp_path / "x.pdf")]) == 3
+    assert main(["calibrate", str(SAMPLES / "7k98mc-baseline.h5"), "-o", str(tmp_path / "b.yaml")]) == 2
+    assert "expected a .json (baseline) or .toml" in capsys.readouterr().err
 
 
 def test_the_velocity_zones_come_from_the_engine_file(tmp_path: Path) -> None:
@@ -329,3 +344,13 @@ def test_the_velocity_zones_come_from_the_engine_file(tmp_path: Path) -> None:
     evidence = by_subject["mb2-vertical"].evidence[0]
     assert evidence["threshold"] == 0.3 and evidence["unit"] == "mm/s"
     assert math.isclose(evidence["measured"], diagnosis.velocity["mb2-vertical"][0].value)
+
+
+def test_a_run_up_is_inconclusive_not_healthy() -> None:
+    """The run-up scene (40 to 60 rpm): the model is compared at one mean speed, so a recording whose
+    revolutions' speeds differ by more than 10 % is not called healthy, and the notes say why."""
+    scene = load_scene(SCENES / "7k98mc-run-up.toml")
+    recording = simulate(scene.model_copy(update={"duration_s": min(scene.duration_s, 40.0)})).recording
+    diagnosis = diagnose(recording, _engine("7k98mc"))
+    assert diagnosis.findings == [] and diagnosis.status == "inconclusive"
+    assert any("the speed was not steady" in note for note in diagnosis.notes)

@@ -89,6 +89,8 @@ MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
 BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
 IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's [-]
 SEVERITIES = ("healthy", "warning", "alarm")
+STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
+RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which the notes say the model misfits
 
 
@@ -183,7 +185,8 @@ class Diagnosis:
     load : float
         Load the model was evaluated at [-].
     status : str
-        "healthy", "warning" or "alarm": the worst finding.
+        "healthy", "warning" or "alarm": the worst finding; "inconclusive" when there is none but
+        the checks could not all be made (the notes say why).
     findings : list of Finding
     balance : CylinderBalance or None
     comparisons : list of ChannelComparison
@@ -449,6 +452,14 @@ def calibrate(
             "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
         )
     analysis = _analyse(recording, engine, load=load, transfer=transfer, max_order=max_order)
+    if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
+        faults = _cylinder_findings(analysis.balance)
+        if faults:
+            raise DiagnosisError(
+                "the recording is not healthy enough to calibrate on: "
+                + "; ".join(f.summary for f in faults)
+                + ". Calibrate on a recording of the engine in good order"
+            )
     result = analysis.spectra
     out = {}
     for channel, b in sensors:
@@ -531,6 +542,36 @@ def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) ->
             + ", ".join(missing)
             + f"; baseline channels: {', '.join(sorted(baseline.sensors)) or 'none'}"
         )
+
+
+def _unresolved(analysis: _Analysis, engine: Engine) -> list[str]:
+    """Why a recording without findings cannot be called healthy (empty if it can)."""
+    reasons = []
+    angle_map = analysis.spectra.reference.angle_map
+    cycle = 2 * math.pi
+    first, last = math.ceil(angle_map.angles[0] / cycle), math.floor(angle_map.angles[-1] / cycle)
+    if last - first >= 2:
+        times = angle_map.time_at(cycle * np.arange(first, last + 1, dtype=np.float64))
+        per_revolution = cycle / np.diff(times)
+        spread = float(per_revolution.max() / per_revolution.min() - 1.0)
+        if spread > STEADY:
+            rpm = per_revolution * 30 / math.pi
+            reasons.append(
+                f"the speed was not steady ({rpm.min():.1f} to {rpm.max():.1f} rpm over the revolutions); "
+                "the diagnosis compares a steady run with the model at its mean speed"
+            )
+    if engine.cylinders > 1:
+        balance = analysis.balance
+        if balance is None:
+            reasons.append("the cylinders were not compared (see the notes)")
+        elif not balance.separable or balance.chi2_reduced > MISFIT:
+            reasons.append("the crank-speed orders do not resolve the cylinders (see the notes)")
+        elif (worst := float(np.max(balance.relative_error))) > RESOLVED:
+            reasons.append(
+                f"the cylinder strengths are uncertain by up to {100 * worst:.0f} % (one standard error): "
+                "too little to call them healthy"
+            )
+    return reasons
 
 
 def _phi(z: float) -> float:
@@ -864,6 +905,13 @@ def diagnose(
     status = "healthy"
     for f in findings:
         status = _worse(f.severity, status)
+    # no finding is "healthy" only if the checks were made: the cylinders resolved (where an engine has
+    # several and a gas model) and the speed steady; otherwise the recording is inconclusive
+    if status == "healthy":
+        reasons = _unresolved(analysis, engine)
+        if reasons:
+            status = "inconclusive"
+            notes += [f"inconclusive: {reason}" for reason in reasons]
     order = {"alarm": 0, "warning": 1}
     findings.sort(key=lambda f: (order[f.severity], -f.confidence, f.subject))
     return Diagnosis(
