@@ -448,5 +448,6 @@ def test_every_route_answers_its_schema_and_never_5xx(running: Server, tmp_path:
         "--report-dir",
         str(tmp_path),
     ]
-    out = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
+    # run in the test's folder: schemathesis keeps its cache (.schemathesis/) where it runs
+    out = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False, cwd=tmp_path)
     assert out.returncode == 0, out.stdout[-6000:] + out.stderr[-2000:]

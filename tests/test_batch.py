@@ -117,7 +117,19 @@ def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> Non
         write_hdf5(simulate(scene, seed=100 + seed).recording, folder / f"r{seed}.h5")
     url = f"sqlite:///{tmp_path / 's.db'}"
     process = subprocess.Popen(
-        [sys.executable, "-m", "monitor", "batch", str(folder), "--store", url, "--workers", "1"],
+        [
+            sys.executable,
+            "-m",
+            "monitor",
+            "batch",
+            str(folder),
+            "--store",
+            url,
+            "--workers",
+            "1",
+            "--data",
+            str(tmp_path / "data"),
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
@@ -154,11 +166,13 @@ def test_the_batch_command_prints_the_summary(
     folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     url = f"sqlite:///{tmp_path / 's.db'}"
-    assert main(["batch", str(folder), "--store", url, "--workers", "1"]) == 0
+    data = tmp_path / "data"
+    assert main(["batch", str(folder), "--store", url, "--workers", "1", "--data", str(data)]) == 0
+    assert len(list((data / "plots").glob("*.png"))) == 3  # the plots are kept where the service keeps them
     out = capsys.readouterr().out
     assert "3 recording(s) registered, 1 already known, 3 diagnosed, 0 failed" in out
     assert "man-b-w-7k98mc: 1 healthy, 1 alarm" in out
-    assert main(["batch", "--since", "yesterday", "--store", url]) == 2
+    assert main(["batch", "--since", "yesterday", "--store", url, "--data", str(data)]) == 2
     assert "expected a date or time in ISO 8601" in capsys.readouterr().err
 
 
