@@ -21,7 +21,7 @@ from concurrent.futures.process import BrokenProcessPool
 from datetime import timedelta
 from pathlib import Path
 
-from monitor.batch import diagnose_file
+from monitor.batch import diagnose_file, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.store import Job, Store
 
@@ -32,11 +32,6 @@ log = logging.getLogger("engine_monitor.worker")
 HEARTBEAT = 5.0  # seconds between a running job's touches
 LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
 IDLE = 0.5  # seconds between looks at an empty queue
-
-
-def plot_path(data_dir: Path, recording_id: int) -> Path:
-    """Where the diagnosis plot of a recording is kept."""
-    return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
 
 
 class Worker:
@@ -119,14 +114,10 @@ class Worker:
             self.store.fail(job, "the recording is no longer stored")
             return
         engine = self.store.engine(row.fleet_id, row.engine_id)
-        try:
-            future = self._fresh_pool().submit(
-                diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
-            )
-        except BrokenProcessPool:
-            future = self._fresh_pool().submit(
-                diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
-            )
+        # a pool broken by an earlier analysis is replaced before this one is submitted
+        future = self._fresh_pool().submit(
+            diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+        )
         while True:
             try:
                 documents = future.result(timeout=self.heartbeat)

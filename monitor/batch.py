@@ -38,10 +38,33 @@ from typing import Any
 from monitor.errors import MonitorError
 from monitor.store import Job, Store
 
-__all__ = ["RECORDING_SUFFIXES", "BatchSummary", "content_hash", "diagnose_file", "register", "run_batch"]
+__all__ = [
+    "RECORDING_SUFFIXES",
+    "BatchSummary",
+    "content_hash",
+    "diagnose_file",
+    "plot_path",
+    "register",
+    "run_batch",
+]
 
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".mcap")
 DIAGNOSIS = "diagnosis"  # the kind of result a job writes
+
+
+def plot_path(data_dir: Path, recording_id: int) -> Path:
+    """Where the service's data folder keeps a recording's diagnosis plot (the batch and the service).
+
+    Parameters
+    ----------
+    data_dir : Path
+        The service's data folder.
+    recording_id : int
+        The recording's id in the store.
+    """
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
 
 
 def content_hash(path: str | Path) -> str:
@@ -320,7 +343,7 @@ def run_batch(
                 assert row is not None
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
-                plot = str(data_dir / "plots" / f"{row.id}-v{ANALYSIS_VERSION}.png") if data_dir else None
+                plot = str(plot_path(data_dir, row.id)) if data_dir is not None else None
                 future = pool.submit(
                     diagnose_file,
                     row.path,

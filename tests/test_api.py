@@ -106,6 +106,18 @@ def _upload(client: httpx.Client, path: Path, name: str | None = None) -> httpx.
     return client.post("/recordings", params={"filename": name or path.name}, content=path.read_bytes())
 
 
+def _upload_and_wait_running(client: httpx.Client, folder: Path) -> int:
+    """Upload a 10 s recording (its analysis takes a few seconds) and wait until it runs; its id."""
+    long = folder / "long.h5"
+    write_hdf5(simulate(load_scene(SCENES / "6l32-baseline.toml")).recording, long)
+    recording = int(_upload(client, long).json()["id"])
+    deadline = time.monotonic() + 60
+    while client.get(f"/recordings/{recording}").json()["status"] != "running":
+        assert time.monotonic() < deadline, "the analysis did not start"
+        time.sleep(0.05)
+    return recording
+
+
 def _wait_done(client: httpx.Client, recording: int, timeout: float = 90) -> dict:  # type: ignore[type-arg]
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -203,14 +215,8 @@ def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(
     """The analysis child process is killed mid-analysis: its job records why and is retried, and the
     worker goes on with a fresh process (later uploads are analysed)."""
     psutil = pytest.importorskip("psutil", reason="psutil comes with the cluster extra")
-    long = tmp_path / "long.h5"
-    write_hdf5(simulate(load_scene(SCENES / "6l32-baseline.toml")).recording, long)
     with server.client() as client:
-        recording = _upload(client, long).json()["id"]
-        deadline = time.monotonic() + 60
-        while client.get(f"/recordings/{recording}").json()["status"] != "running":
-            assert time.monotonic() < deadline, "the analysis did not start"
-            time.sleep(0.05)
+        recording = _upload_and_wait_running(client, tmp_path)
         assert server.process is not None
         children = psutil.Process(server.process.pid).children(recursive=True)
         assert children, "the analysis runs in a child process"
@@ -291,14 +297,8 @@ def test_the_openapi_document_lists_every_route(server: Server) -> None:
 def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Server, tmp_path: Path) -> None:
     """The server is killed while the analysis runs; restarted on the same store and data, it takes the
     job back after the lease (2 s here), completes it, and stores each result once."""
-    long = tmp_path / "long.h5"
-    write_hdf5(simulate(load_scene(SCENES / "6l32-baseline.toml")).recording, long)
     with server.client() as client:
-        recording = _upload(client, long).json()["id"]
-        deadline = time.monotonic() + 60
-        while client.get(f"/recordings/{recording}").json()["status"] != "running":
-            assert time.monotonic() < deadline, "the analysis did not start"
-            time.sleep(0.05)
+        recording = _upload_and_wait_running(client, tmp_path)
     server.kill()
     store = open_store(server.store_url)
     try:
