@@ -3,14 +3,21 @@
 The CLI, the service and the batch call these functions, nothing deeper.
 
 Angle reference.  A tooth-wheel channel is preferred (many pulses per
-revolution: a precise map at varying speed), else a keyphasor; a recording
-with neither is refused, not guessed.  Four-stroke engines also need the
-cycle phase: from a cam channel, else from cylinder 1's pressure channel,
-else it must be given.
+revolution: a precise map at varying speed), then an encoder with its
+index, else a keyphasor; a recording with none is refused, not guessed.
+A tooth wheel's or encoder's own pitch errors are estimated from the
+recording (or taken from a baseline) and corrected
+(:func:`monitor.signal.toothwheel.estimate_pitch_errors`).  Four-stroke
+engines also need the cycle phase: given, else from a cam channel, else from
+cylinder 1's pressure channel; without these it is refused.
 
-Crank speed.  The angle map's derivative, resampled to the angle domain,
-gives the speed-fluctuation orders (``crank speed`` in the spectra,
-[rad/s]); they are what the torque orders of the model predict.  The
+Crank speed.  The angle map's derivative gives the speed-fluctuation orders
+(``crank speed`` in the spectra, [rad/s]); they are what the torque orders
+of the model predict.  It is evaluated on a crank-angle grid of its own, at
+least twice as fine as the pulses (a 60-2 wheel: 128 points a revolution),
+whatever the grid of the other channels: the map interpolates between the
+pulses, so nothing above half the pulse rate is in it to alias, and the
+speed orders do not depend on ``max_order``.  The
 angular-vibration orders (``crank angular vibration``, [rad]) are those of
 the crank's angle lead over a uniform rotation at each cycle's own mean
 speed, ``theta - Omega_c (t(theta) - t_c)``: the integral over the cycle of
@@ -48,8 +55,16 @@ from monitor.signal.angle_domain import (
     to_angle_domain,
 )
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
-from monitor.signal.pulses import SignalError, detect_edges, repair_keyphasor
-from monitor.signal.toothwheel import decode_tooth_wheel
+from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.toothwheel import (
+    PitchCorrection,
+    ToothWheelDecoding,
+    correct_pitch,
+    decode_encoder,
+    decode_tooth_signal,
+    decode_tooth_wheel,
+    estimate_pitch_errors,
+)
 
 __all__ = [
     "AngleReference",
@@ -81,6 +96,11 @@ class AngleReference:
     pulses_per_revolution : int
         Pulses the map is built from per revolution (teeth present, or 1): the map
         resolves speed orders below half of it.
+    pitch_correction : PitchCorrection or None
+        The tooth wheel's or encoder's pitch errors corrected, if any.
+    notes : tuple of str
+        What a user should know about the reference (an inferred sensor kind, reversed polarity,
+        a correction skipped).
     """
 
     angle_map: AngleMap
@@ -88,17 +108,72 @@ class AngleReference:
     repairs: int
     cycle_phase: str
     pulses_per_revolution: int
+    pitch_correction: PitchCorrection | None = None
+    notes: tuple[str, ...] = ()
 
 
-def _edges(channel: Channel) -> np.ndarray:
+def _edges(channel: Channel, *, alike: bool = False) -> np.ndarray:
+    """Edge times of a pulse channel; ``alike``: pulses all of one height, glitches left out."""
     if channel.is_events:
         return np.asarray(channel.data, dtype=np.float64)
+    _clean(channel)
+    if alike:
+        return detect_pulses(channel.data, _rate(channel), start_time=channel.start_offset).times
+    return detect_edges(channel.data, _rate(channel), start_time=channel.start_offset).times
+
+
+def _clean(channel: Channel) -> None:
     if channel.mask is not None:
         raise SignalError(
             f"channel {channel.name!r} has {len(channel.quality)} unusable span(s) "
             "(NaN, Inf or clipping): a pulse channel must be clean"
         )
-    return detect_edges(channel.data, _rate(channel), start_time=channel.start_offset).times
+
+
+def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
+    teeth, missing = int(channel.fields["teeth"]), int(channel.fields["missing_teeth"])
+    first = math.radians(float(channel.fields["first_tooth_angle_deg"]))
+    try:
+        if channel.is_events:
+            return decode_tooth_wheel(_edges(channel), teeth=teeth, missing=missing, first_tooth_angle=first)
+        _clean(channel)
+        sensor = channel.fields.get("sensor")
+        polarity = channel.fields.get("polarity")
+        return decode_tooth_signal(
+            channel.data,
+            _rate(channel),
+            teeth=teeth,
+            missing=missing,
+            first_tooth_angle=first,
+            start_time=channel.start_offset,
+            sensor=None if sensor is None else "vr" if sensor == "vr" else "hall",
+            polarity=None if polarity is None else "reversed" if polarity == "reversed" else "normal",
+        )
+    except SignalError as error:
+        raise SignalError(f"tooth wheel {channel.name!r}: {error}") from None
+
+
+def _encoder_decoding(recording: Recording, channel: Channel) -> ToothWheelDecoding:
+    named = channel.fields.get("index_channel")
+    if named is not None:
+        index = recording.channel(str(named))
+    else:
+        candidates = recording.of_kind("keyphasor")
+        if not candidates:
+            raise SignalError(
+                f"encoder {channel.name!r} has no index: add a keyphasor channel with the index pulse, "
+                "or name it in the encoder's 'index_channel'"
+            )
+        index = candidates[0]
+    try:
+        return decode_encoder(
+            _edges(channel, alike=True),
+            _edges(index, alike=True),
+            pulses=int(channel.fields["pulses_per_revolution"]),
+            first_pulse_angle=math.radians(float(channel.fields["first_pulse_angle_deg"])),
+        )
+    except SignalError as error:
+        raise SignalError(f"encoder {channel.name!r} with index {index.name!r}: {error}") from None
 
 
 def _rate(channel: Channel) -> float:
@@ -108,7 +183,12 @@ def _rate(channel: Channel) -> float:
 
 
 def angle_reference(
-    recording: Recording, *, cycle_revolutions: int, cycle_phase: float | None = None
+    recording: Recording,
+    *,
+    cycle_revolutions: int,
+    cycle_phase: float | None = None,
+    pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
+    kept_orders: list[int] | None = None,
 ) -> AngleReference:
     """The crank (cycle) angle map of a recording.
 
@@ -118,8 +198,15 @@ def angle_reference(
     cycle_revolutions : int
         1 two-stroke, 2 four-stroke.
     cycle_phase : float, optional
-        Four-stroke: the shift (0 or 2 pi) to apply, if known [rad]; otherwise
-        it is found from a cam or a cylinder-1 pressure channel.
+        Four-stroke: the shift (0 or 2 pi) to apply, if known [rad]; otherwise it is found from
+        a cam or a cylinder-1 pressure channel.
+    pitch_correction : PitchCorrection or {"estimate", "none"}, optional
+        A tooth wheel's or encoder's pitch errors: a correction learned earlier (a baseline's),
+        estimated from this recording (the default; skipped with a note on fewer than four
+        revolutions), or none.
+    kept_orders : list of int, optional
+        Integer orders left to the engine by the estimate (see
+        :func:`monitor.signal.toothwheel.estimate_pitch_errors`).
 
     Returns
     -------
@@ -128,53 +215,71 @@ def angle_reference(
     Raises
     ------
     SignalError
-        Without a usable angle reference (no tooth wheel or keyphasor channel,
-        or one that does not decode), or a four-stroke cycle phase that cannot be found.
+        Without a usable angle reference (no tooth wheel, encoder or keyphasor channel, or one that
+        does not decode), or a four-stroke cycle phase that cannot be found.
     """
     teeth = recording.of_kind("tooth")
+    encoders = recording.of_kind("encoder")
     keyphasors = recording.of_kind("keyphasor")
-    if teeth:
-        channel = teeth[0]
-        decoding = decode_tooth_wheel(
-            _edges(channel),
-            teeth=int(channel.fields["teeth"]),
-            missing=int(channel.fields["missing_teeth"]),
-            first_tooth_angle=math.radians(float(channel.fields["first_tooth_angle_deg"])),
-        )
+    notes: list[str] = []
+    correction: PitchCorrection | None = None
+    if teeth or encoders:
+        channel = teeth[0] if teeth else encoders[0]
+        decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
+        notes.extend(f"{channel.name}: {note}" for note in decoding.notes)
+        if isinstance(pitch_correction, PitchCorrection):
+            correction = pitch_correction
+        elif pitch_correction == "estimate":
+            try:
+                correction = estimate_pitch_errors(decoding, kept_orders=kept_orders)
+            except SignalError as why:
+                notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
+        if correction is not None:
+            try:
+                decoding = correct_pitch(decoding, correction)
+            except SignalError as error:
+                raise SignalError(f"{channel.name}: {error}") from None
         angle_map = AngleMap(decoding.times, decoding.angles)
         repairs = int(decoding.inserted.size + decoding.removed.size)
         pulses = decoding.teeth - decoding.missing
     elif keyphasors:
         channel = keyphasors[0]
-        repaired = repair_keyphasor(_edges(channel))
+        try:
+            repaired = repair_keyphasor(_edges(channel, alike=True))
+        except SignalError as error:
+            raise SignalError(f"keyphasor {channel.name!r}: {error}") from None
         angle_map = AngleMap.from_keyphasor(
             repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
         )
         repairs = int(repaired.inserted.size + repaired.removed.size)
         pulses = 1
     else:
-        raise SignalError("the recording has no tooth-wheel or keyphasor channel: no usable angle reference")
+        raise SignalError(
+            "the recording has no tooth-wheel, encoder or keyphasor channel: no usable angle reference"
+        )
     how = ""
     if cycle_revolutions == 2:
+        firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
         if cycle_phase is not None:
             shift, how = float(cycle_phase), "given"
         elif recording.of_kind("cam"):
             cam = recording.of_kind("cam")[0]
             shift = cycle_phase_from_cam(
-                angle_map, _edges(cam), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
+                angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
             )
             how = "cam"
-        else:
-            pressures = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
-            if not pressures:
-                raise SignalError(
-                    "four-stroke recording without a cam or cylinder-1 pressure channel: give the cycle phase"
-                )
-            p = pressures[0]
+        elif firing_pressure:
+            p = firing_pressure[0]
             shift = cycle_phase_from_pressure(angle_map, p.data, _rate(p), start_time=p.start_offset)
             how = "pressure"
+        else:
+            raise SignalError(
+                "four-stroke recording without a cam or cylinder-1 pressure channel: the cycle phase "
+                "(which revolution holds cylinder 1's firing TDC) cannot be found; give it with "
+                "--cycle-phase 0 or 360 (the crank angle added to the angle reference's, in degrees)"
+            )
         angle_map = angle_map.shifted(shift)
-    return AngleReference(angle_map, channel.name, repairs, how, pulses)
+    return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
 
 
 @dataclass(frozen=True)
@@ -220,6 +325,7 @@ def spectra(
     speed_bins: int | None = None,
     workers: int | None = None,
     high_frequency: bool = False,
+    pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -247,6 +353,8 @@ def spectra(
     high_frequency : bool, optional
         Also profile the high-frequency power of every acceleration and velocity channel over
         the cycle (in the same pass over its samples).
+    pitch_correction : PitchCorrection or {"estimate", "none"}, optional
+        The tooth wheel's pitch errors (see :func:`angle_reference`).
 
     Returns
     -------
@@ -254,7 +362,12 @@ def spectra(
     """
     if not (math.isfinite(max_order) and max_order > 0):
         raise SignalError(f"max_order = {max_order!r}: expected a positive order")
-    reference = angle_reference(recording, cycle_revolutions=cycle_revolutions, cycle_phase=cycle_phase)
+    reference = angle_reference(
+        recording,
+        cycle_revolutions=cycle_revolutions,
+        cycle_phase=cycle_phase,
+        pitch_correction=pitch_correction,
+    )
     slowest, fastest = reference.angle_map.speed_range
     speed_ratio = fastest / slowest
     # the anti-alias filter passes up to 0.8 of the grid's Nyquist order at the slowest speed: max_order
@@ -322,24 +435,22 @@ def spectra(
         return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
 
     def crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
-        # crank speed: the angle map's derivative on the grid of its own whole cycles
+        # crank speed: the angle map's derivative on a grid of its own whole cycles. The map holds orders
+        # below pulses / 2 per revolution: a grid of at least 2 R pulses per cycle (a power of two) has
+        # its Nyquist order above them, whatever max_order and the channels' grid are
+        m = 2 ** math.ceil(math.log2(max(16, 2 * cycle_revolutions * reference.pulses_per_revolution)))
         try:
             grid = angle_grid(
                 angle_map,
                 float(angle_map.times[0]),
                 float(angle_map.times[-1]),
-                samples_per_cycle=samples_per_cycle,
+                samples_per_cycle=m,
                 cycle_revolutions=cycle_revolutions,
                 known=list(grids.values()),
             )
         except SignalError:
             return None
-        # the speed holds orders below pulses / 2 per revolution: a grid of 2 R pulses per cycle (a power
-        # of two) has its Nyquist order above them; a finer channel grid is thinned to it
-        wanted = 2 ** math.ceil(math.log2(max(8, 2 * cycle_revolutions * reference.pulses_per_revolution)))
-        stride = samples_per_cycle // wanted if samples_per_cycle % wanted == 0 else 1
-        m = samples_per_cycle // stride
-        speed = angle_map.speed_at(grid.times[::stride]).reshape(grid.cycles, m)
+        speed = angle_map.speed_at(grid.times).reshape(grid.cycles, m)
         # the map holds pulses_per_revolution samples of the speed per revolution: orders from
         # half of that up are not in it (a keyphasor gives the mean speed only)
         resolvable = max(min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9), 0.0)

@@ -8,8 +8,9 @@ channels recorded by a counter).  Everything a later stage needs to know
 about a channel is an attribute of it, validated here once: its kind and
 unit, its sensor location and direction, and the fields of its kind (a
 tooth wheel's tooth count, missing teeth and the crank angle of its first
-tooth after the gap; a keyphasor pulse's angle after TDC of cylinder 1;
-the cylinder of a pressure channel).
+tooth after the gap and its sensor kind; an encoder's pulses per
+revolution; a keyphasor pulse's angle after TDC of cylinder 1; the cylinder
+of a pressure channel).
 
 Data quality.  NaN and Inf samples, and clipped spans (runs of samples at
 the limits of the channel's stated measuring range), are found, reported
@@ -31,36 +32,63 @@ from monitor.errors import MonitorError
 from monitor.types import FloatArray
 
 __all__ = [
+    "INTEGER_FIELDS",
     "KINDS",
     "UNITS",
+    "WORD_FIELDS",
     "Channel",
     "FormatError",
     "QualitySpan",
     "Recording",
     "SampleReader",
+    "field_value",
     "quality_spans",
     "refuse_unusable",
 ]
 
-Kind = Literal["acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure"]
+Kind = Literal["acceleration", "velocity", "keyphasor", "tooth", "encoder", "cam", "speed", "pressure"]
 
-KINDS: tuple[str, ...] = ("acceleration", "velocity", "keyphasor", "tooth", "cam", "speed", "pressure")
+KINDS: tuple[str, ...] = (
+    "acceleration",
+    "velocity",
+    "keyphasor",
+    "tooth",
+    "encoder",
+    "cam",
+    "speed",
+    "pressure",
+)
 #: Units accepted per kind (the unit of the stored samples; event channels store times in s).
 UNITS: dict[str, tuple[str, ...]] = {
     "acceleration": ("m/s^2", "g", "mm/s^2", "V"),
     "velocity": ("m/s", "mm/s", "V"),
     "keyphasor": ("V", "s"),
     "tooth": ("V", "s"),
+    "encoder": ("V", "s"),
     "cam": ("V", "s"),
     "speed": ("rpm", "rad/s", "Hz", "V"),
     "pressure": ("Pa", "kPa", "bar", "MPa", "V"),
 }
 #: Kind-specific attributes and whether each is required.
 KIND_FIELDS: dict[str, dict[str, bool]] = {
-    "tooth": {"teeth": True, "missing_teeth": True, "first_tooth_angle_deg": True},
+    "tooth": {
+        "teeth": True,
+        "missing_teeth": True,
+        "first_tooth_angle_deg": True,
+        "sensor": False,
+        "polarity": False,
+    },
+    "encoder": {"pulses_per_revolution": True, "first_pulse_angle_deg": True, "index_channel": False},
     "keyphasor": {"pulse_angle_deg": True},
     "cam": {"cam_angle_deg": True},
     "pressure": {"cylinder": True},
+}
+#: Kind-specific attributes that are integers, and those that are one of a few words (any other is a float).
+INTEGER_FIELDS: tuple[str, ...] = ("teeth", "missing_teeth", "cylinder", "pulses_per_revolution")
+WORD_FIELDS: dict[str, tuple[str, ...] | None] = {
+    "sensor": ("hall", "vr"),
+    "polarity": ("normal", "reversed"),
+    "index_channel": None,  # a channel's name
 }
 #: The shortest run of equal extreme samples reported as clipping.
 CLIP_RUN = 5
@@ -68,6 +96,49 @@ CLIP_RUN = 5
 
 class FormatError(MonitorError, ValueError):
     """A recording file, or a channel in it, breaks the format; the message names which and how."""
+
+
+def field_value(channel: str, key: str, raw: Any) -> float | int | str:
+    """A kind-specific attribute as stored (number, or text in MCAP metadata), in its type.
+
+    Parameters
+    ----------
+    channel : str
+        The channel's name, for the message.
+    key : str
+        The attribute (:data:`KIND_FIELDS`).
+    raw : object
+        Its stored value.
+
+    Returns
+    -------
+    int, float or str
+
+    Raises
+    ------
+    FormatError
+        If the value is not of the attribute's type, or not one of its words.
+    """
+    where = f"channel {channel!r}: attribute {key!r} = {raw!r}"
+    if isinstance(raw, bytes):
+        raw = raw.decode("utf-8", "replace")
+    if key in WORD_FIELDS:
+        words = WORD_FIELDS[key]
+        text = str(raw)
+        if words is not None and text not in words:
+            raise FormatError(f"{where}: expected one of {', '.join(words)}")
+        return text
+    try:
+        number = float(raw)
+    except (TypeError, ValueError):
+        raise FormatError(f"{where}: expected a number") from None
+    if key in INTEGER_FIELDS:
+        if not (math.isfinite(number) and number == int(number)):
+            raise FormatError(f"{where}: expected a whole number")
+        return int(number)
+    if not math.isfinite(number):
+        raise FormatError(f"{where}: expected a finite number")
+    return number
 
 
 @dataclass(frozen=True)
@@ -174,6 +245,18 @@ class Channel:
         for name, required in KIND_FIELDS.get(self.kind, {}).items():
             if required and name not in self.fields:
                 raise FormatError(f"{where}: a {self.kind} channel needs the attribute {name!r}")
+        for name, value in self.fields.items():
+            words = WORD_FIELDS.get(name)
+            if words is not None and value not in words:
+                raise FormatError(
+                    f"{where}: attribute {name!r} = {value!r}: expected one of {', '.join(words)}"
+                )
+        if self.kind == "encoder":
+            pulses = self.fields["pulses_per_revolution"]
+            if not (isinstance(pulses, int | np.integer) and pulses >= 2):
+                raise FormatError(
+                    f"{where}: pulses_per_revolution = {pulses!r}: expected an integer of at least 2"
+                )
         if self.kind == "tooth":
             teeth, missing = self.fields["teeth"], self.fields["missing_teeth"]
             if not (

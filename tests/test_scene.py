@@ -402,14 +402,20 @@ SAMPLES = sorted((SCENES.parent / "samples").glob("*.h5"))
 @pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.stem)
 def test_the_committed_sample_recordings_are_what_their_scenes_give(path: Path) -> None:
     """recordings/samples/ (written by `make samples`): every sample equals a fresh simulation of its
-    scene, sample for sample, and its expected-summary file is the truth stored in it."""
+    scene, and its expected-summary file is the truth stored in it.
+
+    Equal within 4 units in the last place of the channel's largest float32 sample, not bit for bit:
+    the simulation's sums and FFTs round differently on CPUs with other vector units (one sample in
+    10^5 was seen one unit apart), and the float32 store then rounds to the neighbouring value."""
     stored = read_recording(path)
     expected = json.loads(path.with_suffix(".expected.json").read_text(encoding="utf-8"))
     assert json.loads(stored.truth) == expected
     scene = load_scene(SCENES / f"{path.stem}.toml").model_copy(update={"duration_s": expected["duration_s"]})
     fresh = simulate(scene, seed=expected["seed"]).recording
     for channel in fresh.channels:
-        np.testing.assert_array_equal(stored.channel(channel.name).data, channel.data)
+        kept = np.asarray(stored.channel(channel.name).data)
+        ulp = float(np.spacing(np.max(np.abs(kept)).astype(kept.dtype))) if kept.size else 0.0
+        np.testing.assert_allclose(kept, channel.data, rtol=0, atol=4 * ulp, err_msg=channel.name)
 
 
 def test_there_are_committed_samples() -> None:

@@ -28,7 +28,7 @@ import h5py
 import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader
+from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader, field_value
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
 
@@ -276,8 +276,7 @@ def _read_channel(group: h5py.Group, name: str, source: Path, *, lazy: bool) -> 
     fields: dict[str, float | int | str] = {}
     for key in KIND_FIELDS.get(kind, {}):
         if key in a:
-            value = a[key]
-            fields[key] = int(value) if key in ("teeth", "missing_teeth", "cylinder") else float(value)
+            fields[key] = field_value(name, key, a[key])
     if ds.ndim != 1:
         raise FormatError(f"{where}: data has shape {ds.shape}, expected one dimension")
     if rate is not None and "duration_s" in a:

@@ -1,6 +1,22 @@
 """Pulse edges with hysteresis and sub-sample timing, and keyphasor repair.
 
-Edges.  Every pulse gets its own threshold: pulses are found as tops
+Two timing points, for the two kinds of pulse sensor:
+
+- ``"mid-level"`` (Hall sensors, optical pick-ups, square pulses): each
+  pulse is timed where it crosses the level halfway between its own trough
+  and its own top (below);
+- ``"zero-crossing"`` (variable-reluctance sensors: a zero-mean voltage,
+  sine-like per tooth, its amplitude proportional to speed): each tooth is
+  timed where the signal crosses its baseline on the flank named by
+  ``direction``, once the lobe before that flank has risen above an arming
+  threshold.  The threshold follows the local amplitude (``arm`` times the
+  median of the last five lobes' peaks, never below ``NOISE_MARGIN`` times
+  the noise's rms), the way engine controllers' VR interfaces arm
+  themselves; the baseline is the same for every tooth, so the tooth
+  after a wheel's gap is timed like the others even though the gap sits at
+  another level.
+
+Mid-level edges.  Every pulse gets its own threshold: pulses are found as tops
 rising at least a minimum prominence above the trough before them and
 falling as much after them (the hysteresis), and each is timed where it crosses the mid level between its
 own trough and its own peak, interpolated between the two samples around
@@ -36,6 +52,7 @@ __all__ = [
     "KeyphasorRepair",
     "SignalError",
     "detect_edges",
+    "detect_pulses",
     "repair_keyphasor",
 ]
 
@@ -53,9 +70,11 @@ class EdgeDetection:
     times : ndarray
         Edge times, sub-sample [s].
     levels : ndarray
-        The level each edge was timed at (its own pulse's mid level), in the signal's unit.
+        The level each edge was timed at (its own pulse's mid level, or the baseline), in the
+        signal's unit.
     swings : ndarray
-        Each pulse's height above its trough, in the signal's unit.
+        Each pulse's height above its trough (zero-crossing timing: its lobe's peak above the
+        baseline), in the signal's unit.
     """
 
     times: FloatArray
@@ -71,8 +90,10 @@ def detect_edges(
     direction: Literal["rising", "falling"] = "rising",
     level: float = 0.5,
     min_prominence: float | None = None,
+    timing: Literal["mid-level", "zero-crossing"] = "mid-level",
+    arm: float = 0.3,
 ) -> EdgeDetection:
-    """Edges of a pulse train, each timed at its own pulse's mid level.
+    """Edges of a pulse train, each timed at its own pulse's mid level or at a baseline crossing.
 
     Parameters
     ----------
@@ -85,16 +106,27 @@ def detect_edges(
     start_time : float, optional
         Time of the first sample [s].
     direction : {"rising", "falling"}
-        Which edge of each pulse to time.
+        Which edge of each pulse to time (zero-crossing timing: the flank crossing the baseline
+        upwards or downwards).
     level : float, optional
-        Where on the pulse the edge is timed, as a fraction from its trough to its peak [-].
+        Mid-level timing: where on the pulse the edge is timed, as a fraction from its trough to
+        its peak [-].
     min_prominence : float, optional
         Smallest rise of a pulse above its trough, and fall after its top [signal
         unit]; it acts as the hysteresis. Default: 5 % of the signal's peak-to-peak range
         (of each block's, on a long waveform: it follows a slowly changing amplitude), or
         ``NOISE_MARGIN`` (8) times the noise's rms if that is more, up to a quarter of the range
         (the noise estimated from the lower quartile of the absolute differences of neighbouring
-        samples, which the flat parts of a pulse train give).
+        samples, which the flat parts of a pulse train give). Zero-crossing timing: the smallest
+        arming threshold; default ``NOISE_MARGIN`` times the noise's rms (estimated from third
+        differences in the quietest stretch of the block, where a slowly turning VR sensor's own
+        waveform leaves only the noise).
+    timing : {"mid-level", "zero-crossing"}
+        The timing point (see the module docstring): a pulse's mid level (Hall, square pulses) or
+        the baseline crossing of a variable-reluctance waveform.
+    arm : float, optional
+        Zero-crossing timing: the arming threshold as a fraction of the median peak of the last five
+        lobes [-].
 
     Returns
     -------
@@ -133,14 +165,25 @@ def detect_edges(
         raise SignalError(f"level = {level!r}: expected a fraction between 0 and 1")
     if min_prominence is not None and not min_prominence > 0:
         raise SignalError(f"min_prominence = {min_prominence!r}: expected a positive height")
+    if timing not in ("mid-level", "zero-crossing"):
+        raise SignalError(f"timing = {timing!r}: expected 'mid-level' or 'zero-crossing'")
+    if not 0 < arm < 1:
+        raise SignalError(f"arm = {arm!r}: expected a fraction between 0 and 1")
     n = int(source.shape[0])
     rising = direction == "rising"
+    crossing = timing == "zero-crossing"
+
+    def block_edges(x: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+        if crossing:
+            return _block_crossings(x, min_prominence, arm, rising)
+        return _block_edges(x, min_prominence, level, rising)
+
     if n <= _EDGE_BLOCK:
-        times, levels, swings, prominence = _block_edges(source[:], min_prominence, level, rising)
+        times, levels, swings, prominence = block_edges(source[:])
     else:
         # blocks with context on both sides; each keeps the edges inside its own span. The hysteresis
         # state is the whole record's again after a pulse or two of context: take several spacings
-        first, _, _, prominence = _block_edges(source[:_EDGE_BLOCK], min_prominence, level, rising)
+        first, _, _, prominence = block_edges(source[:_EDGE_BLOCK])
         spacing = float(np.median(np.diff(first))) if first.size > 2 else _EDGE_BLOCK / 8
         context = int(min(_EDGE_BLOCK // 4, max(1024, 8 * spacing)))
 
@@ -157,7 +200,7 @@ def detect_edges(
             for a in range(0, n, _EDGE_BLOCK):
                 lo = max(0, a - context)
                 x = np.asarray(source[lo : min(n, a + _EDGE_BLOCK + context)])
-                pending.append((a, lo, pool.submit(_block_edges, x, min_prominence, level, rising)))
+                pending.append((a, lo, pool.submit(block_edges, x)))
                 if len(pending) > workers:
                     done = pending.popleft()
                     keep(done[0], done[1], done[2].result())
@@ -204,6 +247,76 @@ def _block_edges(
         prominence = float(min_prominence)
     times, levels, swings = _timed_pulses(np.ascontiguousarray(x), prominence, level, rising)
     return times, levels, swings, prominence
+
+
+def _block_crossings(
+    block: npt.ArrayLike, min_arm: float | None, arm: float, rising: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+    """Baseline crossings of one block (VR timing), in samples from its start; baselines, peaks, floor."""
+    x = np.asarray(block)
+    if x.dtype not in (np.float32, np.float64):
+        x = x.astype(np.float64)
+    low_p, high_p = float(np.min(x)), float(np.max(x))
+    if not (math.isfinite(low_p) and math.isfinite(high_p)):
+        bad = int(np.count_nonzero(~np.isfinite(x)))
+        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    if not high_p > low_p:
+        empty = np.empty(0)
+        return empty, empty, empty, 0.0
+    baseline = float(np.median(x))
+    y = (x.astype(np.float64) - baseline) * (-1.0 if rising else 1.0)
+    floor = float(min_arm) if min_arm is not None else NOISE_MARGIN * _quietest_noise(y)
+    floor = max(floor, 1e-9 * (high_p - low_p))  # a noiseless record: above round-off only
+    times, peaks = _armed_crossings(y, floor, arm)
+    return times, np.full(times.size, baseline), peaks, floor
+
+
+def _quietest_noise(y: FloatArray) -> float:
+    """The noise's rms in the quietest of 64 stretches, from the median absolute third difference.
+
+    White noise of rms s gives third differences of rms sqrt(20) s; a waveform sampled many times
+    per period adds little to them, and the quietest stretch (a VR sensor turning slowly, or the gap)
+    adds least.
+    """
+    third = np.abs(np.diff(y, 3))
+    if third.size < 64 * 16:
+        return float(np.median(third)) / (0.6745 * math.sqrt(20.0))
+    stretches = third[: third.size // 64 * 64].reshape(64, -1)
+    return float(np.min(np.median(stretches, axis=1))) / (0.6745 * math.sqrt(20.0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _armed_crossings(
+    y: FloatArray, floor: float, arm: float
+) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
+    """Downward zero crossings of ``y``, each armed by the lobe before it rising above the threshold."""
+    n = y.size
+    times = np.empty(n // 2 + 1)
+    peaks = np.empty(n // 2 + 1)
+    history = np.zeros(5)
+    filled = 0
+    count = 0
+    armed = False
+    peak = 0.0
+    threshold = floor
+    for i in range(1, n):
+        v = y[i]
+        if not armed:
+            if v > threshold:
+                armed, peak = True, v
+        else:
+            if v > peak:
+                peak = v
+            if v < 0.0 <= y[i - 1]:
+                a = y[i - 1]
+                times[count] = i - 1 + a / (a - v)
+                peaks[count] = peak
+                count += 1
+                history[filled % 5] = peak
+                filled += 1
+                threshold = max(floor, arm * np.median(history[: min(filled, 5)]))
+                armed = False
+    return times[:count], peaks[:count]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -272,6 +385,52 @@ def _timed_pulses(
     return times[:found], levels[:found], swings[:found]
 
 
+def detect_pulses(
+    signal: npt.ArrayLike,
+    sample_rate: float,
+    *,
+    start_time: float = 0.0,
+    relative_height: float = 0.5,
+) -> EdgeDetection:
+    """Rising edges of pulses that are all alike (keyphasor, cam, encoder index), glitches left out.
+
+    Parameters
+    ----------
+    signal : array_like or sliceable, shape (n,)
+        Sensor waveform [V].
+    sample_rate : float
+        [Hz].
+    start_time : float, optional
+        Time of the first sample [s].
+    relative_height : float, optional
+        Hysteresis as a fraction of the pulse height [-]: a glitch lower than this is no pulse.
+
+    Returns
+    -------
+    EdgeDetection
+
+    Raises
+    ------
+    SignalError
+        As :func:`detect_edges`.
+
+    Notes
+    -----
+    A first pass finds every pulse above the noise (:func:`detect_edges`); the pulse height is the
+    median swing of those at least half as high as the 99th percentile of all swings (the real
+    pulses, however many glitches there are); a second pass with ``relative_height`` of that height
+    as its hysteresis keeps the real pulses only.
+    """
+    if not 0 < relative_height < 1:
+        raise SignalError(f"relative_height = {relative_height!r}: expected a fraction between 0 and 1")
+    first = detect_edges(signal, sample_rate, start_time=start_time)
+    tall = first.swings[first.swings >= 0.5 * np.percentile(first.swings, 99)]
+    height = float(np.median(tall))
+    if np.all(first.swings >= relative_height * height):
+        return first
+    return detect_edges(signal, sample_rate, start_time=start_time, min_prominence=relative_height * height)
+
+
 @dataclass(frozen=True)
 class KeyphasorRepair:
     """Once-per-revolution pulse times after repair, and what was repaired.
@@ -296,7 +455,9 @@ class KeyphasorRepair:
         return bool(self.inserted.size or self.removed.size)
 
 
-def repair_keyphasor(times: npt.ArrayLike, *, window: int = 9, max_missing: int = 3) -> KeyphasorRepair:
+def repair_keyphasor(
+    times: npt.ArrayLike, *, window: int = 9, max_missing: int = 3, max_repaired: float = 0.25
+) -> KeyphasorRepair:
     """Remove extra and insert missing once-per-revolution pulses.
 
     Parameters
@@ -307,6 +468,10 @@ def repair_keyphasor(times: npt.ArrayLike, *, window: int = 9, max_missing: int 
         Pulses in the running median of the revolution period.
     max_missing : int, optional
         Most consecutive missing pulses that are filled in; a longer gap is an error.
+    max_repaired : float, optional
+        Largest share of the pulses that may be inserted or removed; a pulse train that needs
+        more repair is inconsistent with itself (glitches counted as pulses, a wrong channel) and
+        is refused rather than turned into a wrong speed [-].
 
     Returns
     -------
@@ -315,7 +480,8 @@ def repair_keyphasor(times: npt.ArrayLike, *, window: int = 9, max_missing: int 
     Raises
     ------
     SignalError
-        With fewer than 4 pulses, non-increasing times, or a gap longer than ``max_missing``.
+        With fewer than 4 pulses, non-increasing times, a gap longer than ``max_missing``, or more
+        than ``max_repaired`` of the pulses repaired.
 
     Notes
     -----
@@ -379,4 +545,11 @@ def repair_keyphasor(times: npt.ArrayLike, *, window: int = 9, max_missing: int 
                 "is not a whole number of missing pulses"
             )
         out.append(float(arr[i + 1]))
+    repaired = len(inserted) + len(removed)
+    if repaired > max_repaired * t.size:
+        raise SignalError(
+            f"keyphasor: {len(removed)} of {t.size} pulses would be removed and {len(inserted)} inserted: "
+            f"more than {max_repaired:.0%} of the pulse train does not fit one pulse per revolution "
+            "(glitches taken for pulses, or not a once-per-revolution channel); check the channel"
+        )
     return KeyphasorRepair(np.asarray(out), np.asarray(inserted), np.asarray(removed))

@@ -12,6 +12,19 @@ absolute crank angle.  A revolution must hold ``teeth - missing`` edges; one
 edge too few (a lost tooth) or too many (a spurious pulse) is repaired and
 reported, anything else is an error naming the revolution.
 
+Timing point.  A Hall sensor (or an optical pick-up) gives square pulses:
+each tooth is timed at the mid level of its rising edge.  A
+variable-reluctance (VR) sensor gives a zero-mean voltage, the rate of
+change of the magnetic flux, whose amplitude grows with speed: each tooth is
+timed where the voltage falls through zero (the tooth's centre passing the
+sensor), with an arming threshold that follows the local amplitude (see
+:func:`monitor.signal.pulses.detect_edges`).  A VR sensor wired with
+reversed polarity is timed on the wrong flank, between the teeth: its gap
+then shows as two intervals of about two pitches instead of one of three
+(1-1-2-2-1 instead of 1-1-3-1 on a 60-2 wheel).  :func:`decode_tooth_signal`
+recognises this, decodes the inverted signal and says so, the way engine
+controllers tell their users to swap the sensor's wires.
+
 Tooth-spacing errors (a wheel is never perfect) show as the same deviation
 of a tooth's interval in every revolution.  Averaging each tooth's share of
 the revolution time over many revolutions estimates them; note that a speed
@@ -24,15 +37,29 @@ recordings of the same wheel.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
-from monitor.signal.pulses import SignalError
+from monitor.signal.pulses import SignalError, detect_edges
 from monitor.types import FloatArray
 
-__all__ = ["ToothWheelDecoding", "decode_tooth_wheel", "tooth_spacing_errors"]
+__all__ = [
+    "PitchCorrection",
+    "ToothSensor",
+    "ToothWheelDecoding",
+    "correct_pitch",
+    "decode_encoder",
+    "decode_tooth_signal",
+    "decode_tooth_wheel",
+    "estimate_pitch_errors",
+    "infer_tooth_sensor",
+    "tooth_spacing_errors",
+]
+
+ToothSensor = Literal["hall", "vr"]
 
 
 @dataclass(frozen=True)
@@ -55,6 +82,12 @@ class ToothWheelDecoding:
         Times of edges inserted (lost teeth) and removed (spurious pulses) [s].
     revolutions : int
         Complete revolutions between the first and the last gap.
+    sensor : str
+        The sensor kind whose timing point was used ("hall", "vr"), or "" for edge times given.
+    reversed_polarity : bool
+        True when the waveform was decoded inverted (a VR sensor wired the wrong way round).
+    notes : tuple of str
+        What a user should know about the decoding (an inferred sensor kind, reversed polarity).
     """
 
     times: FloatArray
@@ -66,6 +99,9 @@ class ToothWheelDecoding:
     inserted: FloatArray = field(default_factory=lambda: np.empty(0))
     removed: FloatArray = field(default_factory=lambda: np.empty(0))
     revolutions: int = 0
+    sensor: str = ""
+    reversed_polarity: bool = False
+    notes: tuple[str, ...] = ()
 
     @property
     def pitch(self) -> float:
@@ -204,6 +240,123 @@ def decode_tooth_wheel(
     )
 
 
+def infer_tooth_sensor(signal: npt.ArrayLike) -> ToothSensor:
+    """The sensor kind a tooth-wheel waveform looks like: "vr" if it swings about its median, else "hall".
+
+    Parameters
+    ----------
+    signal : array_like
+        A stretch of the waveform holding several revolutions [V].
+
+    Returns
+    -------
+    {"vr", "hall"}
+
+    Notes
+    -----
+    A VR sensor's voltage is zero-mean: its median sits near the middle of its
+    range (within 15 % of the range between the 1st and 99th percentiles).  A Hall
+    sensor's square pulses spend their time at two rails, so the median sits at
+    one of them, half the range from the middle.
+    """
+    x = np.asarray(signal, dtype=np.float64)
+    low, median, high = np.percentile(x, [1.0, 50.0, 99.0])
+    if not high > low:
+        raise SignalError("tooth-wheel signal is flat: no teeth to time")
+    return "vr" if abs(median - 0.5 * (low + high)) < 0.15 * (high - low) else "hall"
+
+
+def decode_tooth_signal(
+    signal: Any,
+    sample_rate: float,
+    *,
+    teeth: int,
+    missing: int,
+    first_tooth_angle: float = 0.0,
+    start_time: float = 0.0,
+    sensor: ToothSensor | None = None,
+    polarity: Literal["normal", "reversed"] | None = None,
+) -> ToothWheelDecoding:
+    """Crank angles of the teeth in a tooth-wheel waveform, timed as its sensor kind needs.
+
+    Parameters
+    ----------
+    signal : array_like or sliceable, shape (n,)
+        The sensor's waveform [V]; an h5py dataset or a reader by slices is read in blocks.
+    sample_rate : float
+        [Hz].
+    teeth, missing : int
+        The wheel (60 and 2 for 60-2).
+    first_tooth_angle : float, optional
+        Crank angle of the first tooth after the gap at the sensor's timing point, from TDC of
+        cylinder 1 [rad].
+    start_time : float, optional
+        Time of the first sample [s].
+    sensor : {"hall", "vr"}, optional
+        The timing point: "hall" the mid level of each tooth's rising edge, "vr" the downward zero
+        crossing at each tooth's centre. Default: inferred from the waveform
+        (:func:`infer_tooth_sensor`), and said in the notes.
+    polarity : {"normal", "reversed"}, optional
+        How the sensor is wired. Default: "normal", and for a VR sensor whose waveform does not
+        decode, "reversed" if the inverted waveform does (said in the notes).
+
+    Returns
+    -------
+    ToothWheelDecoding
+
+    Raises
+    ------
+    SignalError
+        If the waveform decodes neither way.
+    """
+    notes: list[str] = []
+    if sensor is None:
+        n = int(signal.shape[0]) if hasattr(signal, "shape") else len(signal)
+        sensor = infer_tooth_sensor(np.asarray(signal[: min(n, 1 << 20)]))
+        notes.append(
+            f"sensor kind {sensor!r} inferred from the waveform (state the channel's 'sensor' to fix it)"
+        )
+    if sensor not in ("hall", "vr"):
+        raise SignalError(f"tooth-wheel sensor {sensor!r}: expected 'hall' or 'vr'")
+
+    def attempt(reversed_: bool) -> ToothWheelDecoding:
+        if sensor == "vr":
+            # reversed wiring inverts the voltage: the tooth centres are its upward zero crossings
+            edges = detect_edges(
+                signal,
+                sample_rate,
+                start_time=start_time,
+                timing="zero-crossing",
+                direction="rising" if reversed_ else "falling",
+            )
+        else:
+            edges = detect_edges(
+                signal, sample_rate, start_time=start_time, direction="falling" if reversed_ else "rising"
+            )
+        return decode_tooth_wheel(
+            edges.times, teeth=teeth, missing=missing, first_tooth_angle=first_tooth_angle
+        )
+
+    if polarity is not None:
+        decoding = attempt(polarity == "reversed")
+        return replace(decoding, sensor=sensor, reversed_polarity=polarity == "reversed", notes=tuple(notes))
+    try:
+        decoding = attempt(False)
+    except SignalError as normal:
+        if sensor != "vr":
+            raise
+        try:
+            decoding = attempt(True)
+        except SignalError:
+            raise normal from None
+        notes.append(
+            "the VR sensor is wired with reversed polarity (its gap shows as two intervals of about two "
+            "pitches): decoded inverted; swap the sensor's two wires, or state polarity = 'reversed'"
+        )
+        return replace(decoding, sensor=sensor, reversed_polarity=True, notes=tuple(notes))
+    return replace(decoding, sensor=sensor, notes=tuple(notes))
+
+
 def _find_gaps(times: FloatArray, threshold: float) -> npt.NDArray[np.int64]:
     """Indices of the first edge after each gap interval (interval over the running median of 9)."""
     from scipy.ndimage import median_filter
@@ -252,3 +405,252 @@ def tooth_spacing_errors(decoding: ToothWheelDecoding) -> FloatArray:
     nominal = 2 * math.pi * np.arange(per_rev) / decoding.teeth
     error = measured - nominal
     return error - error.mean()
+
+
+@dataclass(frozen=True)
+class PitchCorrection:
+    """The wheel's own tooth-position errors, as applied to a decoding.
+
+    Attributes
+    ----------
+    errors : ndarray, shape (teeth - missing,)
+        Where each tooth after the gap really is minus where a perfect wheel has it, mean zero [rad].
+    kept_orders : tuple of int
+        The integer orders of what repeats every revolution that were left to the engine (not taken
+        as the wheel's).
+    revolutions : int
+        Revolutions the estimate averaged.
+    source : str
+        "recording" (estimated from the recording itself) or "baseline" (learned earlier).
+    scope : str
+        "gap" (the gap's neighbours corrected) or "all" (every tooth).
+    """
+
+    errors: FloatArray
+    kept_orders: tuple[int, ...]
+    revolutions: int
+    source: str = "recording"
+    scope: str = "gap"
+
+    @property
+    def rms(self) -> float:
+        """rms of the corrections [rad]."""
+        return float(np.sqrt(np.mean(self.errors**2)))
+
+    @property
+    def largest(self) -> float:
+        """Largest correction in magnitude [rad]."""
+        return float(np.max(np.abs(self.errors)))
+
+
+def estimate_pitch_errors(
+    decoding: ToothWheelDecoding,
+    *,
+    kept_orders: npt.ArrayLike | None = None,
+    gap_neighbours: int = 2,
+    scope: Literal["gap", "all"] = "gap",
+) -> PitchCorrection:
+    """The wheel's tooth-position errors, separated from the engine's own speed fluctuation.
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+        With at least four complete revolutions.
+    kept_orders : array_like of int, optional
+        Integer orders of the revolution-synchronous deviation that belong to the engine and are not
+        corrected. Default: 1 to ``teeth // 6`` (1 to 10 on a 60-2 wheel) [-].
+    gap_neighbours : int, optional
+        Teeth on each side of the gap left out of the fit of the engine's orders: the gap bends
+        the sensor's field there, so their errors are larger and not smooth [-].
+    scope : {"gap", "all"}, optional
+        Which teeth are corrected: only the gap's neighbours (the default: their error is large
+        and systematic on real wheels, and correcting them takes nothing from the engine), or every
+        tooth (the wheel's errors in orders above the kept ones are then removed too, and with them
+        any of the engine's integer orders there: use it where the physics says the engine has
+        none, or on a baseline whose correction is stored).
+
+    Returns
+    -------
+    PitchCorrection
+
+    Raises
+    ------
+    SignalError
+        With fewer than four complete revolutions, or more kept orders than the teeth can fit.
+
+    Notes
+    -----
+    A tooth ``i`` that sits ``e_i`` away from its nominal angle ``2 pi i / teeth`` shifts its edge by
+    ``e_i`` in every revolution; a speed fluctuation synchronous with the revolution (the engine's
+    integer orders) shifts it too. Each tooth's angle is measured as its share of its revolution's
+    time, averaged over the complete revolutions: ``d_i``. The engine's part of ``d_i`` is smooth
+    in angle and made of the orders it excites, so ``d_i`` is fitted by least squares with a mean and
+    the ``kept_orders`` (cosine and sine) over the teeth away from the gap; what the fit leaves,
+    ``e_i = d_i - fit_i``, on every tooth including the gap's neighbours, is the wheel's error. The
+    part of the wheel's errors that lies in the kept orders cannot be told from the engine in one
+    recording at steady speed; it stays in the speed orders. Half orders of a four-stroke are not
+    revolution-synchronous and average out.
+    """
+    per_rev = decoding.teeth - decoding.missing
+    orders = (
+        np.arange(1, decoding.teeth // 6 + 1)
+        if kept_orders is None
+        else np.unique(np.asarray(kept_orders, dtype=np.int64))
+    )
+    starts = np.flatnonzero(decoding.tooth_index == 0)
+    starts = starts[starts + per_rev < decoding.times.size]
+    starts = starts[decoding.tooth_index[starts + per_rev] == 0]
+    if starts.size < 4:
+        raise SignalError(
+            f"tooth-pitch errors need at least four complete revolutions; the recording has {starts.size}"
+        )
+    window = decoding.times[starts[:, None] + np.arange(per_rev + 1)]
+    shares = (window[:, :-1] - window[:, :1]) / (window[:, -1:] - window[:, :1])
+    nominal = 2 * math.pi * np.arange(per_rev) / decoding.teeth
+    deviation = 2 * math.pi * shares.mean(axis=0) - nominal
+    inner = np.arange(gap_neighbours, per_rev - gap_neighbours)
+    if 1 + 2 * orders.size >= inner.size:
+        raise SignalError(
+            f"{orders.size} kept orders need more than the {inner.size} teeth away from the gap to fit"
+        )
+    errors = np.zeros(per_rev)
+    for _ in range(4):
+        # the engine's part is a function of where each tooth really is: evaluated there, so that a
+        # large error (0.3 pitch beside the gap) does not leave the speed fluctuation's slope times
+        # that error in the estimate; three passes converge to round-off
+        position = nominal + errors
+        basis = np.column_stack(
+            [np.ones(per_rev)]
+            + [np.cos(k * position) for k in orders]
+            + [np.sin(k * position) for k in orders]
+        )
+        coefficients, *_ = np.linalg.lstsq(basis[inner], (deviation - errors)[inner], rcond=None)
+        errors = deviation - basis @ coefficients
+        if scope == "gap":
+            errors[inner] = 0.0
+    if scope != "gap":
+        errors = errors - errors.mean()
+    return PitchCorrection(errors, tuple(int(k) for k in orders), int(starts.size), scope=scope)
+
+
+def correct_pitch(decoding: ToothWheelDecoding, correction: PitchCorrection) -> ToothWheelDecoding:
+    """The decoding with each tooth at its measured place on the wheel (nominal plus its error).
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+    correction : PitchCorrection
+        For the same wheel (``teeth - missing`` errors).
+
+    Returns
+    -------
+    ToothWheelDecoding
+
+    Raises
+    ------
+    SignalError
+        If the correction is for another wheel, or would put a tooth at or beyond its neighbour.
+    """
+    per_rev = decoding.teeth - decoding.missing
+    if correction.errors.shape != (per_rev,):
+        raise SignalError(
+            f"tooth-pitch correction for {correction.errors.size} teeth: this wheel has {per_rev} "
+            f"({decoding.teeth}-{decoding.missing})"
+        )
+    if correction.largest >= 0.5 * decoding.pitch:
+        raise SignalError(
+            f"tooth-pitch correction of {math.degrees(correction.largest):.3g} deg is half a tooth pitch "
+            "or more: the wheel or its decoding is not what the channel states"
+        )
+    angles = decoding.angles + correction.errors[decoding.tooth_index]
+    return replace(decoding, angles=angles)
+
+
+def decode_encoder(
+    edge_times: npt.ArrayLike,
+    index_times: npt.ArrayLike,
+    *,
+    pulses: int,
+    first_pulse_angle: float = 0.0,
+) -> ToothWheelDecoding:
+    """Crank angles of an encoder's pulses, counted from its once-per-revolution index.
+
+    Parameters
+    ----------
+    edge_times : array_like
+        One edge per encoder pulse, increasing [s].
+    index_times : array_like
+        The index pulse's edges, one per revolution [s].
+    pulses : int
+        Pulses per revolution.
+    first_pulse_angle : float, optional
+        Crank angle of the encoder edge nearest the index edge, from TDC of cylinder 1 [rad].
+
+    Returns
+    -------
+    ToothWheelDecoding
+        As a wheel of ``pulses`` teeth with none missing (``tooth_index`` 0 for the pulse at the
+        index).
+
+    Raises
+    ------
+    SignalError
+        If the pulses between consecutive indexes are not ``pulses`` (a lost or an extra pulse, a
+        wrong pulse count), or the index does not fall at the same pulse every revolution.
+
+    Notes
+    -----
+    Each index picks the encoder edge nearest to it (an index gated on one pulse, as encoders make
+    it, picks the same pulse every revolution however it jitters). The pulse count from each picked
+    edge to the next is checked, and the first pulse is the one at least 90 % of the indexes agree on.
+    """
+    t = np.asarray(edge_times, dtype=np.float64)
+    index = np.asarray(index_times, dtype=np.float64)
+    if pulses < 2:
+        raise SignalError(f"encoder pulses per revolution = {pulses}: expected at least 2")
+    if t.ndim != 1 or t.size < 2 * pulses or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)):
+        raise SignalError(
+            f"{t.size} encoder edge times: expected at least two revolutions ({2 * pulses}) of finite, "
+            "increasing times"
+        )
+    index = index[(index >= t[0]) & (index <= t[-1])]
+    if index.size < 2:
+        raise SignalError(
+            f"encoder: {index.size} index pulse(s) inside the encoder's span: expected one per revolution"
+        )
+    after = np.clip(np.searchsorted(t, index, side="left"), 1, t.size - 1)
+    picked = np.where(index - t[after - 1] < t[after] - index, after - 1, after)
+    counts = np.diff(picked)
+    wrong = np.flatnonzero(np.abs(counts - pulses) > 1)
+    if wrong.size:
+        k = int(wrong[0])
+        raise SignalError(
+            f"encoder: {counts[k]} pulses between the index pulses at t = {index[k]:.6g} s and "
+            f"{index[k + 1]:.6g} s: expected {pulses} per revolution (check pulses_per_revolution and the "
+            "index channel)"
+        )
+    residues = np.mod(picked - picked[0], pulses)
+    signed = np.where(residues > pulses // 2, residues - pulses, residues)
+    values, votes = np.unique(signed, return_counts=True)
+    shift = int(values[np.argmax(votes)])
+    if votes.max() < 0.9 * picked.size:
+        raise SignalError(
+            f"encoder: the index falls at different pulses in {picked.size - votes.max()} of "
+            f"{picked.size} revolutions: pulses are lost or added between indexes"
+        )
+    first = int(picked[0]) + shift
+    offsets = np.arange(t.size) - first
+    revolution = np.floor_divide(offsets, pulses)
+    tooth = np.mod(offsets, pulses)
+    angles = first_pulse_angle + 2 * math.pi * (revolution + tooth / pulses)
+    gaps = np.flatnonzero(tooth == 0)
+    return ToothWheelDecoding(
+        times=t,
+        angles=angles,
+        tooth_index=tooth.astype(np.int64),
+        gap_times=t[gaps],
+        teeth=pulses,
+        missing=0,
+        revolutions=int(max(gaps.size - 1, 0)),
+        sensor="encoder",
+    )
