@@ -143,12 +143,19 @@ def _build_parser() -> argparse.ArgumentParser:
 
     imp = sub.add_parser(
         "import",
-        help="convert a test-bench file (MDF4, TDMS) into a recording",
-        description="Convert an ASAM MDF or NI TDMS file into an engine-monitor recording (HDF5 or MCAP), "
-        "with a channel-mapping file (see monitor.io.imports).",
+        help="convert a test-bench file (MDF4, TDMS, CSV/text) into a recording",
+        description="Convert an ASAM MDF file, an NI TDMS file or a text export (CSV: a time column and "
+        "one column per channel) into an engine-monitor recording (HDF5 or MCAP), with a "
+        "channel-mapping file (see monitor.io.imports).",
     )
-    imp.add_argument("source", metavar="SOURCE", help=".mf4/.mdf or .tdms file")
+    imp.add_argument("source", metavar="SOURCE", help=".mf4/.mdf/.dat, .tdms or .csv/.txt/.tsv/.dat file")
     imp.add_argument("--map", required=True, metavar="MAP.toml", help="channel-mapping file")
+    imp.add_argument(
+        "--rate",
+        type=_positive_float,
+        metavar="HZ",
+        help="sample rate [Hz] of every channel; overrides the mapping's sample_rate_hz and the file's times",
+    )
     imp.add_argument("-o", "--output", required=True, metavar="OUT.h5|OUT.mcap", help="recording to write")
 
     sim = sub.add_parser(
@@ -748,22 +755,15 @@ def _run_simulate(args: argparse.Namespace) -> int:
 
 
 def _run_import(args: argparse.Namespace) -> int:
-    from monitor.io.imports import import_mdf, import_tdms, load_mapping
-    from monitor.recording import FormatError
+    from monitor.io.imports import import_file, load_mapping
 
     mapping = load_mapping(args.map)
-    source = Path(args.source)
-    suffix = source.suffix.lower()
-    if suffix == ".tdms":
-        recording = import_tdms(source, mapping)
-    elif suffix in (".mf4", ".mdf", ".dat"):
-        recording = import_mdf(source, mapping)
-    else:
-        raise FormatError(f"{source}: unknown source type {suffix!r}; expected .tdms, .mf4 or .mdf")
+    recording = import_file(args.source, mapping, sample_rate_hz=args.rate)
     output = _write_recording(recording, args.output)
     for c in recording.channels:
         spans = f", {len(c.quality)} unusable span(s) masked" if c.quality else ""
-        print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples{spans}")
+        rate = f"{c.sample_rate:.10g} Hz"
+        print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples at {rate}{spans}")
     print(f"recording written to {output}", file=sys.stderr)
     return 0
 
