@@ -627,6 +627,16 @@ def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
             "channel": result.reference.source,
             "repairs": result.reference.repairs,
             "cycle_phase": result.reference.cycle_phase,
+            "pitch_correction": None
+            if (correction := result.reference.pitch_correction) is None
+            else {
+                "scope": correction.scope,
+                "source": correction.source,
+                "revolutions": correction.revolutions,
+                "rms_deg": math.degrees(correction.rms),
+                "largest_deg": math.degrees(correction.largest),
+            },
+            "notes": list(result.reference.notes),
         },
         "mean_speed_rpm": rpm,
         "cycle_revolutions": revolutions,
@@ -638,6 +648,16 @@ def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
         f"angle reference: {result.reference.source} ({result.reference.repairs} pulse repairs"
         + (f", cycle phase from {result.reference.cycle_phase}" if result.reference.cycle_phase else "")
         + f"); mean speed {rpm:.2f} rpm",
+        *(
+            []
+            if correction is None
+            else [
+                f"tooth-pitch correction ({correction.scope} teeth, from the {correction.source}, "
+                f"{correction.revolutions} revolutions): largest {math.degrees(correction.largest):.3f} deg, "
+                f"rms {math.degrees(correction.rms):.3f} deg"
+            ]
+        ),
+        *(f"note: {note}" for note in result.reference.notes),
         "amplitudes are peak, in each channel's unit; phases relative to TDC of cylinder 1",
     ]
     for name, spectrum in result.spectra.items():
