@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -140,6 +141,13 @@ def _build_parser() -> argparse.ArgumentParser:
     spectrum.add_argument(
         "--map-plot", metavar="FILE.png", help="draw the order-speed maps (needs --speed-map)"
     )
+    spectrum.add_argument(
+        "--cycle-phase",
+        type=_cycle_phase_deg,
+        metavar="0|360",
+        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
+        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360)",
+    )
 
     imp = sub.add_parser(
         "import",
@@ -199,6 +207,14 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     compare.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
     compare.add_argument("--plot", metavar="FILE.png|FILE.html", help="also draw measured against predicted")
+    compare.add_argument(
+        "--cycle-phase",
+        type=_cycle_phase_deg_or_unknown,
+        metavar="0|360|unknown",
+        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
+        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360); "
+        "'unknown' names each cylinder together with the one firing 360 deg from it",
+    )
     compare.error = _exit_3_on_usage_error(compare)  # type: ignore[method-assign]
 
     calibrate = sub.add_parser(
@@ -218,6 +234,13 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
     calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
+    calibrate.add_argument(
+        "--cycle-phase",
+        type=_cycle_phase_deg,
+        metavar="0|360",
+        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
+        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360)",
+    )
 
     batch = sub.add_parser(
         "batch",
@@ -336,6 +359,22 @@ def _engine_of(recording: Recording, given: str | None) -> Any:
     )
 
 
+def _cycle_phase_deg(text: str) -> float:
+    """--cycle-phase 0|360 as the shift of the angle reference [rad]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if value not in (0.0, 360.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 0 or 360 (degrees)")
+    return math.radians(value)
+
+
+def _cycle_phase_deg_or_unknown(text: str) -> float | str:
+    """--cycle-phase 0|360|unknown."""
+    return "unknown" if text == "unknown" else _cycle_phase_deg(text)
+
+
 def _run_calibrate(args: argparse.Namespace) -> int:
     from monitor.diagnosis import calibrate
     from monitor.pipeline import open_recording
@@ -344,7 +383,13 @@ def _run_calibrate(args: argparse.Namespace) -> int:
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
     with open_recording(args.recording) as recording:
         engine = _engine_of(recording, args.engine)
-        baseline = calibrate(recording, engine, load=args.load, source=Path(args.recording).name)
+        baseline = calibrate(
+            recording,
+            engine,
+            load=args.load,
+            source=Path(args.recording).name,
+            cycle_phase=args.cycle_phase,
+        )
     try:
         if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
             path = Path(args.output)
@@ -515,12 +560,20 @@ def _run_compare(args: argparse.Namespace) -> int:
                         load=args.load if args.load is not None else 1.0,
                         transfer=args.transfer,
                         source=Path(args.baseline).name,
+                        cycle_phase=args.cycle_phase if isinstance(args.cycle_phase, float) else None,
                     )
                 print(
                     f"calibrated on {args.baseline} (store it with 'engine-monitor calibrate' to reuse it)",
                     file=sys.stderr,
                 )
-        diagnosis = diagnose(recording, engine, baseline=baseline, load=args.load, transfer=args.transfer)
+        diagnosis = diagnose(
+            recording,
+            engine,
+            baseline=baseline,
+            load=args.load,
+            transfer=args.transfer,
+            cycle_phase=args.cycle_phase,
+        )
     name = Path(args.recording).name
     table = diagnosis_table(diagnosis, recording=name)
     if args.json:
@@ -609,6 +662,7 @@ def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
         samples_per_cycle=args.samples_per_cycle,
         max_order=args.max_order,
         block_cycles=args.block_cycles,
+        cycle_phase=args.cycle_phase,
     )
     listed = None
     if args.orders:

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
 
@@ -292,6 +292,7 @@ class _Analysis:
     notes: list[str]
     inertia: float
     force_error: FloatArray  # (n_bearings, 2, n_orders): of combined.bearing_force, from the strengths [N]
+    partners: list[int | None] | None = None  # four-stroke phase unknown: each cylinder's 360 deg partner
 
 
 def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
@@ -310,15 +311,39 @@ def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | 
     return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
 
 
+CyclePhase: TypeAlias = float | Literal["unknown"] | None
+
+
+def _phase_known(recording: Recording) -> bool:
+    """True if the recording itself tells the four-stroke cycle phase (a cam or a cylinder-1 pressure)."""
+    return bool(recording.of_kind("cam")) or any(
+        int(c.fields.get("cylinder", 0)) == 1 for c in recording.of_kind("pressure")
+    )
+
+
 def _analyse(
-    recording: Recording, engine: Engine, *, load: float, transfer: Transfer, max_order: float
+    recording: Recording,
+    engine: Engine,
+    *,
+    load: float,
+    transfer: Transfer,
+    max_order: float,
+    cycle_phase: CyclePhase = None,
 ) -> _Analysis:
     if recording.engine_id and recording.engine_id != engine.id:
         raise DiagnosisError(
             f"the recording is of engine {recording.engine_id!r}, the description given is {engine.id!r}"
         )
     R = engine.cycle_revolutions
-    result = spectra(recording, cycle_revolutions=R, max_order=max_order, high_frequency=True)
+    ambiguous = R == 2 and cycle_phase == "unknown" and not _phase_known(recording)
+    phase: float | None = None
+    if R == 2 and isinstance(cycle_phase, float | int):
+        phase = float(cycle_phase)
+    elif ambiguous:
+        phase = 0.0
+    result = spectra(
+        recording, cycle_revolutions=R, max_order=max_order, high_frequency=True, cycle_phase=phase
+    )
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
     notes: list[str] = []
@@ -359,6 +384,11 @@ def _analyse(
             inertia = engine_side_inertia(engine)
         except ModelError as error:
             notes.append(f"crank speed not predicted: {error}")
+    if ambiguous:
+        notes.append(
+            "the cycle phase is unknown (no cam or cylinder-1 pressure channel, --cycle-phase unknown): "
+            "each cylinder named may be the one that fires 360 deg from it"
+        )
     return _Analysis(
         spectra=result,
         balance=balance,
@@ -368,7 +398,20 @@ def _analyse(
         notes=notes,
         inertia=inertia,
         force_error=_force_error(parts, engine, covariance),
+        partners=_phase_partners(engine) if ambiguous else None,
     )
+
+
+def _phase_partners(engine: Engine) -> list[int | None]:
+    """For each cylinder, the one that fires 360 deg after it (0-based), or None if no cylinder does."""
+    angles = np.mod(engine.firing_angles, 4 * math.pi)
+    partners: list[int | None] = []
+    for c in range(engine.cylinders):
+        target = np.mod(angles[c] + 2 * math.pi, 4 * math.pi)
+        distance = np.abs(np.angle(np.exp(1j * (angles - target) / 2)))  # on the 720 deg cycle
+        match = int(np.argmin(distance))
+        partners.append(match if distance[match] < math.radians(1.0) else None)
+    return partners
 
 
 def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -> ChannelComparison | None:
@@ -419,6 +462,7 @@ def calibrate(
     transfer: Transfer = "rigid",
     max_order: float = 24.0,
     source: str = "",
+    cycle_phase: float | None = None,
 ) -> Baseline:
     """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
 
@@ -435,6 +479,9 @@ def calibrate(
         Highest order analysed [-].
     source : str, optional
         Name of the recording, kept in the baseline.
+    cycle_phase : float, optional
+        Four-stroke: the shift (0 or 2 pi) that puts cylinder 1's firing TDC at cycle angle 0, for a
+        recording without a cam or cylinder-1 pressure channel [rad].
 
     Returns
     -------
@@ -451,7 +498,9 @@ def calibrate(
             "the recording has no acceleration or velocity channel on a main bearing (location "
             "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
         )
-    analysis = _analyse(recording, engine, load=load, transfer=transfer, max_order=max_order)
+    analysis = _analyse(
+        recording, engine, load=load, transfer=transfer, max_order=max_order, cycle_phase=cycle_phase
+    )
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
         faults = _cylinder_findings(analysis.balance)
         if faults:
@@ -582,9 +631,11 @@ def _worse(a: str, b: str) -> str:
     return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b
 
 
-def _cylinder_findings(balance: CylinderBalance) -> list[Finding]:
+def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | None = None) -> list[Finding]:
     findings = []
     for c in range(balance.strength.size):
+        partner = partners[c] if partners is not None else None
+        named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
         r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
         severity, threshold = "healthy", None
         if r < CYLINDER_WARNING[0]:
@@ -607,11 +658,12 @@ def _cylinder_findings(balance: CylinderBalance) -> list[Finding]:
         findings.append(
             Finding(
                 kind="cylinder",
-                subject=f"cylinder {c + 1}",
+                subject=named,
                 severity=severity,
                 summary=(
-                    f"cylinder {c + 1} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
+                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
                     f"fire alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
+                    + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
                 ),
                 confidence=confidence,
                 evidence=[
@@ -742,6 +794,7 @@ def diagnose(
     load: float | None = None,
     transfer: Transfer = "rigid",
     max_order: float = 24.0,
+    cycle_phase: CyclePhase = None,
 ) -> Diagnosis:
     """Diagnose a recording against the engine's model (see the module docstring).
 
@@ -758,6 +811,10 @@ def diagnose(
         From the torque to the crank speed.
     max_order : float, optional
         Highest order analysed [-].
+    cycle_phase : float or "unknown", optional
+        Four-stroke, for a recording without a cam or cylinder-1 pressure channel: the shift (0 or
+        2 pi) that puts cylinder 1's firing TDC at cycle angle 0 [rad], or "unknown": diagnosed
+        with 0, and each cylinder named together with the one firing 360 deg from it.
 
     Returns
     -------
@@ -775,7 +832,9 @@ def diagnose(
         _check_baseline(recording, engine, baseline)
     if load is None:
         load = baseline.load if baseline is not None else 1.0
-    analysis = _analyse(recording, engine, load=load, transfer=transfer, max_order=max_order)
+    analysis = _analyse(
+        recording, engine, load=load, transfer=transfer, max_order=max_order, cycle_phase=cycle_phase
+    )
     result = analysis.spectra
     notes = list(analysis.notes)
     R = engine.cycle_revolutions
@@ -867,7 +926,7 @@ def diagnose(
     velocity = {}
     findings: list[Finding] = []
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
-        findings += _cylinder_findings(analysis.balance)
+        findings += _cylinder_findings(analysis.balance, analysis.partners)
     findings += _bearing_findings(bearings)
     for channel in _vibration_channels(recording):
         try:
