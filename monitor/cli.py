@@ -331,6 +331,35 @@ def _build_parser() -> argparse.ArgumentParser:
         help="the store (default: $ENGINE_MONITOR_DB, else ./data/engine-monitor.db)",
     )
 
+    tdc = sub.add_parser(
+        "tdc",
+        help="where a cylinder's pressure peaks against the angle reference's TDC (find its offset)",
+        description="Find each cycle's pressure peak of a cylinder in crank angle after its TDC as the "
+        "recording's angle reference places it. On a motored run (--motored: no combustion) the peak "
+        "lies the thermodynamic loss angle before TDC, so the reference's stated angle is corrected; on a "
+        "fired run the peak is checked against -10 to +45 deg after firing TDC.",
+    )
+    tdc.add_argument("recording", metavar="RECORDING", help="recording with a pressure channel")
+    tdc.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
+    tdc.add_argument("--cylinder", type=int, default=1, help="the cylinder whose pressure to use (default 1)")
+    tdc.add_argument(
+        "--motored", action="store_true", help="the run has no combustion: find TDC from the compression peak"
+    )
+    tdc.add_argument(
+        "--loss-angle",
+        type=float,
+        default=0.7,
+        metavar="DEG",
+        help="motored: how far the compression peak leads TDC [deg] (default 0.7)",
+    )
+    tdc.add_argument(
+        "--cycle-phase",
+        type=_cycle_phase_deg,
+        metavar="0|360",
+        help="fired four-stroke without a cam channel: the cycle phase (see 'spectrum')",
+    )
+    tdc.add_argument("--json", action="store_true", help="print a JSON document")
+
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
     return parser
@@ -842,6 +871,80 @@ def _run_import(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_tdc(args: argparse.Namespace) -> int:
+    from monitor.errors import ModelError
+    from monitor.pipeline import angle_reference, open_recording
+    from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
+
+    with open_recording(args.recording) as recording:
+        engine = _engine_of(recording, args.engine)
+        if not 1 <= args.cylinder <= engine.cylinders:
+            raise ModelError(f"--cylinder {args.cylinder}: the engine has cylinders 1 to {engine.cylinders}")
+        channels = [
+            c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == args.cylinder
+        ]
+        if not channels:
+            raise ModelError(f"the recording has no pressure channel of cylinder {args.cylinder}")
+        channel = channels[0]
+        firing = float(engine.firing_angles[args.cylinder - 1])
+        # motored: every revolution searched (the compression TDCs give the higher peaks), no phase needed
+        revolutions = 1 if args.motored else engine.cycle_revolutions
+        reference = angle_reference(recording, cycle_revolutions=revolutions, cycle_phase=args.cycle_phase)
+        peaks = pressure_peaks(
+            reference.angle_map,
+            channel.data,
+            float(channel.sample_rate or 0.0),
+            start_time=channel.start_offset,
+            tdc_angle=math.fmod(firing, 2 * math.pi) if args.motored else firing,
+            period=2 * math.pi * revolutions,
+            window=math.radians(179.0 if args.motored else 120.0),
+        )
+    stated = {
+        "tooth": "first_tooth_angle_deg",
+        "encoder": "first_pulse_angle_deg",
+        "keyphasor": "pulse_angle_deg",
+    }
+    source = recording.channel(reference.source)
+    key = stated[source.kind]
+    document: dict[str, Any] = {
+        "cylinder": args.cylinder,
+        "channel": channel.name,
+        "cycles": int(peaks.angles.size),
+        "peak_after_tdc_deg": math.degrees(peaks.median),
+        "spread_deg": math.degrees(peaks.spread),
+        "reference": {"channel": source.name, key: float(source.fields[key])},
+    }
+    lines = [
+        f"cylinder {args.cylinder} ({channel.name}): pressure peaks {math.degrees(peaks.median):.2f} deg "
+        f"after TDC as {source.name!r} places it (spread {math.degrees(peaks.spread):.2f} deg, "
+        f"{peaks.angles.size} cycles)"
+    ]
+    if args.motored:
+        offset = peaks.tdc_offset(loss_angle=math.radians(args.loss_angle))
+        corrected = float(source.fields[key]) + math.degrees(offset)
+        corrected = (corrected + 180.0) % 360.0 - 180.0
+        document["loss_angle_deg"] = args.loss_angle
+        document["reference"]["corrected"] = corrected
+        lines.append(
+            f"motored, loss angle {args.loss_angle:g} deg: TDC is {math.degrees(-offset):.2f} deg after the "
+            f"reference's; set {source.name!r} {key} = {corrected:.2f} (now {float(source.fields[key]):g})"
+        )
+    else:
+        low, high = PLAUSIBLE_FIRED_PEAK
+        plausible = low <= peaks.median <= high
+        document["plausible"] = plausible
+        lines.append(
+            f"fired: a peak {math.degrees(low):.0f} to {math.degrees(high):.0f} deg after firing TDC is "
+            + ("plausible" if plausible else "expected: the reference's stated angle is probably wrong")
+        )
+    if args.json:
+        json.dump(document, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        print("\n".join(lines))
+    return 0
+
+
 def _run_engines(_: argparse.Namespace) -> int:
     from monitor.engine import bundled_engines, load_engine
 
@@ -873,6 +976,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     handlers = {
         "orders": _run_orders,
         "engines": _run_engines,
+        "tdc": _run_tdc,
         "torsion": run_torsion,
         "spectrum": _run_spectrum,
         "import": _run_import,

@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -56,6 +56,7 @@ from monitor.signal.angle_domain import (
 )
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
 from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 from monitor.signal.toothwheel import (
     PitchCorrection,
     ToothWheelDecoding,
@@ -490,4 +491,35 @@ def spectra(
         result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
     profiled = dict(sorted(profiles.items()))
+    reference = replace(reference, notes=reference.notes + tuple(_pressure_peak_notes(recording, reference)))
     return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps, profiled)
+
+
+def _pressure_peak_notes(recording: Recording, reference: AngleReference) -> list[str]:
+    """A warning when cylinder 1's pressure peaks implausibly far from its firing TDC (first 50 cycles)."""
+    notes = []
+    cycle = 2 * math.pi * (2 if reference.cycle_phase else 1)
+    for channel in recording.of_kind("pressure"):
+        if int(channel.fields.get("cylinder", 0)) != 1 or channel.is_events or channel.mask is not None:
+            continue
+        try:
+            peaks = pressure_peaks(
+                reference.angle_map,
+                channel.data,
+                _rate(channel),
+                start_time=channel.start_offset,
+                period=cycle,
+                window=math.radians(120.0),
+                max_cycles=50,
+            )
+        except SignalError:
+            continue
+        low, high = PLAUSIBLE_FIRED_PEAK
+        if not low <= peaks.median <= high:
+            notes.append(
+                f"{channel.name}: cylinder 1's pressure peaks {math.degrees(peaks.median):.1f} deg after its "
+                f"firing TDC (expected {math.degrees(low):.0f} to {math.degrees(high):.0f}): the angle "
+                f"reference's stated angle ({reference.source}) is probably wrong; measure it on a motored "
+                "run with 'engine-monitor tdc --motored'"
+            )
+    return notes

@@ -8,12 +8,16 @@ amplitude proportional to speed; a Hall sensor gives square pulses.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
+from monitor.cli import main
+from monitor.io.hdf5 import write_hdf5
 from monitor.pipeline import angle_reference, spectra
 from monitor.recording import Channel, Recording
 from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
@@ -345,3 +349,44 @@ def test_real_wheel_gives_58_teeth_its_mean_speed_and_speed_orders() -> None:
     np.testing.assert_allclose(measured[:6], estimate[:6], rtol=0.3)
     uncorrected = spectra(recording, cycle_revolutions=2, channels=[], max_order=8, pitch_correction="none")
     assert np.abs(uncorrected.spectra["crank speed"].amplitude[8]) > 3 * estimate[7]
+
+
+def _tue_file(name: str, tmp_path: Path, first_tooth_angle_deg: float) -> Path:
+    data = np.loadtxt(shared_path("external", "tue-4gb10", f"{name}.txt"))
+    _, tooth, pressure = data.T
+    fields = {"teeth": 60, "missing_teeth": 2, "first_tooth_angle_deg": first_tooth_angle_deg}
+    recording = Recording(
+        "kluczyk-1cyl-4stroke",
+        "2026-11-23T00:00:00Z",
+        (
+            Channel("tooth", "tooth", "V", tooth, 1e5, fields=fields),
+            Channel("p1", "pressure", "V", pressure, 1e5, fields={"cylinder": 1}),
+        ),
+    )
+    return write_hdf5(recording, tmp_path / f"{name}.h5")
+
+
+def test_tdc_from_the_real_coast_down_and_a_warning_for_a_wrong_wheel_angle(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """ENGINEOFF4 is motored (coasting down, no combustion): its compression peaks, 0.7 deg before TDC,
+    put TDC about 244 deg after the first tooth after the gap (the peaks of five compressions spread by
+    under a degree), so first_tooth_angle_deg is about 116. With 0 stated instead, the fired run's
+    cylinder-1 peak sits about 100 deg before firing TDC and spectrum warns; with the measured angle it
+    peaks 0 to 40 deg after firing TDC and no warning is given."""
+    motored = _tue_file("ENGINEOFF4", tmp_path, 0.0)
+    assert main(["tdc", str(motored), "--motored", "--json"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    corrected = found["reference"]["corrected"]
+    assert found["cycles"] >= 4 and found["spread_deg"] < 1.0
+    assert 112.0 < corrected < 120.0
+    wrong = _tue_file("E0NOLOAD1", tmp_path, 0.0)
+    assert main(["spectrum", str(wrong), "--orders", "0.5"]) == 0
+    assert "probably wrong" in capsys.readouterr().out
+    (tmp_path / "right").mkdir()
+    right = _tue_file("E0NOLOAD1", tmp_path / "right", corrected)
+    assert main(["spectrum", str(right), "--orders", "0.5"]) == 0
+    assert "probably wrong" not in capsys.readouterr().out
+    assert main(["tdc", str(right), "--json"]) == 0
+    fired = json.loads(capsys.readouterr().out)
+    assert fired["plausible"] and 0.0 < fired["peak_after_tdc_deg"] < 40.0

@@ -346,7 +346,7 @@ def _analyse(
     )
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
-    notes: list[str] = []
+    notes: list[str] = list(result.reference.notes)
     balance = None
     strengths = np.ones(engine.cylinders)
     speed = result.spectra.get(SPEED_CHANNEL)
