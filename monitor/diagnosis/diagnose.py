@@ -347,6 +347,12 @@ def _analyse(
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
     notes: list[str] = list(result.reference.notes)
+    correction = result.reference.pitch_correction
+    if correction is not None and correction.largest > math.radians(0.05):
+        notes.append(
+            f"{result.reference.source}: tooth-pitch errors corrected ({correction.scope} teeth, from the "
+            f"{correction.source}): largest {math.degrees(correction.largest):.2f} deg"
+        )
     balance = None
     strengths = np.ones(engine.cylinders)
     speed = result.spectra.get(SPEED_CHANNEL)
