@@ -327,6 +327,7 @@ def spectra(
     workers: int | None = None,
     high_frequency: bool = False,
     pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
+    kept_orders: list[int] | None = None,
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -356,6 +357,9 @@ def spectra(
         the cycle (in the same pass over its samples).
     pitch_correction : PitchCorrection or {"estimate", "none"}, optional
         The tooth wheel's pitch errors (see :func:`angle_reference`).
+    kept_orders : list of int, optional
+        Integer orders the engine excites, left to it by the pitch-error estimate (see
+        :func:`angle_reference`) [-].
 
     Returns
     -------
@@ -368,6 +372,7 @@ def spectra(
         cycle_revolutions=cycle_revolutions,
         cycle_phase=cycle_phase,
         pitch_correction=pitch_correction,
+        kept_orders=kept_orders,
     )
     slowest, fastest = reference.angle_map.speed_range
     speed_ratio = fastest / slowest

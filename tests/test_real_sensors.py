@@ -390,3 +390,24 @@ def test_tdc_from_the_real_coast_down_and_a_warning_for_a_wrong_wheel_angle(
     assert main(["tdc", str(right), "--json"]) == 0
     fired = json.loads(capsys.readouterr().out)
     assert fired["plausible"] and 0.0 < fired["peak_after_tdc_deg"] < 40.0
+
+
+def test_the_baseline_keeps_the_wheels_pitch_errors_and_later_recordings_use_them(tmp_path: Path) -> None:
+    """calibrate stores the tooth wheel's pitch errors learned on the healthy recording; compare with
+    that baseline corrects a later recording of the same wheel with them, through the JSON file."""
+    from monitor.diagnosis import Baseline, calibrate, diagnose
+    from monitor.engine import load_engine
+    from monitor.io import read_recording
+
+    from .conftest import ROOT
+
+    samples = ROOT / "recordings" / "samples"
+    engine = load_engine("man-b-w-7k98mc")
+    learned = calibrate(read_recording(samples / "7k98mc-baseline.h5"), engine)
+    assert learned.pitch is not None and learned.pitch_channel
+    path = learned.write(tmp_path / "baseline.json")
+    stored = Baseline.read(path)
+    assert stored.pitch is not None and stored.pitch.source == "baseline"
+    np.testing.assert_allclose(stored.pitch.errors, learned.pitch.errors, rtol=0, atol=1e-12)
+    later = diagnose(read_recording(samples / "7k98mc-misfire-cyl4.h5"), engine, baseline=stored)
+    assert later.spectra.reference.pitch_correction is stored.pitch

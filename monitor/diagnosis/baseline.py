@@ -7,7 +7,10 @@ reused for every later recording of the same engine and sensor layout.
 For each vibration sensor on a main bearing: the transfer ``H_k = X_k / F_k``
 from the bearing force to the sensor's orders with its standard error, the
 high-frequency power profile over the cycle, and the overall rms velocity;
-beside them the operating point and cylinder strengths it was calibrated at.
+beside them the operating point and cylinder strengths it was calibrated at,
+and the tooth wheel's pitch errors learned on it (applied to later recordings
+of the same wheel, so that a short recording is corrected as well as a long
+one and every recording the same way).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import numpy as np
 from monitor.engine import Engine
 from monitor.errors import DiagnosisError
 from monitor.signal.angle_domain import HighFrequencyPower
+from monitor.signal.toothwheel import PitchCorrection
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["BASELINE_FORMAT", "Baseline", "SensorBaseline"]
@@ -88,6 +92,10 @@ class Baseline:
     sensors : dict of str to SensorBaseline
     source : str
         The baseline recording's file name.
+    pitch : PitchCorrection or None
+        The tooth wheel's (or encoder's) pitch errors learned on the baseline.
+    pitch_channel : str
+        The channel they belong to.
     """
 
     engine_id: str
@@ -97,6 +105,8 @@ class Baseline:
     samples_per_cycle: int
     sensors: dict[str, SensorBaseline]
     source: str
+    pitch: PitchCorrection | None = None
+    pitch_channel: str = ""
 
     def to_document(self) -> dict[str, Any]:
         """The JSON document (complex numbers as [re, im] pairs)."""
@@ -108,6 +118,15 @@ class Baseline:
             "strengths": list(self.strengths),
             "samples_per_cycle": self.samples_per_cycle,
             "source": self.source,
+            "tooth_pitch": None
+            if self.pitch is None
+            else {
+                "channel": self.pitch_channel,
+                "errors_deg": np.degrees(self.pitch.errors).tolist(),
+                "kept_orders": list(self.pitch.kept_orders),
+                "revolutions": self.pitch.revolutions,
+                "scope": self.pitch.scope,
+            },
             "sensors": {
                 name: {
                     "kind": s.kind,
@@ -213,6 +232,18 @@ class Baseline:
                 "(write it with 'engine-monitor calibrate')"
             )
         try:
+            stored = document.get("tooth_pitch")
+            pitch = (
+                PitchCorrection(
+                    np.radians(np.asarray(stored["errors_deg"], dtype=np.float64)),
+                    tuple(int(k) for k in stored["kept_orders"]),
+                    int(stored["revolutions"]),
+                    source="baseline",
+                    scope=str(stored["scope"]),
+                )
+                if stored
+                else None
+            )
             sensors = {}
             for name, s in document["sensors"].items():
                 profile = (
@@ -247,6 +278,8 @@ class Baseline:
                 samples_per_cycle=int(document["samples_per_cycle"]),
                 sensors=sensors,
                 source=str(document.get("source", "")),
+                pitch=pitch,
+                pitch_channel=str(stored["channel"]) if stored else "",
             )
         except (KeyError, TypeError, ValueError) as error:
             raise DiagnosisError(f"{origin}: not a complete baseline document ({error!r})") from error

@@ -68,6 +68,7 @@ from monitor.orders import order_coefficients
 from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, spectra
 from monitor.recording import Channel, Recording
 from monitor.signal.pulses import SignalError
+from monitor.signal.toothwheel import PitchCorrection
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -329,6 +330,7 @@ def _analyse(
     transfer: Transfer,
     max_order: float,
     cycle_phase: CyclePhase = None,
+    pitch: PitchCorrection | None = None,
 ) -> _Analysis:
     if recording.engine_id and recording.engine_id != engine.id:
         raise DiagnosisError(
@@ -342,7 +344,13 @@ def _analyse(
     elif ambiguous:
         phase = 0.0
     result = spectra(
-        recording, cycle_revolutions=R, max_order=max_order, high_frequency=True, cycle_phase=phase
+        recording,
+        cycle_revolutions=R,
+        max_order=max_order,
+        high_frequency=True,
+        cycle_phase=phase,
+        pitch_correction="estimate" if pitch is None else pitch,
+        kept_orders=_engine_orders(engine, recording),
     )
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
@@ -406,6 +414,39 @@ def _analyse(
         force_error=_force_error(parts, engine, covariance),
         partners=_phase_partners(engine) if ambiguous else None,
     )
+
+
+def _engine_orders(engine: Engine, recording: Recording) -> list[int] | None:
+    """Integer orders of the crank speed the engine excites: the low ones and the firing harmonics.
+
+    Left to the engine by the tooth-pitch estimate: orders 1 to a sixth of the wheel's pulses, and
+    every integer multiple of the firing frequency (cylinders / revolutions per cycle) below 0.4 of
+    them (where the gas torque's harmonics are strong).
+    """
+    wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
+    if not wheels:
+        return None
+    fields = wheels[0].fields
+    pulses = int(fields["teeth"]) if wheels[0].kind == "tooth" else int(fields["pulses_per_revolution"])
+    firing = engine.cylinders / engine.cycle_revolutions
+    harmonics = {round(m * firing) for m in range(1, 64) if float(m * firing).is_integer()}
+    return sorted(set(range(1, pulses // 6 + 1)) | {k for k in harmonics if k <= 0.4 * pulses})
+
+
+def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCorrection | None:
+    """The baseline's learned pitch errors, if they belong to this recording's angle-reference wheel."""
+    if baseline is None or baseline.pitch is None:
+        return None
+    names = {c.name: c for c in recording.channels}
+    channel = names.get(baseline.pitch_channel)
+    if channel is None or channel.kind not in ("tooth", "encoder"):
+        return None
+    present = (
+        int(channel.fields["teeth"]) - int(channel.fields["missing_teeth"])
+        if channel.kind == "tooth"
+        else int(channel.fields["pulses_per_revolution"])
+    )
+    return baseline.pitch if baseline.pitch.errors.size == present else None
 
 
 def _phase_partners(engine: Engine) -> list[int | None]:
@@ -559,6 +600,8 @@ def calibrate(
         samples_per_cycle=int(profile.mean.size),
         sensors=out,
         source=source,
+        pitch=result.reference.pitch_correction,
+        pitch_channel=result.reference.source if result.reference.pitch_correction is not None else "",
     )
 
 
@@ -839,7 +882,13 @@ def diagnose(
     if load is None:
         load = baseline.load if baseline is not None else 1.0
     analysis = _analyse(
-        recording, engine, load=load, transfer=transfer, max_order=max_order, cycle_phase=cycle_phase
+        recording,
+        engine,
+        load=load,
+        transfer=transfer,
+        max_order=max_order,
+        cycle_phase=cycle_phase,
+        pitch=_baseline_pitch(recording, baseline),
     )
     result = analysis.spectra
     notes = list(analysis.notes)

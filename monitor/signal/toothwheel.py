@@ -463,8 +463,10 @@ def estimate_pitch_errors(
         Teeth on each side of the gap left out of the fit of the engine's orders: the gap bends
         the sensor's field there, so their errors are larger and not smooth [-].
     scope : {"gap", "all"}, optional
-        Which teeth are corrected: only the gap's neighbours (the default: their error is large
-        and systematic on real wheels, and correcting them takes nothing from the engine), or every
+        Which teeth are corrected: only the gap's neighbours whose error is more than 3 times both
+        the standard error of their mean position over the revolutions and the rms of what the fit
+        leaves on the other teeth, and more than 1 % of a pitch (the default: the error is large and
+        systematic on real wheels, and correcting it takes nothing from the engine), or every
         tooth (the wheel's errors in orders above the kept ones are then removed too, and with them
         any of the engine's integer orders there: use it where the physics says the engine has
         none, or on a baseline whose correction is stored).
@@ -508,6 +510,9 @@ def estimate_pitch_errors(
     shares = (window[:, :-1] - window[:, :1]) / (window[:, -1:] - window[:, :1])
     nominal = 2 * math.pi * np.arange(per_rev) / decoding.teeth
     deviation = 2 * math.pi * shares.mean(axis=0) - nominal
+    # standard error of each tooth's mean position over the revolutions (timing noise, cycle-to-cycle
+    # variation): a gap tooth's estimate within 3 of them is not told from zero and not applied
+    scatter = 2 * math.pi * shares.std(axis=0, ddof=1) / math.sqrt(starts.size)
     inner = np.arange(gap_neighbours, per_rev - gap_neighbours)
     if 1 + 2 * orders.size >= inner.size:
         raise SignalError(
@@ -528,7 +533,14 @@ def estimate_pitch_errors(
         errors = deviation - basis @ coefficients
         if scope == "gap":
             errors[inner] = 0.0
-    if scope != "gap":
+    if scope == "gap":
+        # what the fit leaves on the other teeth (their own pitch errors, the engine's orders beyond the
+        # kept ones) is what a gap tooth's estimate cannot be told from either
+        misfit = float(np.sqrt(np.mean((deviation - basis @ coefficients)[inner] ** 2)))
+        # and a hundredth of a pitch: below that a correction buys nothing a real wheel needs
+        floor = np.maximum(3.0 * np.maximum(scatter, misfit), 0.01 * decoding.pitch)
+        errors[np.abs(errors) < floor] = 0.0
+    else:
         errors = errors - errors.mean()
     return PitchCorrection(errors, tuple(int(k) for k in orders), int(starts.size), scope=scope)
 
