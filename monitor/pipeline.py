@@ -71,6 +71,7 @@ __all__ = [
     "AngleReference",
     "SpectrumResult",
     "angle_reference",
+    "learn_pitch_errors",
     "open_recording",
     "read_recording",
     "spectra",
@@ -281,6 +282,45 @@ def angle_reference(
             )
         angle_map = angle_map.shifted(shift)
     return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
+
+
+def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> PitchCorrection | None:
+    """Every tooth's pitch error, learned on a healthy baseline recording, for later recordings.
+
+    Parameters
+    ----------
+    recording : Recording
+        A healthy recording at steady speed, with a tooth wheel or an encoder.
+    engine_orders : list of int
+        The integer crank-speed orders a healthy engine of this kind excites (its firing harmonics):
+        left to the engine [-].
+
+    Returns
+    -------
+    PitchCorrection or None
+        None without a tooth wheel or encoder.
+
+    Raises
+    ------
+    SignalError
+        If the wheel does not decode or the recording is shorter than four revolutions.
+
+    Notes
+    -----
+    A healthy engine's cylinders fire alike, so its gas and inertia torques, and the speed
+    fluctuation they drive, sit at the firing harmonics; everything else that repeats every
+    revolution is taken as the wheel's (:func:`monitor.signal.toothwheel.estimate_pitch_errors`
+    with every tooth corrected). What the baseline's own cylinders do unevenly at the other
+    integer orders is taken as the wheel's too: later recordings corrected with it measure those
+    orders against the baseline's.
+    """
+    teeth = recording.of_kind("tooth")
+    encoders = recording.of_kind("encoder")
+    if not (teeth or encoders):
+        return None
+    channel = teeth[0] if teeth else encoders[0]
+    decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
+    return replace(estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all"), source="baseline")
 
 
 @dataclass(frozen=True)

@@ -247,7 +247,8 @@ def test_transfers_given_in_the_engine_file_compare_the_bearing_orders(
     engine = parse_engine(data, source_dir=source.parent)
     recording = _recording("7k98mc-weak-cyl4")
     given = diagnose(recording, engine)
-    calibrated = diagnose(recording, engine, baseline=baselines["7k98mc"])
+    # the same angle map on both sides: without the wheel's pitch errors the baseline learned
+    calibrated = diagnose(recording, engine, baseline=replace(baselines["7k98mc"], pitch=None))
     for name in ("mb2-vertical", "mb5-vertical"):
         a = next(c for c in given.comparisons if c.channel == name)
         b = next(c for c in calibrated.comparisons if c.channel == name)

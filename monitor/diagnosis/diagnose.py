@@ -65,7 +65,7 @@ from monitor.model_orders import (
     load_reversals,
 )
 from monitor.orders import order_coefficients
-from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, spectra
+from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, learn_pitch_errors, spectra
 from monitor.recording import Channel, Recording
 from monitor.signal.pulses import SignalError
 from monitor.signal.toothwheel import PitchCorrection
@@ -416,12 +416,13 @@ def _analyse(
     )
 
 
-def _engine_orders(engine: Engine, recording: Recording) -> list[int] | None:
+def _engine_orders(engine: Engine, recording: Recording, *, firing_only: bool = False) -> list[int] | None:
     """Integer orders of the crank speed the engine excites: the low ones and the firing harmonics.
 
-    Left to the engine by the tooth-pitch estimate: orders 1 to a sixth of the wheel's pulses, and
-    every integer multiple of the firing frequency (cylinders / revolutions per cycle) below 0.4 of
-    them (where the gas torque's harmonics are strong).
+    Left to the engine by the tooth-pitch estimate: orders 1 to a sixth of the wheel's pulses (any
+    of which a cylinder that fires unlike the others excites; not with ``firing_only``, for a
+    healthy baseline), and every integer multiple of the firing frequency (cylinders / revolutions
+    per cycle) below 0.4 of them (where the gas and inertia torques of cylinders firing alike are).
     """
     wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
     if not wheels:
@@ -430,7 +431,8 @@ def _engine_orders(engine: Engine, recording: Recording) -> list[int] | None:
     pulses = int(fields["teeth"]) if wheels[0].kind == "tooth" else int(fields["pulses_per_revolution"])
     firing = engine.cylinders / engine.cycle_revolutions
     harmonics = {round(m * firing) for m in range(1, 64) if float(m * firing).is_integer()}
-    return sorted(set(range(1, pulses // 6 + 1)) | {k for k in harmonics if k <= 0.4 * pulses})
+    low = set() if firing_only else set(range(1, pulses // 6 + 1))
+    return sorted(low | {k for k in harmonics if k <= 0.4 * pulses})
 
 
 def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCorrection | None:
@@ -545,8 +547,17 @@ def calibrate(
             "the recording has no acceleration or velocity channel on a main bearing (location "
             "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
         )
+    # the wheel's pitch errors, learned here once for every later recording (and used here too)
+    harmonics = _engine_orders(engine, recording, firing_only=True)
+    pitch = learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
     analysis = _analyse(
-        recording, engine, load=load, transfer=transfer, max_order=max_order, cycle_phase=cycle_phase
+        recording,
+        engine,
+        load=load,
+        transfer=transfer,
+        max_order=max_order,
+        cycle_phase=cycle_phase,
+        pitch=pitch,
     )
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
         faults = _cylinder_findings(analysis.balance)
