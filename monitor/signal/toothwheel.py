@@ -447,7 +447,7 @@ def estimate_pitch_errors(
     decoding: ToothWheelDecoding,
     *,
     kept_orders: npt.ArrayLike | None = None,
-    gap_neighbours: int = 2,
+    gap_neighbours: int = 1,
     scope: Literal["gap", "all"] = "gap",
 ) -> PitchCorrection:
     """The wheel's tooth-position errors, separated from the engine's own speed fluctuation.
@@ -463,10 +463,8 @@ def estimate_pitch_errors(
         Teeth on each side of the gap left out of the fit of the engine's orders: the gap bends
         the sensor's field there, so their errors are larger and not smooth [-].
     scope : {"gap", "all"}, optional
-        Which teeth are corrected: only the gap's neighbours whose error is more than 3 times both
-        the standard error of their mean position over the revolutions and the rms of what the fit
-        leaves on the other teeth, and more than 1 % of a pitch (the default: the error is large and
-        systematic on real wheels, and correcting it takes nothing from the engine), or every
+        Which teeth are corrected: only the gap's neighbours whose error stands out (the default:
+        the error is large and systematic on real wheels), or every
         tooth (the wheel's errors in orders above the kept ones are then removed too, and with them
         any of the engine's integer orders there: use it where the physics says the engine has
         none, or on a baseline whose correction is stored).
@@ -492,6 +490,14 @@ def estimate_pitch_errors(
     part of the wheel's errors that lies in the kept orders cannot be told from the engine in one
     recording at steady speed; it stays in the speed orders. Half orders of a four-stroke are not
     revolution-synchronous and average out.
+
+    With ``scope="gap"`` a gap tooth is corrected only when its error exceeds what the engine could
+    put there unseen: the largest residual ``r`` of the fit on the other teeth (their own errors,
+    the engine's orders beyond the kept ones) times ``1 + g``, ``g`` the fit's gain across the gap
+    (the L1 norm of that tooth's row of ``B_gap pinv(B_inner)``), and 3 standard errors of its mean
+    position over the revolutions, and a hundredth of a pitch. A perfect wheel then gets no
+    correction however strong the engine's high orders are; the real wheel's 1.8 and 0.8 deg stand
+    far above the bound (about 0.5 deg there).
     """
     per_rev = decoding.teeth - decoding.missing
     orders = (
@@ -535,10 +541,15 @@ def estimate_pitch_errors(
             errors[inner] = 0.0
     if scope == "gap":
         # what the fit leaves on the other teeth (their own pitch errors, the engine's orders beyond the
-        # kept ones) is what a gap tooth's estimate cannot be told from either
-        misfit = float(np.sqrt(np.mean((deviation - basis @ coefficients)[inner] ** 2)))
-        # and a hundredth of a pitch: below that a correction buys nothing a real wheel needs
-        floor = np.maximum(3.0 * np.maximum(scatter, misfit), 0.01 * decoding.pitch)
+        # kept ones) may be as large at a gap tooth, and the fit carries it there amplified by its
+        # extrapolation across the gap (the L1 norm of the gap tooth's row of basis_gap pinv(basis_inner)):
+        # a gap tooth's estimate within that worst case is not told from the engine, nor within 3 of its
+        # standard errors over the revolutions, nor below a hundredth of a pitch (nothing a wheel needs)
+        residual = float(np.max(np.abs((deviation - basis @ coefficients)[inner])))
+        gain = np.abs(basis @ np.linalg.pinv(basis[inner])).sum(axis=1)
+        floor = np.maximum.reduce(
+            [(1.0 + gain) * residual, 3.0 * scatter, np.full(per_rev, 0.01 * decoding.pitch)]
+        )
         errors[np.abs(errors) < floor] = 0.0
     else:
         errors = errors - errors.mean()
