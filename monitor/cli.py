@@ -898,6 +898,13 @@ def _run_tdc(args: argparse.Namespace) -> int:
             tdc_angle=math.fmod(firing, 2 * math.pi) if args.motored else firing,
             period=2 * math.pi * revolutions,
             window=math.radians(179.0 if args.motored else 120.0),
+            four_stroke=args.motored and engine.cycle_revolutions == 2,
+        )
+    if args.motored and peaks.spread > math.radians(2.0):
+        raise ModelError(
+            f"the compression peaks of cylinder {args.cylinder} spread by "
+            f"{math.degrees(peaks.spread):.1f} deg over {peaks.angles.size} cycles (expected under 2): not a "
+            "steady motored run, or too short"
         )
     stated = {
         "tooth": "first_tooth_angle_deg",

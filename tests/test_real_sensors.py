@@ -235,6 +235,11 @@ def test_a_pulse_train_that_is_not_once_per_revolution_is_refused(rng: np.random
         repair_keyphasor(np.sort(np.concatenate([times, glitches])))
 
 
+def _wrapped(angle: np.ndarray) -> np.ndarray:
+    """Angles about the first one, within +-pi of it [rad]."""
+    return np.angle(np.exp(1j * (angle - angle[0])))
+
+
 def test_an_encoder_with_an_index_gives_the_crank_angle(rng: np.random.Generator) -> None:
     """A 360-pulse encoder and a once-per-revolution index (jittering by 0.2 pulse about the pulse it
     is gated on): every pulse at its angle, and the pipeline takes it as the angle reference. Lost
@@ -250,7 +255,7 @@ def test_an_encoder_with_an_index_gives_the_crank_angle(rng: np.random.Generator
     edges = detect_edges(encoder, FS).times
     decoding = decode_encoder(edges, index_times, pulses=pulses, first_pulse_angle=math.radians(10.0))
     true = np.interp(decoding.times, t, angle)
-    offset = np.mod(decoding.angles - true, 2 * math.pi)
+    offset = _wrapped(decoding.angles - true)
     # the same offset for every pulse (none counted one off, 0.0175 rad), within the timing of square
     # edges sampled 6 times a pulse: one sample at 700 rpm is 0.0029 rad
     assert np.ptp(offset) < 1.05 * (700 * math.pi / 30) / FS
@@ -270,7 +275,14 @@ def test_an_encoder_with_an_index_gives_the_crank_angle(rng: np.random.Generator
     )
     assert reference.source == "enc" and reference.pulses_per_revolution == 360
     with pytest.raises(SignalError, match="pulses between the index"):
-        decode_encoder(np.delete(edges, np.arange(500, 520)), index_times, pulses=pulses)
+        decode_encoder(np.delete(edges, np.arange(5000, 5020)), index_times, pulses=pulses)
+    with pytest.raises(SignalError, match="a lost or an extra pulse"):  # one pulse lost in revolution 2
+        decode_encoder(np.delete(edges, 1000), index_times, pulses=pulses)
+    # an index half way between two pulses (ungated) marks the pulse before it, every revolution
+    halfway = np.interp(0.3 + 2 * math.pi * (np.arange(1, 40) + 0.5 / pulses), angle, t)
+    decoding = decode_encoder(edges, halfway[halfway < t[-1]], pulses=pulses, first_pulse_angle=0.0)
+    offset = _wrapped(decoding.angles - np.interp(decoding.times, t, angle))
+    assert np.ptp(offset) < 1.05 * (700 * math.pi / 30) / FS
 
 
 # ----------------------------------------------------------------------------- the real 60-2 wheel

@@ -289,7 +289,11 @@ def _quietest_noise(y: FloatArray) -> float:
 def _armed_crossings(
     y: FloatArray, floor: float, arm: float
 ) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
-    """Downward zero crossings of ``y``, each armed by the lobe before it rising above the threshold."""
+    """Downward zero crossings of ``y``, each armed by the lobe before it rising above the threshold.
+
+    Every lobe above the floor enters the history of peaks, armed or not, so that the threshold
+    follows an amplitude that drops (a sensor gap that opens, a coast-down) within a few lobes.
+    """
     n = y.size
     times = np.empty(n // 2 + 1)
     peaks = np.empty(n // 2 + 1)
@@ -297,25 +301,25 @@ def _armed_crossings(
     filled = 0
     count = 0
     armed = False
-    peak = 0.0
+    peak = 0.0  # the highest sample of the current positive lobe
     threshold = floor
     for i in range(1, n):
         v = y[i]
-        if not armed:
-            if v > threshold:
-                armed, peak = True, v
-        else:
-            if v > peak:
-                peak = v
-            if v < 0.0 <= y[i - 1]:
+        if v > peak:
+            peak = v
+        if not armed and v > threshold:
+            armed = True
+        if v < 0.0 <= y[i - 1]:  # the lobe ends
+            if armed:
                 a = y[i - 1]
                 times[count] = i - 1 + a / (a - v)
                 peaks[count] = peak
                 count += 1
+            if peak > floor:
                 history[filled % 5] = peak
                 filled += 1
                 threshold = max(floor, arm * np.median(history[: min(filled, 5)]))
-                armed = False
+            armed, peak = False, 0.0
     return times[:count], peaks[:count]
 
 
@@ -489,7 +493,8 @@ def repair_keyphasor(
     pulse: of the two pulses bounding it, the one whose removal leaves the
     interval nearest the median is dropped.  An interval of about ``m + 1``
     median periods (within +-0.3 of a period) has ``m`` missing pulses, inserted
-    evenly.  The speed may vary; the median follows it.
+    evenly.  The speed may vary; the median follows it.  The median mirrors the intervals at the
+    record's ends, so the first and the last interval are judged against their neighbours.
     """
     t = np.asarray(times, dtype=np.float64)
     if t.ndim != 1 or t.size < 4:
@@ -507,7 +512,7 @@ def repair_keyphasor(
         changed = False
         arr = np.asarray(kept)
         dt = np.diff(arr)
-        ref = median_filter(dt, size=min(window, dt.size), mode="nearest")
+        ref = median_filter(dt, size=min(window, dt.size), mode="mirror")
         short = np.flatnonzero(dt < 0.6 * ref)
         if short.size:
             i = int(short[np.argmin(dt[short] / ref[short])])
@@ -524,7 +529,7 @@ def repair_keyphasor(
             changed = True
     arr = np.asarray(kept)
     dt = np.diff(arr)
-    ref = median_filter(dt, size=min(window, dt.size), mode="nearest")
+    ref = median_filter(dt, size=min(window, dt.size), mode="mirror")
     inserted: list[float] = []
     out: list[float] = [float(arr[0])]
     for i, interval in enumerate(dt):

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -100,6 +101,7 @@ def pressure_peaks(
     period: float = 4 * math.pi,
     window: float = math.radians(90.0),
     max_cycles: int | None = None,
+    four_stroke: bool = False,
 ) -> PressurePeaks:
     """Each cycle's pressure peak near a cylinder's TDC, in crank angle after that TDC.
 
@@ -118,11 +120,14 @@ def pressure_peaks(
     period : float, optional
         Angle between the TDCs searched: 4 pi (four-stroke firing TDCs, once the cycle phase is
         known), or 2 pi (two-stroke, or every revolution of a motored four-stroke; the lower peaks of
-        the gas-exchange TDCs are then dropped) [rad].
+        the gas-exchange TDCs are then dropped, see ``four_stroke``) [rad].
     window : float, optional
         Half-width of the search window around each TDC [rad].
     max_cycles : int, optional
         Search only the first this many TDCs (a quick check of a long recording).
+    four_stroke : bool, optional
+        With ``period`` 2 pi: the engine is a four-stroke searched every revolution (motored, phase
+        unknown); only the revolutions whose peaks stand out (the compressions) are kept.
 
     Returns
     -------
@@ -133,7 +138,9 @@ def pressure_peaks(
     SignalError
         With fewer than three TDCs whose windows the recording covers.
     """
-    p = np.asarray(pressure)
+    p: Any = (
+        pressure if hasattr(pressure, "shape") and hasattr(pressure, "__getitem__") else np.asarray(pressure)
+    )
     t0, t1 = float(angle_map.times[0]), float(angle_map.times[-1])
     first_sample = max(0, math.ceil((t0 - start_time) * sample_rate))
     last_sample = min(p.shape[0] - 1, math.floor((t1 - start_time) * sample_rate))
@@ -168,8 +175,12 @@ def pressure_peaks(
     if len(angles) < 3:
         raise SignalError("pressure channel: fewer than three TDC windows hold samples")
     peak_angles, peak_values = np.asarray(angles), np.asarray(peaks)
-    if period < 3 * math.pi:  # every revolution searched: keep the compression TDCs, the higher peaks
+    if period < 3 * math.pi and four_stroke:  # every revolution: keep the compression TDCs' higher peaks
         high = peak_values > 0.5 * (np.min(peak_values) + np.max(peak_values))
-        if np.count_nonzero(high) >= 3 and np.count_nonzero(~high) >= 1:
-            peak_angles, peak_values = peak_angles[high], peak_values[high]
+        if np.count_nonzero(high) < 3:
+            raise SignalError(
+                f"pressure channel: {np.count_nonzero(high)} compression peak(s) stand out among "
+                f"{peak_values.size} revolutions: expected at least 3 (a longer motored run)"
+            )
+        peak_angles, peak_values = peak_angles[high], peak_values[high]
     return PressurePeaks(peak_angles, peak_values)

@@ -217,6 +217,7 @@ def decode_tooth_wheel(
                 f"revolution starting at t = {arr[start]:.6g} s has {counts[k]} edges: expected {per_rev} "
                 f"for a {teeth}-{missing} wheel (one lost or one extra tooth can be repaired, not more)"
             )
+    arr, gaps, trimmed = _trim_ends(arr, gaps, per_rev)
     index = np.empty(arr.size, dtype=np.int64)
     revolution = np.empty(arr.size, dtype=np.int64)
     first = int(gaps[0])
@@ -237,7 +238,44 @@ def decode_tooth_wheel(
         inserted=np.asarray(inserted),
         removed=np.asarray(removed),
         revolutions=int(gaps.size - 1),
+        notes=(
+            (
+                f"{trimmed} edge(s) before the first gap or after the last did not fit the wheel (a "
+                "tooth lost there, or the signal fading): dropped",
+            )
+            if trimmed
+            else ()
+        ),
     )
+
+
+def _trim_ends(
+    times: FloatArray, gaps: npt.NDArray[np.int64], per_rev: int
+) -> tuple[FloatArray, npt.NDArray[np.int64], int]:
+    """Edges before the first gap and after the last, kept only while they fit the wheel.
+
+    Those edges are not checked by a revolution's count: from the gap outwards each is kept while its
+    interval stays within 1.5 of the neighbouring revolution's median tooth interval, and no more than
+    a revolution's teeth; the rest are dropped (a tooth lost at an end would shift every angle beyond
+    it by a pitch).
+    """
+    first, last = int(gaps[0]), int(gaps[-1])
+    lead_pitch = float(np.median(np.diff(times[first : int(gaps[1])])))
+    tail_pitch = float(np.median(np.diff(times[int(gaps[-2]) : last])))
+    # before the first gap: the tooth before it closes the gap's long interval, then ordinary ones
+    start = first - 1 if first > 0 else first
+    # (a record that opens on the first tooth after a gap holds a whole revolution before its first gap)
+    while start > 0 and first - start < per_rev and times[start] - times[start - 1] < 1.5 * lead_pitch:
+        start -= 1
+    stop = last
+    while (
+        stop < times.size - 1
+        and stop - last < per_rev - 1
+        and times[stop + 1] - times[stop] < 1.5 * tail_pitch
+    ):
+        stop += 1
+    trimmed = start + (times.size - 1 - stop)
+    return times[start : stop + 1], gaps - start, trimmed
 
 
 def infer_tooth_sensor(signal: npt.ArrayLike) -> ToothSensor:
@@ -358,11 +396,15 @@ def decode_tooth_signal(
 
 
 def _find_gaps(times: FloatArray, threshold: float) -> npt.NDArray[np.int64]:
-    """Indices of the first edge after each gap interval (interval over the running median of 9)."""
+    """Indices of the first edge after each gap interval (interval over the running median of 9).
+
+    The median mirrors the intervals at the record's ends, so a gap in the first or last interval
+    is measured against its neighbours, not against copies of itself.
+    """
     from scipy.ndimage import median_filter
 
     dt = np.diff(times)
-    reference = median_filter(dt, size=min(9, dt.size), mode="nearest")
+    reference = median_filter(dt, size=min(9, dt.size), mode="mirror")
     return (np.flatnonzero(dt / reference > threshold) + 1).astype(np.int64)
 
 
@@ -607,7 +649,8 @@ def decode_encoder(
     pulses : int
         Pulses per revolution.
     first_pulse_angle : float, optional
-        Crank angle of the encoder edge nearest the index edge, from TDC of cylinder 1 [rad].
+        Crank angle of the encoder edge the index marks (the one nearest it, where the index falls
+        within half a pulse of an edge), from TDC of cylinder 1 [rad].
 
     Returns
     -------
@@ -623,9 +666,12 @@ def decode_encoder(
 
     Notes
     -----
-    Each index picks the encoder edge nearest to it (an index gated on one pulse, as encoders make
-    it, picks the same pulse every revolution however it jitters). The pulse count from each picked
-    edge to the next is checked, and the first pulse is the one at least 90 % of the indexes agree on.
+    Each index's place among the encoder edges is counted in pulses; the index falls at the same
+    fraction of a pulse every revolution (within its jitter), so the edge it marks is its place less
+    the circular mean of those fractions, rounded: an index gated on one pulse or lying half way
+    between two is read alike. Every revolution must then hold exactly ``pulses`` edges; an index
+    that alone strays (jitter over half a pulse) is left out, and only the edges between the first
+    and the last agreeing index are kept.
     """
     t = np.asarray(edge_times, dtype=np.float64)
     index = np.asarray(index_times, dtype=np.float64)
@@ -641,27 +687,42 @@ def decode_encoder(
         raise SignalError(
             f"encoder: {index.size} index pulse(s) inside the encoder's span: expected one per revolution"
         )
-    after = np.clip(np.searchsorted(t, index, side="left"), 1, t.size - 1)
-    picked = np.where(index - t[after - 1] < t[after] - index, after - 1, after)
-    counts = np.diff(picked)
-    wrong = np.flatnonzero(np.abs(counts - pulses) > 1)
-    if wrong.size:
-        k = int(wrong[0])
+    # each index's place among the encoder edges, in pulses (edge k at k): the index sits at the same
+    # fraction of a pulse every revolution (gated on one pulse, or anywhere between two), so the edge
+    # it marks is round(place - that fraction's circular mean)
+    before = np.clip(np.searchsorted(t, index, side="right") - 1, 0, t.size - 2)
+    place = before + (index - t[before]) / (t[before + 1] - t[before])
+    fraction = float(np.angle(np.mean(np.exp(2j * math.pi * place))) / (2 * math.pi))
+    fraction = fraction + 1.0 if fraction < -0.25 else fraction  # half way between two: the one before
+    picked = np.round(place - fraction).astype(np.int64)
+    picked = picked[(picked >= 0) & (picked < t.size)]
+    # where every pulse is counted, each index marks a whole number of revolutions of edges from the
+    # first: an index that alone strays (jitter over half a pulse) is left out; two in a row, or edges
+    # between kept indexes that are not whole revolutions, are a lost or an extra pulse
+    half = pulses // 2
+    residue = np.mod(picked - picked[0] + half, pulses) - half
+    values, votes = np.unique(residue, return_counts=True)
+    kept = residue == values[np.argmax(votes)]
+    strays = np.flatnonzero(~kept)
+    counts = np.diff(picked[kept])
+    if np.any(np.diff(strays) == 1) or np.any(np.mod(counts, pulses) != 0) or np.any(counts == 0):
+        k = int(np.flatnonzero(np.diff(picked) != pulses)[0])
         raise SignalError(
-            f"encoder: {counts[k]} pulses between the index pulses at t = {index[k]:.6g} s and "
-            f"{index[k + 1]:.6g} s: expected {pulses} per revolution (check pulses_per_revolution and the "
-            "index channel)"
+            f"encoder: {picked[k + 1] - picked[k]} pulses between the index pulses at t = "
+            f"{t[picked[k]]:.6g} s and {t[picked[k + 1]]:.6g} s: expected {pulses} per revolution (a lost "
+            "or an extra pulse; check pulses_per_revolution and the index channel)"
         )
-    residues = np.mod(picked - picked[0], pulses)
-    signed = np.where(residues > pulses // 2, residues - pulses, residues)
-    values, votes = np.unique(signed, return_counts=True)
-    shift = int(values[np.argmax(votes)])
-    if votes.max() < 0.9 * picked.size:
-        raise SignalError(
-            f"encoder: the index falls at different pulses in {picked.size - votes.max()} of "
-            f"{picked.size} revolutions: pulses are lost or added between indexes"
+    notes = []
+    if not kept[0] or not kept[-1]:
+        notes.append(
+            "encoder: the index at the start or the end of the record disagrees with the others (a pulse "
+            "lost or added there, or index jitter): the pulses beyond the next index were dropped"
         )
-    first = int(picked[0]) + shift
+    picked = picked[kept]
+    # only the edges between the first and the last index are checked: the ends outside are dropped
+    t = t[picked[0] : picked[-1] + 1]
+    picked = picked - picked[0]
+    first = int(picked[0])
     offsets = np.arange(t.size) - first
     revolution = np.floor_divide(offsets, pulses)
     tooth = np.mod(offsets, pulses)
@@ -676,4 +737,5 @@ def decode_encoder(
         missing=0,
         revolutions=int(max(gaps.size - 1, 0)),
         sensor="encoder",
+        notes=tuple(notes),
     )
