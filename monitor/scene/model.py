@@ -17,6 +17,11 @@ A scene is a TOML file::
     location = "main bearing 3"
     direction = "vertical"
 
+    [[sensors]]
+    name = "crank wheel"
+    kind = "tooth"                     # 60-2 by default
+    signal = "vr"                      # or "pulse" (default), "hall"
+
     [effects]
     inertia = {}
     gas = {}
@@ -31,6 +36,7 @@ Which effects exist, what each needs and gives, is in
 
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -39,7 +45,16 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from monitor.errors import ModelError
 
-__all__ = ["OperatingPoint", "Scene", "SceneError", "Sensor", "Trend", "load_scene", "parse_scene"]
+__all__ = [
+    "PULSE_KINDS",
+    "OperatingPoint",
+    "Scene",
+    "SceneError",
+    "Sensor",
+    "Trend",
+    "load_scene",
+    "parse_scene",
+]
 
 
 class SceneError(ModelError):
@@ -77,23 +92,47 @@ class OperatingPoint(_Strict):
     load: Annotated[float, Field(ge=0, le=1.1, description="fraction of rated IMEP")] = 1.0
     trend: Trend = Field(default_factory=Trend)
 
+    @property
+    def top_rpm(self) -> float:
+        """The highest mean speed of the trend [rpm]."""
+        if self.trend.kind == "ramp" and self.trend.to_rpm is not None:
+            return max(self.speed_rpm, self.trend.to_rpm)
+        if self.trend.kind == "sine":
+            return self.speed_rpm * (1.0 + self.trend.amplitude)
+        return self.speed_rpm
+
 
 _DEFAULT_UNITS = {
     "acceleration": "m/s^2",
     "velocity": "mm/s",
     "keyphasor": "V",
     "tooth": "V",
+    "encoder": "V",
     "cam": "V",
     "speed": "rpm",
     "pressure": "bar",
 }
 
 
+#: Sensor kinds that give pulses (a waveform, or their edge times as events).
+PULSE_KINDS = ("keyphasor", "tooth", "encoder", "cam")
+
+
 class Sensor(_Strict):
-    """One sensor of the simulated recording (one channel)."""
+    """One sensor of the simulated recording (one channel).
+
+    A tooth wheel's ``signal`` is how its sensor shows the teeth: ``pulse`` (flat-bottomed pulses, the
+    default), ``hall`` (square pulses timed at the mid level of their rising edge) or ``vr`` (a
+    variable-reluctance voltage, zero-mean, growing with speed, timed where it falls through zero at
+    each tooth's centre; ``vr_peak_v_at_1000_rpm`` scales it, ``polarity = "reversed"`` swaps its two
+    wires). ``unstated`` leaves the ``sensor`` or ``polarity`` attribute out of the recording, as a
+    real export that does not state it. An ``encoder`` gives ``pulses_per_revolution`` square pulses,
+    the one at ``first_pulse_angle_deg`` nearest its index: a keyphasor sensor of the scene
+    (``index_channel``, default the scene's first keyphasor).
+    """
 
     name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9 ._-]*$")]
-    kind: Literal["acceleration", "velocity", "keyphasor", "tooth", "cam", "pressure"]
+    kind: Literal["acceleration", "velocity", "keyphasor", "tooth", "encoder", "cam", "pressure"]
     location: str = ""
     direction: Literal["vertical", "horizontal", "axial", ""] = ""
     sample_rate_hz: Annotated[float, Field(gt=0, le=1e6)] = 25600.0
@@ -102,6 +141,13 @@ class Sensor(_Strict):
     teeth: Annotated[int, Field(ge=3, le=720)] = 60
     missing_teeth: Annotated[int, Field(ge=1)] = 2
     first_tooth_angle_deg: float = 0.0
+    signal: Literal["pulse", "hall", "vr"] = "pulse"
+    vr_peak_v_at_1000_rpm: Annotated[float, Field(gt=0, le=1000)] = 10.0
+    polarity: Literal["normal", "reversed"] = "normal"
+    unstated: list[Literal["sensor", "polarity"]] = Field(default_factory=list)
+    pulses_per_revolution: Annotated[int, Field(ge=2, le=100000)] = 360
+    first_pulse_angle_deg: float = 0.0
+    index_channel: str | None = None
     pulse_angle_deg: float = 0.0
     cam_angle_deg: float = 0.0
     cylinder: Annotated[int, Field(ge=1)] | None = None
@@ -109,7 +155,7 @@ class Sensor(_Strict):
     @property
     def unit(self) -> str:
         """The channel's unit."""
-        if self.kind in ("keyphasor", "tooth", "cam") and self.representation == "events":
+        if self.kind in PULSE_KINDS and self.representation == "events":
             return "s"
         return _DEFAULT_UNITS[self.kind]
 
@@ -121,16 +167,38 @@ class Sensor(_Strict):
             return int(words[2])
         return None
 
+    @property
+    def pulses(self) -> int:
+        """Pulse positions per revolution of a tooth wheel (teeth, including the missing) or an encoder."""
+        return self.pulses_per_revolution if self.kind == "encoder" else self.teeth
+
     @model_validator(mode="after")
     def _consistent(self) -> Sensor:
-        if self.representation == "events" and self.kind not in ("keyphasor", "tooth", "cam"):
-            raise ValueError(f"a {self.kind} sensor is a waveform; events are for keyphasor, tooth or cam")
+        if self.representation == "events" and self.kind not in PULSE_KINDS:
+            raise ValueError(
+                f"a {self.kind} sensor is a waveform; events are for keyphasor, tooth, encoder or cam"
+            )
         if self.kind == "tooth" and self.missing_teeth >= self.teeth - 1:
             raise ValueError("missing_teeth must be less than teeth - 1")
         if self.kind == "pressure" and self.cylinder is None:
             raise ValueError("a pressure sensor needs the cylinder it is on (cylinder = N)")
         if self.range is not None and not self.range[0] < self.range[1]:
             raise ValueError(f"range {self.range}: expected [minimum, maximum] with minimum < maximum")
+        if self.signal != "pulse" and self.kind != "tooth":
+            raise ValueError(f"signal = {self.signal!r} is a tooth wheel's; this sensor is a {self.kind}")
+        if self.signal != "pulse" and self.representation == "events":
+            raise ValueError(
+                f"signal = {self.signal!r} shapes a waveform; events are the timing points themselves "
+                "(use representation = 'waveform', or leave signal out)"
+            )
+        if self.polarity == "reversed" and self.signal != "vr":
+            raise ValueError("polarity = 'reversed' swaps a VR sensor's wires: it needs signal = 'vr'")
+        if self.unstated and self.signal == "pulse":
+            raise ValueError(
+                "unstated names attributes of a hall or vr tooth wheel (signal = 'hall' or 'vr')"
+            )
+        if self.index_channel is not None and self.kind != "encoder":
+            raise ValueError("index_channel is an encoder's (the keyphasor sensor holding its index)")
         return self
 
 
@@ -151,6 +219,32 @@ class Scene(_Strict):
         doubles = sorted({n for n in names if names.count(n) > 1})
         if doubles:
             raise ValueError(f"sensor names must be unique; repeated: {', '.join(doubles)}")
+        keyphasors = {s.name: s for s in self.sensors if s.kind == "keyphasor"}
+        for sensor in self.sensors:
+            if sensor.kind != "encoder":
+                continue
+            if sensor.index_channel is not None and sensor.index_channel not in keyphasors:
+                raise ValueError(
+                    f"encoder {sensor.name!r}: index_channel {sensor.index_channel!r} is not a keyphasor "
+                    f"sensor of the scene; keyphasors: {', '.join(keyphasors) or 'none'}"
+                )
+            index = keyphasors.get(sensor.index_channel or next(iter(keyphasors), ""))
+            if index is None:
+                continue  # an encoder without an index: the product refuses it, as it should
+            pitch = 360.0 / sensor.pulses_per_revolution
+            if (
+                abs(math.remainder(index.pulse_angle_deg - sensor.first_pulse_angle_deg, 360.0))
+                > 0.25 * pitch
+            ):
+                nearest = sensor.first_pulse_angle_deg + pitch * round(
+                    math.remainder(index.pulse_angle_deg - sensor.first_pulse_angle_deg, 360.0) / pitch
+                )
+                raise ValueError(
+                    f"encoder {sensor.name!r}: first_pulse_angle_deg = {sensor.first_pulse_angle_deg:g} is "
+                    f"the pulse nearest the index, but the index {index.name!r} is at pulse_angle_deg = "
+                    f"{index.pulse_angle_deg:g}, more than a quarter pulse ({0.25 * pitch:g} deg) from it: "
+                    f"set first_pulse_angle_deg = {nearest:g} or move the index"
+                )
         return self
 
 
@@ -197,11 +291,20 @@ def parse_scene(data: dict[str, Any], *, origin: str = "scene", source_dir: Path
             else:
                 lines.append(f"{where}: {problem['msg']}")
         raise SceneError(f"{origin}: " + "; ".join(lines)) from None
+    top_rpm = scene.operating_point.top_rpm
     for sensor in scene.sensors:
         if sensor.representation == "waveform" and scene.duration_s * sensor.sample_rate_hz < 16:
             raise SceneError(
                 f"{origin}: sensor {sensor.name!r}: duration_s = {scene.duration_s:g} s at sample_rate_hz = "
                 f"{sensor.sample_rate_hz:g} gives fewer than 16 samples; lengthen the scene"
+            )
+        shaped = sensor.kind == "encoder" or (sensor.kind == "tooth" and sensor.signal != "pulse")
+        rate = top_rpm / 60.0 * sensor.pulses  # pulse positions passing per second at the top speed [Hz]
+        if shaped and sensor.representation == "waveform" and sensor.sample_rate_hz < 4 * rate:
+            raise SceneError(
+                f"{origin}: sensor {sensor.name!r}: sample_rate_hz = {sensor.sample_rate_hz:g} gives fewer "
+                f"than 4 samples per pulse at {top_rpm:g} rpm ({rate:g} pulses per second); raise it to at "
+                f"least {4 * rate:g}"
             )
     from monitor.scene.effects import check_effects
 

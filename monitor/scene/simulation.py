@@ -25,13 +25,19 @@ Sensors.  Accelerometers on main bearing ``b`` (location "main bearing b",
 direction vertical: the force's y component, horizontal: x) measure the
 bearing force through the modes of ``bearing_vibration``; a tooth wheel
 gives flat-bottomed pulses whose mid-level rising edge is at each tooth's
-angle (or the edge times); a keyphasor, a pulse rising through its mid
-level at its angle once per revolution; a cam, once per cycle; a pressure
-sensor, its cylinder's pressure. Noise is Gaussian, seeded per sensor.
+angle (or the edge times), or as its ``signal`` says a Hall sensor's square
+pulses (timed alike) or a variable-reluctance sensor's voltage (the rate of
+change of a flux of one Gaussian bump per tooth, falling through zero at
+each tooth's centre, proportional to speed); an encoder, square pulses
+rising through their mid level at each pulse's angle; a keyphasor, a pulse
+rising through its mid level at its angle once per revolution; a cam, once
+per cycle; a pressure sensor, its cylinder's pressure. Noise is Gaussian,
+seeded per sensor.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Callable
@@ -712,6 +718,155 @@ def _pulses(position: FloatArray, present: npt.NDArray[np.bool_] | None = None) 
     return 0.2 + 3.0 * pulse
 
 
+_VR_WIDTH = 0.4  # standard deviation of one tooth's flux bump [pitch]: neighbouring teeth overlap
+_EDGE_MAX = 0.125  # largest half-width of a square pulse's edge [pitch]
+_BLOCK = 1 << 20  # samples shaped at a time (bounded memory on a long recording)
+
+
+def _square(
+    v: FloatArray, present: Callable[[FloatArray], npt.NDArray[np.bool_]] | None = None
+) -> FloatArray:
+    """Square pulses, 0 to 1, of a wheel coordinate ``v`` sampled evenly in time [pitch].
+
+    Pulse ``k`` rises through 0.5 at ``v = k`` and falls through it at ``k + 0.5``; each edge is a
+    straight ramp over two sample intervals (the acquisition's bandwidth; at most a quarter pitch), so
+    the mid level interpolated between the two samples around it is at the edge exactly (with eight
+    samples a pitch or more). ``present(k)`` says which pulses exist (a tooth wheel's gap).
+    """
+    out = np.empty(v.size)
+    for a in range(0, v.size, _BLOCK):
+        lo, hi = max(a - 1, 0), min(a + _BLOCK + 1, v.size)
+        part = v[lo:hi]
+        half = np.minimum(np.abs(np.gradient(part)), _EDGE_MAX)[a - lo : a - lo + _BLOCK]  # a sample [pitch]
+        w = v[a : a + _BLOCK]
+        k = np.floor(w + 0.25)
+        w = w - k  # from -0.25 (the middle of the low level) to 0.75
+        level = np.clip(np.minimum(0.5 + w / (2 * half), 0.5 - (w - 0.5) / (2 * half)), 0.0, 1.0)
+        out[a : a + _BLOCK] = level if present is None else np.where(present(k), level, 0.0)
+    return out
+
+
+def _vr_flux_slope(v: FloatArray, teeth: int, missing: int) -> FloatArray:
+    """d(flux)/dv of a wheel whose teeth each add a Gaussian flux bump ``_VR_WIDTH`` pitch wide [/pitch]."""
+    nearest = np.floor(v)
+    slope = np.zeros(v.shape)
+    for step in range(-3, 4):  # bumps within three pitches: beyond, exp(-28) of their peak
+        k = nearest + step
+        x = v - k
+        bump = -x / _VR_WIDTH**2 * np.exp(-(x**2) / (2 * _VR_WIDTH**2))
+        slope += np.where(np.mod(k, teeth) < teeth - missing, bump, 0.0)
+    return slope
+
+
+@functools.cache
+def _vr_lobe_peak() -> float:
+    """Peak of |d(flux)/dv| away from the gap (a wheel of teeth all present) [per pitch]."""
+    v = np.linspace(0.0, 1.0, 20001)
+    return float(np.max(np.abs(_vr_flux_slope(v + 30.0, 10**6, 1))))
+
+
+def _wheel_coordinate(u: FloatArray, errors: FloatArray, teeth: int, name: str) -> FloatArray:
+    """The wheel's own coordinate ``v`` at positions ``u`` [pitch], the teeth at their errors.
+
+    A tooth-spacing error moves the wheel's profile around its tooth: ``u = v + e(v)``, ``e`` the
+    periodic cubic spline through each tooth position's error [pitch], so tooth ``k`` (``v = k``) sits
+    at ``k + e_k`` and what lies between teeth is stretched smoothly. Inverted by Newton's method.
+    """
+    if not np.any(errors):
+        return u
+    from scipy.interpolate import CubicSpline
+
+    spline = CubicSpline(np.arange(teeth + 1), np.append(errors, errors[0]), bc_type="periodic")
+    slope = spline.derivative()
+    if np.min(slope(np.linspace(0.0, teeth, 64 * teeth + 1))) <= -0.5:
+        raise SceneError(
+            f"tooth_spacing_errors on sensor {name!r}: the errors bring neighbouring teeth within half a "
+            f"pitch ({180.0 / teeth:.3g} deg) of each other somewhere on the wheel; lower rms_deg"
+        )
+    v = u - spline(np.mod(u, teeth))
+    for _ in range(3):  # quadratic convergence from an error of (error x its slope): round-off after 3
+        m = np.mod(v, teeth)
+        v = v - (v + spline(m) - u) / (1.0 + slope(m))
+    return np.asarray(v)
+
+
+def _shaped_tooth_wheel(
+    sensor: Sensor, angle: FloatArray, errors: FloatArray, expected: dict[str, Any]
+) -> FloatArray:
+    """A Hall or VR tooth wheel's waveform [V] at crank angles ``angle`` sampled evenly in time.
+
+    Hall: square pulses, 0.2 to 5 V, half a pitch high, each rising through its mid level at its
+    tooth's angle. VR: ``d(flux)/dt``, the flux one Gaussian bump per tooth present, so the voltage
+    falls through zero at each tooth's centre and grows with speed (``vr_peak_v_at_1000_rpm`` the peak
+    of a lobe away from the gap at 1000 rpm); the gap is a dip in the flux, and its lobes are larger.
+    A tooth-spacing error moves its tooth's timing point by the error (:func:`_wheel_coordinate`).
+    The truth gets each present tooth's timing point against its angle plus its error: zero for a Hall
+    sensor; for a VR sensor the gap's field moves its two neighbours' zero crossings (real wheels do).
+    """
+    teeth, missing = sensor.teeth, sensor.missing_teeth
+    pitch = 2 * math.pi / teeth
+    u = (angle - math.radians(sensor.first_tooth_angle_deg)) / pitch
+    v = _wheel_coordinate(u, errors / pitch, teeth, sensor.name)
+    offsets = np.zeros(teeth - missing)
+    if sensor.signal == "hall":
+        values = 0.2 + 4.8 * _square(v, lambda k: np.mod(k, teeth) < teeth - missing)
+    else:
+        # [V] per (pitch per second) of wheel speed per unit slope: an ordinary lobe peaks at the stated
+        # voltage at 1000 rpm
+        scale = sensor.vr_peak_v_at_1000_rpm / (1000.0 / 60.0 * teeth) / _vr_lobe_peak()
+        scale *= -1.0 if sensor.polarity == "reversed" else 1.0
+        rate = sensor.sample_rate_hz
+        values = np.empty(v.size)
+        for a in range(0, v.size, _BLOCK):
+            lo, hi = max(a - 1, 0), min(a + _BLOCK + 1, v.size)
+            speed = (np.gradient(v[lo:hi]) * rate)[a - lo : a - lo + _BLOCK]  # [pitch/s]
+            values[a : a + _BLOCK] = scale * speed * _vr_flux_slope(v[a : a + _BLOCK], teeth, missing)
+        offsets = _vr_timing_offsets(teeth, missing, errors / pitch)
+    expected[f"{sensor.name} timing"] = {
+        "signal": sensor.signal,
+        "polarity": sensor.polarity,
+        "timing_offset_deg": (np.degrees(offsets * pitch)).tolist(),
+    }
+    return values
+
+
+def _vr_timing_offsets(teeth: int, missing: int, errors: FloatArray) -> FloatArray:
+    """Where each present tooth's VR zero crossing is, against the tooth's position plus its error [pitch].
+
+    The downward zero crossing of ``d(flux)/dt`` nearest the tooth (``d(flux)/dv = 0`` in the wheel's
+    coordinate, then carried to the position by the errors' spline): zero away from the gap, where the
+    neighbouring bumps are symmetric about the tooth.
+    """
+    from scipy.optimize import brentq
+
+    cubic = None
+    if np.any(errors):
+        from scipy.interpolate import CubicSpline
+
+        cubic = CubicSpline(np.arange(teeth + 1), np.append(errors, errors[0]), bc_type="periodic")
+
+    def moved(x: float) -> float:  # the errors' spline at wheel coordinate x [pitch]
+        return 0.0 if cubic is None else float(cubic(x % teeth))
+
+    offsets = np.zeros(teeth - missing)
+    grid = np.linspace(-0.45, 0.45, 181)
+    for k in range(teeth - missing):
+        centre = k + teeth  # positive coordinates: the missing teeth just before it are k - 1, ...
+        slope = _vr_flux_slope(centre + grid, teeth, missing)
+        down = np.flatnonzero((slope[:-1] > 0) & (slope[1:] <= 0))
+        if down.size == 0:
+            raise SceneError(f"VR wheel {teeth}-{missing}: tooth {k} has no zero crossing at its centre")
+        i = int(down[np.argmin(np.abs(grid[down]))])
+        root = brentq(
+            lambda x: float(_vr_flux_slope(np.array([x]), teeth, missing)[0]),
+            centre + grid[i],
+            centre + grid[i + 1],
+            xtol=1e-12,
+        )
+        offsets[k] = root - centre + moved(root) - moved(float(centre))
+    return offsets
+
+
 def _channel(
     sensor: Sensor,
     index: int,
@@ -732,6 +887,18 @@ def _channel(
             "first_tooth_angle_deg": sensor.first_tooth_angle_deg,
         }
         pitch_deg = 360.0 / sensor.teeth
+        if sensor.signal != "pulse" and "sensor" not in sensor.unstated:
+            fields["sensor"] = sensor.signal
+        if sensor.polarity == "reversed" and "polarity" not in sensor.unstated:
+            fields["polarity"] = "reversed"
+    elif sensor.kind == "encoder":
+        fields = {
+            "pulses_per_revolution": sensor.pulses_per_revolution,
+            "first_pulse_angle_deg": sensor.first_pulse_angle_deg,
+        }
+        if sensor.index_channel is not None:
+            fields["index_channel"] = sensor.index_channel
+        pitch_deg = 360.0 / sensor.pulses_per_revolution
     elif sensor.kind == "keyphasor":
         fields = {"pulse_angle_deg": sensor.pulse_angle_deg}
     elif sensor.kind == "cam":
@@ -750,6 +917,10 @@ def _channel(
                 + k * step
                 + _tooth_errors(scene, sensor, seed, index, expected)[np.mod(k, sensor.teeth)]
             )
+        elif sensor.kind == "encoder":  # each pulse's rising edge at its angle
+            step = math.radians(pitch_deg)
+            first = math.radians(sensor.first_pulse_angle_deg)
+            angles = first + step * np.arange(math.ceil(-first / step), math.floor((last - first) / step) + 1)
         else:
             period = 2 * math.pi * (R if sensor.kind == "cam" else 1)
             offset = math.radians(sensor.cam_angle_deg if sensor.kind == "cam" else sensor.pulse_angle_deg)
@@ -766,7 +937,14 @@ def _channel(
     n = round(scene.duration_s * fs)
     t = np.arange(n) / fs
     angle = crank.angle_at(t)
-    if sensor.kind == "tooth":
+    if sensor.kind == "tooth" and sensor.signal != "pulse":
+        values = _shaped_tooth_wheel(
+            sensor, angle, _tooth_errors(scene, sensor, seed, index, expected), expected
+        )
+    elif sensor.kind == "encoder":
+        start = math.radians(sensor.first_pulse_angle_deg)
+        values = 5.0 * _square((angle - start) / math.radians(pitch_deg))
+    elif sensor.kind == "tooth":
         position = (angle - math.radians(sensor.first_tooth_angle_deg)) / math.radians(pitch_deg)
         tooth = np.floor(position + 1.0 / 6.0).astype(np.int64)
         errors = _tooth_errors(scene, sensor, seed, index, expected)
