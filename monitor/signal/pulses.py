@@ -280,9 +280,15 @@ def _quietest_noise(y: FloatArray) -> float:
     """
     third = np.abs(np.diff(y, 3))
     if third.size < 64 * 16:
-        return float(np.median(third)) / (0.6745 * math.sqrt(20.0))
-    stretches = third[: third.size // 64 * 64].reshape(64, -1)
-    return float(np.min(np.median(stretches, axis=1))) / (0.6745 * math.sqrt(20.0))
+        medians = np.array([np.median(third)])
+    else:
+        medians = np.median(third[: third.size // 64 * 64].reshape(64, -1), axis=1)
+    noise = float(np.min(medians)) / (0.6745 * math.sqrt(20.0))
+    if noise == 0.0:  # a quantised record whose quiet stretches do not move: a quantisation step
+        steps = np.abs(np.diff(y))
+        steps = steps[steps > 0]
+        noise = float(np.min(steps)) if steps.size else 0.0
+    return noise
 
 
 @numba.njit(cache=True, nogil=True)
@@ -420,19 +426,27 @@ def detect_pulses(
 
     Notes
     -----
-    A first pass finds every pulse above the noise (:func:`detect_edges`); the pulse height is the
-    median swing of those at least half as high as the 99th percentile of all swings (the real
-    pulses, however many glitches there are); a second pass with ``relative_height`` of that height
-    as its hysteresis keeps the real pulses only.
+    A first pass finds every pulse above the noise (:func:`detect_edges`). Each pulse is then set
+    against the height of the real pulses around it: the median swing of those among its 17
+    neighbours (itself included) at least half as high as the highest of them. A pulse lower than
+    ``relative_height`` of that is a glitch and is left out. The height is local, so a magnetic
+    pick-up whose pulses grow with speed over a run-up keeps its low-speed pulses.
     """
     if not 0 < relative_height < 1:
         raise SignalError(f"relative_height = {relative_height!r}: expected a fraction between 0 and 1")
     first = detect_edges(signal, sample_rate, start_time=start_time)
-    tall = first.swings[first.swings >= 0.5 * np.percentile(first.swings, 99)]
-    height = float(np.median(tall))
-    if np.all(first.swings >= relative_height * height):
-        return first
-    return detect_edges(signal, sample_rate, start_time=start_time, min_prominence=relative_height * height)
+    swings = first.swings
+    n = swings.size
+    padded = np.pad(swings, 8, mode="reflect") if n > 8 else swings
+    height = np.empty(n)
+    for j in range(n):
+        window = padded[j : j + 17] if n > 8 else swings
+        tall = window[window >= 0.5 * np.max(window)]
+        height[j] = np.median(tall)
+    keep = swings >= relative_height * height
+    if np.count_nonzero(keep) < 2:
+        raise SignalError("fewer than two pulses stand out of the glitches: check the channel")
+    return EdgeDetection(first.times[keep], first.levels[keep], swings[keep])
 
 
 @dataclass(frozen=True)
@@ -484,8 +498,10 @@ def repair_keyphasor(
     Raises
     ------
     SignalError
-        With fewer than 4 pulses, non-increasing times, a gap longer than ``max_missing``, or more
-        than ``max_repaired`` of the pulses repaired.
+        With fewer than 4 pulses, non-increasing times, a gap longer than ``max_missing``, more
+        than ``max_repaired`` of the pulses repaired, or a repaired revolution that lasts more than
+        25 % longer or shorter than its neighbours (no engine changes speed so from one revolution
+        to the next; glitches as tall as the pulses do).
 
     Notes
     -----
@@ -551,6 +567,15 @@ def repair_keyphasor(
             )
         out.append(float(arr[i + 1]))
     repaired = len(inserted) + len(removed)
+    final = np.diff(np.asarray(out))
+    ratio = final / median_filter(final, size=min(window, final.size), mode="mirror")
+    if np.any(np.abs(ratio - 1.0) > 0.25):
+        i = int(np.argmax(np.abs(ratio - 1.0)))
+        raise SignalError(
+            f"keyphasor: after repair, the revolution from t = {out[i]:.6g} s lasts {ratio[i]:.2f} times "
+            "its neighbours' (more than 25 % apart): glitches as tall as the pulses, or a channel that is "
+            "not once per revolution; the speed would be wrong"
+        )
     if repaired > max_repaired * t.size:
         raise SignalError(
             f"keyphasor: {len(removed)} of {t.size} pulses would be removed and {len(inserted)} inserted: "
