@@ -4,7 +4,11 @@
 (``.h5``, ``.hdf5``, ``.mcap``) in the store by its content hash (a file seen
 before, under any name, is not registered twice), queues a diagnosis job for
 each recording that has no result at the current analysis version, and runs
-the queued jobs in a local process pool. ``engine-monitor batch --since DATE``
+the queued jobs in a local process pool. A file that is not a readable
+recording (another format, damaged, or cut short before what a diagnosis
+needs) is listed with its one-line reason and left out; the others go on. A
+file cut short but readable (an MCAP file read to its last whole chunk) is
+diagnosed on what it holds, and the summary says it was cut short. ``engine-monitor batch --since DATE``
 does the same for the recordings already in the store (uploaded over HTTP)
 since that date. With ``--scheduler tcp://host:8786`` the jobs run on a Dask
 distributed cluster instead (the recordings' paths must be readable there).
@@ -100,10 +104,16 @@ def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
     MonitorError
         If the file is not a recording the product can read.
     """
+    recording_id, created, _ = _register(store, fleet_id, path)
+    return recording_id, created
+
+
+def _register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool, bool]:
+    """:func:`register`, and whether the file was cut short (an MCAP file read to its last whole chunk)."""
     from monitor.io import open_recording
 
     with open_recording(path) as recording:
-        engine_id, recorded_at = recording.engine_id, recording.start_time
+        engine_id, recorded_at, truncated = recording.engine_id, recording.start_time, recording.truncated
     row, created = store.add_recording(
         fleet_id,
         content_hash=content_hash(path),
@@ -113,7 +123,7 @@ def register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool]:
         size_bytes=path.stat().st_size,
         recorded_at=recorded_at,
     )
-    return row.id, created
+    return row.id, created, truncated
 
 
 def diagnose_file(
@@ -205,7 +215,9 @@ class BatchSummary:
     registered, known : int
         Recording files newly registered, and already in the store.
     unreadable : list of (str, str)
-        Files that are not readable recordings, with the reason.
+        Files that are not readable recordings, with the reason (one line).
+    truncated : list of str
+        Files cut short, read to their last whole chunk: diagnosed on what they hold.
     diagnosed : int
         Jobs completed in this run.
     failed : list of (str, str, str)
@@ -221,6 +233,7 @@ class BatchSummary:
     registered: int = 0
     known: int = 0
     unreadable: list[tuple[str, str]] = field(default_factory=list)
+    truncated: list[str] = field(default_factory=list)
     diagnosed: int = 0
     failed: list[tuple[str, str, str]] = field(default_factory=list)
     requeued: int = 0
@@ -232,6 +245,7 @@ class BatchSummary:
         lines = [
             f"batch: {self.registered} recording(s) registered, {self.known} already known, "
             f"{self.diagnosed} diagnosed, {len(self.failed)} failed"
+            + (f", {len(self.unreadable)} unreadable" if self.unreadable else "")
             + (f", {self.requeued} resumed from an interrupted run" if self.requeued else "")
         ]
         for engine_id in sorted(self.by_engine):
@@ -242,10 +256,17 @@ class BatchSummary:
             lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
         for name, reason in self.unreadable:
             lines.append(f"  not a readable recording: {name}: {reason}")
+        for name in self.truncated:
+            lines.append(f"  cut short, read to its last whole chunk: {name}")
         for name, reason, state in self.failed:
             again = "set aside (too many attempts)" if state == "set_aside" else "will be retried"
             lines.append(f"  failed: {name}: {reason} ({again})")
         return "\n".join(lines)
+
+
+def _one_line(reason: str) -> str:
+    """A reason on one line, for the summary and the store."""
+    return " ".join(reason.split())
 
 
 def _files(root: Path) -> list[Path]:
@@ -306,10 +327,15 @@ def run_batch(
     if path is not None:
         for file in _files(path):
             try:
-                recording_id, created = register(store, fleet_id, file)
+                recording_id, created, truncated = _register(store, fleet_id, file)
             except (MonitorError, OSError) as error:
-                summary.unreadable.append((file.name, str(error)))
+                summary.unreadable.append((file.name, _one_line(str(error))))
                 continue
+            except Exception as error:  # a reader's failure on one file is recorded, never fatal to the batch
+                summary.unreadable.append((file.name, _one_line(f"{type(error).__name__}: {error}")))
+                continue
+            if truncated:
+                summary.truncated.append(file.name)
             summary.registered += created
             summary.known += not created
             scope.append(recording_id)
@@ -368,7 +394,7 @@ def run_batch(
                 try:
                     documents = future.result()
                 except Exception as error:  # a worker's failure is recorded, never fatal to the batch
-                    reason = f"{type(error).__name__}: {error}"
+                    reason = _one_line(f"{type(error).__name__}: {error}")
                     summary.failed.append((name, reason, store.fail(job, reason)))
                 else:
                     store.complete(job, documents)

@@ -47,6 +47,13 @@ def read_recording(path: str | Path) -> Recording:
     Returns
     -------
     Recording
+        ``truncated`` is True for an MCAP file cut short and read to its last whole chunk.
+
+    Raises
+    ------
+    FormatError
+        If the file is neither, or is refused by its reader (the message names the file, the
+        channel if one, and what is wrong; a file cut short says so).
     """
     source = Path(path)
     head = file_signature(source)
@@ -58,6 +65,12 @@ def read_recording(path: str | Path) -> Recording:
         from monitor.io.mcap_io import read_mcap
 
         return read_mcap(source)
+    if not head:
+        raise FormatError(f"{source}: the file is empty; expected a recording (HDF5 or MCAP)")
+    signatures = {"HDF5": HDF5_SIGNATURE, "MCAP": MCAP_MAGIC}
+    started = " or ".join(name for name, sign in signatures.items() if sign.startswith(head))
+    if len(head) < len(MCAP_MAGIC) and started:
+        raise FormatError(f"{source}: cut short ({len(head)} bytes) inside its {started} signature")
     raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
 
 

@@ -8,9 +8,10 @@ carry Fletcher-32 checksums, so a damaged chunk is detected when read.
 The reader is strict, because files come from outside: a file that is not
 HDF5 or not this format, a missing or malformed attribute, an unknown unit,
 a sample count that contradicts the stated duration, a checksum failure,
-and the HDF5 features that can read other files of the server (external
-links, external raw storage, virtual datasets) are all refused with a
-message naming the channel and the problem.  It also accepts the waveform
+a file cut short or otherwise damaged, and the HDF5 features that can read
+other files of the server (external links, external raw storage, virtual
+datasets) are all refused with a one-line message naming the channel (or
+the file) and the problem.  It also accepts the waveform
 attribute names that NI's TDMS-to-HDF5 exports use (``wf_increment``,
 ``wf_start_offset``, ``unit_string``).
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -120,7 +122,7 @@ def read_hdf5(path: str | Path) -> Recording:
     FormatError
         Naming the channel (or the file) and the problem.
     """
-    with _open(Path(path)) as f:
+    with _open(Path(path)) as f, _damage_named(Path(path)):
         return _recording(f, Path(path), lazy=False)
 
 
@@ -149,7 +151,9 @@ def open_hdf5(path: str | Path) -> Iterator[Recording]:
         As :func:`read_hdf5`.
     """
     with _open(Path(path)) as f:
-        yield _recording(f, Path(path), lazy=True)
+        with _damage_named(Path(path)):
+            recording = _recording(f, Path(path), lazy=True)
+        yield recording
 
 
 def _open(source: Path) -> h5py.File:
@@ -158,7 +162,28 @@ def _open(source: Path) -> h5py.File:
     try:
         return h5py.File(source, "r")
     except OSError as error:
-        raise FormatError(f"{source}: damaged HDF5 file: {error}") from None
+        cut = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", str(error))
+        if cut:  # the HDF5 library refuses a file shorter than its superblock says
+            raise FormatError(
+                f"{source}: the file was cut short: {cut[1]} bytes of the {cut[2]} its HDF5 superblock "
+                "states; an HDF5 file cut short is refused (its metadata may be anywhere in it)"
+            ) from None
+        raise FormatError(f"{source}: damaged HDF5 file: {_one_line(error)}") from None
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split())
+
+
+@contextlib.contextmanager
+def _damage_named(source: Path) -> Iterator[None]:
+    """An error of the HDF5 library on a damaged file's structure, as a FormatError naming the file."""
+    try:
+        yield
+    except FormatError:
+        raise
+    except (OSError, KeyError, RuntimeError, ValueError, TypeError) as error:
+        raise FormatError(f"{source}: damaged HDF5 file: {_one_line(error)}") from None
 
 
 def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:

@@ -19,8 +19,11 @@ topic decompresses that topic's chunks only.
 
 Reading.  :func:`read_mcap` streams the file record by record with CRC
 validation, which serves indexed and unindexed files alike; a file cut
-short is read up to its last whole chunk and the result says so
-(``truncated``); a CRC or decompression failure is a checksum failure.
+short is read up to its last whole record, that is its last whole chunk
+(a record the file ends inside is never parsed), and the result says so
+(``truncated``), unless the cut leaves a channel without samples, which is
+refused naming it; a CRC or decompression failure is a checksum failure.
+A damaged file is refused with a :class:`FormatError`, in one line, naming what is wrong.
 :func:`open_mcap` reads an indexed file topic by topic, forward in time, in
 bounded memory (the analysis of an hour-long recording).
 """
@@ -29,6 +32,7 @@ from __future__ import annotations
 
 import calendar
 import contextlib
+import math
 import os
 import struct
 import tempfile
@@ -38,19 +42,28 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Literal
+from typing import IO, Any, Literal, TypeVar, cast
 
 import numpy as np
 from mcap.exceptions import EndOfFile, McapError
+from mcap.opcode import Opcode
 from mcap.reader import make_reader
 from mcap.records import Channel as McapChannel
-from mcap.records import Message, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.records import Chunk, Message, Metadata, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader, get_chunk_data_stream
 from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
-from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader
+from monitor.recording import (
+    INTEGER_FIELDS,
+    KIND_FIELDS,
+    Channel,
+    FormatError,
+    Recording,
+    SampleReader,
+    field_value,
+)
 
 __all__ = [
     "McapListing",
@@ -69,7 +82,7 @@ FORMAT_NAME = "engine-monitor recording"
 FORMAT_VERSION = 1
 SAMPLE_SCHEMA = "engine_monitor.SampleBlock"
 EVENT_SCHEMA = "engine_monitor.EventBlock"
-_INTEGER_FIELDS = ("teeth", "missing_teeth", "cylinder")
+_N = TypeVar("_N", int, float)
 
 
 # --------------------------------------------------------------------------------------- schema
@@ -221,33 +234,52 @@ def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
     start_offset, sample_rate, values : float, float, ndarray
         Start offset [s], sample rate [Hz] (0 for an EventBlock), and the samples
         or event times [s].
+
+    Raises
+    ------
+    FormatError
+        If the message is not valid protobuf (a field that runs past its end, an
+        unknown wire type, a packed field that is not whole numbers).
     """
     buf = memoryview(data)
     pos, start, rate = 0, 0.0, 0.0
     values: np.ndarray = np.empty(0)
-    while pos < len(buf):
-        key, pos = _read_varint(buf, pos)
-        number, wire = key >> 3, key & 7
-        if wire == 1:
-            value = struct.unpack_from("<d", buf, pos)[0]
-            pos += 8
-            if number == 2:
-                start = value
-            elif number == 3:
-                rate = value
-        elif wire == 2:
-            length, pos = _read_varint(buf, pos)
-            if number == 4 and rate:
-                values = np.frombuffer(buf[pos : pos + length], dtype="<f4").copy()
-            elif number in (4, 5):
-                values = np.frombuffer(buf[pos : pos + length], dtype="<f8").copy()
-            pos += length
-        elif wire == 0:
-            _, pos = _read_varint(buf, pos)
-        elif wire == 5:
-            pos += 4
-        else:
-            raise FormatError(f"message has a field of wire type {wire}, not valid protobuf")
+    try:
+        while pos < len(buf):
+            key, pos = _read_varint(buf, pos)
+            number, wire = key >> 3, key & 7
+            if wire == 1:
+                value = struct.unpack_from("<d", buf, pos)[0]
+                pos += 8
+                if number == 2:
+                    start = value
+                elif number == 3:
+                    rate = value
+            elif wire == 2:
+                length, pos = _read_varint(buf, pos)
+                if pos + length > len(buf):
+                    raise FormatError(
+                        f"message field {number} of {length} bytes runs past the message's end "
+                        f"({len(buf)} bytes); expected a whole SampleBlock or EventBlock"
+                    )
+                if number in (4, 5):
+                    dtype = "<f4" if number == 4 and rate else "<f8"
+                    if length % np.dtype(dtype).itemsize:
+                        raise FormatError(
+                            f"message field {number} has {length} bytes, not whole {dtype[-1]}-byte floats"
+                        )
+                    values = np.frombuffer(buf[pos : pos + length], dtype=dtype).copy()
+                pos += length
+            elif wire == 0:
+                _, pos = _read_varint(buf, pos)
+            elif wire == 5:
+                pos += 4
+            else:
+                raise FormatError(f"message has a field of wire type {wire}, not valid protobuf")
+    except (IndexError, struct.error):  # a varint or a double the message ends inside
+        raise FormatError(
+            f"message ends inside a field ({len(buf)} bytes); expected a whole SampleBlock or EventBlock"
+        ) from None
     return start, rate, values
 
 
@@ -378,7 +410,10 @@ def _channel_metadata(c: Channel) -> dict[str, str]:
     if not c.is_events:
         meta["sample_rate_hz"] = repr(float(c.sample_rate))  # type: ignore[arg-type]
     for key, value in c.fields.items():
-        meta[key] = str(int(value)) if key in _INTEGER_FIELDS else repr(float(value))
+        if isinstance(value, str):
+            meta[key] = value
+        else:
+            meta[key] = str(int(value)) if key in INTEGER_FIELDS else repr(float(value))
     if c.range is not None:
         meta["range_min"], meta["range_max"] = repr(float(c.range[0])), repr(float(c.range[1]))
     return meta
@@ -413,19 +448,126 @@ def _blocks(c: Channel, channel_id: int, order: int, block_seconds: float, start
 
 
 # ------------------------------------------------------------------------------------------- read
+class _CutShort(EndOfFile):
+    """The file ends inside a record: it was cut short (or a damaged length or index points past it)."""
+
+    def __init__(self) -> None:
+        super().__init__("a record runs past the end of the file")
+
+
+class _WholeReads:
+    """A file as the MCAP readers see it: every read returns all the bytes asked for, or raises
+    :class:`_CutShort` when the file ends first; a seek outside the file is refused.
+
+    The stream reader itself takes a short read at the end of a file for a whole
+    one, then fails on a fixed-size field of too few bytes (``struct.error``) or
+    hands a partial chunk to the decompressor. Here a record that the file ends
+    inside is never parsed, and no more than the file holds is ever asked for,
+    whatever a damaged length field or index says.
+
+    Parameters
+    ----------
+    fh : binary file
+        Open for reading, at its start.
+    size : int
+        The file's size [bytes].
+    """
+
+    def __init__(self, fh: IO[bytes], size: int) -> None:
+        self._fh = fh
+        self._size = size
+        self._position = 0
+
+    def read(self, size: int = -1) -> bytes:
+        """``size`` bytes (all that is left for a negative size), or raise :class:`_CutShort`."""
+        left = self._size - self._position
+        size = left if size < 0 else size
+        if size > left:
+            raise _CutShort()
+        data = self._fh.read(size)
+        if len(data) < size:  # the file shrank while it was read
+            raise _CutShort()
+        self._position += size
+        return data
+
+    def seekable(self) -> bool:
+        """True: the indexed reader may seek."""
+        return True
+
+    def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
+        """Move to a byte of the file; refuse (McapError) a position outside it."""
+        base = {os.SEEK_SET: 0, os.SEEK_CUR: self._position, os.SEEK_END: self._size}[whence]
+        if not 0 <= base + offset <= self._size:
+            raise McapError(
+                f"an offset points to byte {base + offset}, outside the file ({self._size} bytes)"
+            )
+        self._position = self._fh.seek(base + offset)
+        return self._position
+
+    def tell(self) -> int:
+        """The current byte."""
+        return self._position
+
+
+def _bounded(fh: IO[bytes]) -> IO[bytes]:
+    """An open MCAP file for the official readers, read through :class:`_WholeReads`."""
+    return cast(IO[bytes], _WholeReads(fh, os.fstat(fh.fileno()).st_size))
+
+
 def _records(path: Path) -> Iterator[Any]:
-    """Records of an MCAP file; on a cut-short file stops at the last whole chunk (then yields None)."""
+    """Records of an MCAP file, CRCs checked; a file cut short stops at its last whole record (that is,
+    after its last whole chunk) and then yields None."""
     if file_signature(path) != MCAP_MAGIC:
         raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
     try:
         with open(path, "rb") as fh, _damage_named(str(path)):
-            reader = StreamReader(fh, validate_crcs=True)
+            reader = StreamReader(_bounded(fh), validate_crcs=True, emit_chunks=True)
             try:
-                yield from reader.records
-            except EndOfFile:
-                yield None  # cut short
+                for record in reader.records:
+                    if isinstance(record, Chunk):
+                        yield from _chunk_records(record)
+                    else:
+                        yield record
+            except _CutShort:
+                size = os.fstat(fh.fileno()).st_size
+                fh.seek(max(len(MCAP_MAGIC), size - len(MCAP_MAGIC)))
+                if fh.read() == MCAP_MAGIC:  # the file ends as a whole one does: damage, not a cut
+                    raise FormatError(
+                        f"{path}: damaged MCAP file: a record runs past the end of the file, "
+                        "which ends with the MCAP magic (not cut short)"
+                    ) from None
+                yield None
     except OSError as error:
         raise FormatError(f"{path}: cannot read: {error}") from None
+
+
+def _chunk_records(chunk: Chunk) -> Iterator[Schema | McapChannel | Message]:
+    """The schemas, channels and messages of a chunk one at a time, its CRC checked on decompression.
+
+    One at a time (unlike the official ``breakup_chunk``, which parses a whole
+    chunk first), so that a file another program wrote is refused at its first
+    topic of another schema without parsing its messages.
+    """
+    stream, size = get_chunk_data_stream(chunk, validate_crc=True)
+    while stream.count < size:
+        opcode = stream.read1()
+        length = stream.read8()
+        if opcode == Opcode.MESSAGE:
+            yield Message.read(stream, length)
+        elif opcode == Opcode.CHANNEL:
+            yield McapChannel.read(stream)
+        elif opcode == Opcode.SCHEMA:
+            yield Schema.read(stream)
+        else:
+            stream.read(length)  # a record a chunk may hold that is of no use here
+
+
+def _cut_short(source: Path) -> str:
+    """What to say of a file that ends inside a record."""
+    try:
+        return f"the file was cut short ({source.stat().st_size} bytes)"
+    except OSError:
+        return "the file was cut short"
 
 
 @contextlib.contextmanager
@@ -433,10 +575,14 @@ def _damage_named(where: str) -> Iterator[None]:
     """A CRC, record or decompression failure while reading, as a FormatError naming ``where``."""
     try:
         yield
+    except FormatError:
+        raise
     except CRCValidationError as error:
         raise FormatError(f"{where}: checksum failure: {error}") from None
     except McapError as error:
         raise FormatError(f"{where}: damaged MCAP file: {error}") from None
+    except (struct.error, ValueError, IndexError, KeyError) as error:  # a record's fields contradict it
+        raise FormatError(f"{where}: damaged MCAP file: a record does not parse ({error})") from None
     except Exception as error:  # decompression of a damaged chunk (zstd, lz4)
         if type(error).__module__.split(".")[0] in ("zstandard", "lz4"):
             raise FormatError(f"{where}: checksum failure: a chunk does not decompress ({error})") from None
@@ -459,7 +605,9 @@ def read_mcap(path: str | Path) -> Recording:
     Raises
     ------
     FormatError
-        Naming the file or channel and the problem.
+        Naming the file or channel and the problem; for a file cut short, also
+        when the cut leaves a channel without samples (fewer than
+        :data:`MIN_SAMPLES_LEFT`) or before the recording's metadata.
     """
     source = Path(path)
     schemas: dict[int, str] = {}
@@ -474,6 +622,11 @@ def read_mcap(path: str | Path) -> Recording:
         elif isinstance(record, Schema):
             schemas[record.id] = record.name
         elif isinstance(record, McapChannel):
+            if schemas.get(record.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):  # refused at once
+                raise FormatError(
+                    f"{source}: {'' if recording_meta else f'not an {FORMAT_NAME}: '}topic {record.topic!r} "
+                    f"has schema {schemas.get(record.schema_id)!r}, not one of this format's"
+                )
             channels[record.id] = record
         elif isinstance(record, Metadata) and record.name == "recording":
             recording_meta = dict(record.metadata)
@@ -481,20 +634,20 @@ def read_mcap(path: str | Path) -> Recording:
             truth = dict(record.metadata).get("json", "")
         elif isinstance(record, Message):
             channel = channels.get(record.channel_id)
-            if channel is not None and schemas.get(channel.schema_id) in (SAMPLE_SCHEMA, EVENT_SCHEMA):
-                start, _, values = decode_block(record.data)
+            if channel is not None:
+                start, _, values = _decoded(f"{source}: channel {channel.topic.lstrip('/')!r}", record.data)
                 blocks[record.channel_id].append((start, values))
+    if recording_meta is None and truncated:
+        raise FormatError(
+            f"{source}: {_cut_short(source)} before any 'recording' metadata record: "
+            f"not readable as an {FORMAT_NAME}"
+        )
     _check_recording_metadata(source, recording_meta)
     assert recording_meta is not None
     result = []
     for channel_id, channel in channels.items():
-        if schemas.get(channel.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):
-            raise FormatError(
-                f"{source}: topic {channel.topic!r} has schema "
-                f"{schemas.get(channel.schema_id)!r}, not one of this format's"
-            )
         result.append((channel, _assemble(source, channel, blocks.get(channel_id, []), truncated)))
-    order = recording_meta.get("channels", "").split(",")
+    order = _listed_channels(source, recording_meta, [c.topic for c in channels.values()], truncated)
     result.sort(key=lambda item: order.index(item[1].name) if item[1].name in order else len(order))
     return Recording(
         engine_id=recording_meta["engine_id"],
@@ -504,6 +657,18 @@ def read_mcap(path: str | Path) -> Recording:
         truncated=truncated,
         truth=truth,
     )
+
+
+def _decoded(where: str, data: bytes) -> tuple[float, float, np.ndarray]:
+    """:func:`decode_block`, its refusal naming the file and channel (``where``)."""
+    try:
+        return decode_block(data)
+    except FormatError as error:
+        raise FormatError(f"{where}: {error}") from None
+
+
+#: The fewest samples (events) a channel must keep when its file was cut short; fewer is refused.
+MIN_SAMPLES_LEFT = 2
 
 
 def _check_recording_metadata(source: Path, recording_meta: dict[str, str] | None) -> None:
@@ -520,30 +685,57 @@ def _check_recording_metadata(source: Path, recording_meta: dict[str, str] | Non
             raise FormatError(f"{source}: the 'recording' metadata has no {name!r}")
 
 
+def _listed_channels(
+    source: Path, recording_meta: dict[str, str], topics: list[str], truncated: bool
+) -> list[str]:
+    """The channel order of the 'recording' metadata, every channel of it checked to have its topic."""
+    order = [name for name in recording_meta.get("channels", "").split(",") if name]
+    present = {topic.lstrip("/") for topic in topics}
+    for name in order:
+        if name not in present:
+            if truncated:
+                raise FormatError(
+                    f"{source}: channel {name!r}: {_cut_short(source)} before the channel's first "
+                    "whole chunk: none of its samples can be read"
+                )
+            raise FormatError(
+                f"{source}: channel {name!r} is listed in the 'recording' metadata but has no topic "
+                f"'/{name}' in the file"
+            )
+    return order
+
+
 def _assemble(
     source: Path, channel: McapChannel, parts: list[tuple[float, np.ndarray]], truncated: bool
 ) -> Channel:
+    where = f"{source}: channel {channel.topic.lstrip('/')!r}"
     meta = _metadata(source, channel)
     events = meta["representation"] == "events"
-    rate = None if events else float(meta.get("sample_rate_hz", "nan"))
+    rate = None if events else _number(where, meta, "sample_rate_hz", float)
     parts.sort(key=lambda p: p[0])
-    dtype = np.dtype(meta["dtype"])
+    dtype = _dtype(where, meta)
     data = np.concatenate([p[1] for p in parts]).astype(dtype, copy=False) if parts else np.empty(0, dtype)
-    if not events and parts:
-        expected = float(meta.get("start_offset_s", "0"))
+    if rate is not None and parts:
+        if not (math.isfinite(rate) and rate > 0):
+            raise FormatError(f"{where}: sample_rate_hz {rate!r}: expected a positive rate in Hz")
+        expected = _number(where, meta, "start_offset_s", float, 0.0)
         for start, values in parts:  # blocks must follow each other without gaps or overlaps
-            if abs(start - expected) > 0.5 / rate:  # type: ignore[operator]
+            if abs(start - expected) > 0.5 / rate:
                 raise FormatError(
-                    f"{source}: channel {channel.topic.lstrip('/')!r}: a block starts at {start:.9g} s, "
-                    f"expected {expected:.9g} s (missing or repeated block)"
+                    f"{where}: a block starts at {start:.9g} s, expected {expected:.9g} s "
+                    "(missing or repeated block)"
                 )
-            expected = start + values.size / rate  # type: ignore[operator]
-    stated = int(meta.get("samples", data.size))
-    if data.size != stated and not (truncated and data.size < stated):
+            expected = start + values.size / rate
+    stated = _number(where, meta, "samples", int, data.size)
+    if truncated and data.size < min(MIN_SAMPLES_LEFT, stated):
+        what = "events" if events else "samples"
+        left = "none" if data.size == 0 else f"only {data.size}"
         raise FormatError(
-            f"{source}: channel {channel.topic.lstrip('/')!r}: {data.size} samples in its blocks, but its "
-            f"metadata says {stated}"
+            f"{where}: {_cut_short(source)}: {left} of its {stated} {what} before the cut, "
+            f"fewer than the {MIN_SAMPLES_LEFT} a channel needs"
         )
+    if data.size != stated and not (truncated and data.size < stated):
+        raise FormatError(f"{where}: {data.size} samples in its blocks, but its metadata says {stated}")
     return _channel(source, channel, meta, data).checked()
 
 
@@ -554,28 +746,73 @@ def _metadata(source: Path, channel: McapChannel) -> dict[str, str]:
             raise FormatError(
                 f"{source}: channel {channel.topic.lstrip('/')!r}: missing channel metadata {key!r}"
             )
+    if meta["representation"] not in ("waveform", "events"):
+        raise FormatError(
+            f"{source}: channel {channel.topic.lstrip('/')!r}: representation {meta['representation']!r}: "
+            "expected 'waveform' or 'events'"
+        )
     return meta
 
 
-def _channel(source: Path, channel: McapChannel, meta: dict[str, str], data: Any) -> Channel:
-    fields: dict[str, float | int | str] = {}
-    for key in KIND_FIELDS.get(meta["kind"], {}):
-        if key in meta:
-            fields[key] = int(meta[key]) if key in _INTEGER_FIELDS else float(meta[key])
+def _number(where: str, meta: dict[str, str], key: str, kind: type[_N], default: _N | None = None) -> _N:
+    """A number of a channel's metadata (stored as a string), or the default where it is absent.
+
+    Raises
+    ------
+    FormatError
+        If the entry is absent without a default, or is not a number of the kind.
+    """
+    if key not in meta:
+        if default is None:
+            raise FormatError(f"{where}: missing channel metadata {key!r}")
+        return default
     try:
+        return kind(meta[key])
+    except ValueError:
+        expected = "an integer" if kind is int else "a number"
+        raise FormatError(
+            f"{where}: channel metadata {key!r} is {meta[key]!r}, expected {expected}"
+        ) from None
+
+
+def _dtype(where: str, meta: dict[str, str]) -> np.dtype[Any]:
+    """The sample type a channel's metadata states (a numpy float or integer type)."""
+    try:
+        dtype = np.dtype(meta["dtype"])
+    except TypeError:
+        dtype = None
+    if dtype is None or dtype.kind not in "fiu":
+        raise FormatError(
+            f"{where}: channel metadata 'dtype' is {meta['dtype']!r}, expected float32 or float64"
+        )
+    return dtype
+
+
+def _channel(source: Path, channel: McapChannel, meta: dict[str, str], data: Any) -> Channel:
+    name = channel.topic.lstrip("/")
+    where = f"{source}: channel {name!r}"
+    rate = None if meta["representation"] == "events" else _number(where, meta, "sample_rate_hz", float)
+    offset = _number(where, meta, "start_offset_s", float, 0.0)
+    limits = (
+        (_number(where, meta, "range_min", float), _number(where, meta, "range_max", float))
+        if "range_min" in meta
+        else None
+    )
+    try:
+        fields = {
+            key: field_value(name, key, meta[key]) for key in KIND_FIELDS.get(meta["kind"], {}) if key in meta
+        }
         return Channel(
-            name=channel.topic.lstrip("/"),
+            name=name,
             kind=meta["kind"],
             unit=meta["unit"],
             data=data,
-            sample_rate=None
-            if meta["representation"] == "events"
-            else float(meta.get("sample_rate_hz", "nan")),
-            start_offset=float(meta.get("start_offset_s", "0")),
+            sample_rate=rate,
+            start_offset=offset,
             location=meta.get("location", ""),
             direction=meta.get("direction", ""),
             fields=fields,
-            range=(float(meta["range_min"]), float(meta["range_max"])) if "range_min" in meta else None,
+            range=limits,
         )
     except FormatError as error:
         raise FormatError(f"{source}: {error}") from None
@@ -610,7 +847,7 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
         raise FormatError(f"{source}: not an MCAP file (no MCAP magic at its start)")
     with open(source, "rb") as fh:
         try:
-            reader = make_reader(fh, validate_crcs=True)
+            reader = make_reader(_bounded(fh), validate_crcs=True)
             summary = reader.get_summary()
             metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
             recording_meta = metadata.get("recording")
@@ -633,13 +870,14 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
                 )
             meta = _metadata(source, channel)
             if meta["representation"] == "events":
-                parts = [decode_block(m.data)[::2] for m in McapSamples.messages(source, channel.topic)]
+                where = f"{source}: channel {channel.topic.lstrip('/')!r}"
+                parts = [_decoded(where, m.data)[::2] for m in McapSamples.messages(source, channel.topic)]
                 channels.append(_assemble(source, channel, [(p[0], p[1]) for p in parts], False))
                 continue
             samples = McapSamples(source, channel.topic, meta)
             opened.append(samples)
             channels.append(_channel(source, channel, meta, samples))
-        order = recording_meta.get("channels", "").split(",")
+        order = _listed_channels(source, recording_meta, [c.topic for c in summary.channels.values()], False)
         channels.sort(key=lambda c: order.index(c.name) if c.name in order else len(order))
         yield Recording(
             engine_id=recording_meta["engine_id"],
@@ -672,16 +910,17 @@ class McapSamples(SampleReader):
 
     def __init__(self, source: Path, topic: str, meta: dict[str, str]) -> None:
         where = f"{source}: channel {topic.lstrip('/')!r}"
-        if "samples" not in meta:
-            raise FormatError(f"{where}: missing channel metadata 'samples'")
         pulses = meta["kind"] in ("keyphasor", "tooth", "cam")  # pulse channels sit at their rails by design
+        rate = _number(where, meta, "sample_rate_hz", float)
+        if not (math.isfinite(rate) and rate > 0):
+            raise FormatError(f"{where}: sample_rate_hz {rate!r}: expected a positive rate in Hz")
         super().__init__(
             where,
-            int(meta["samples"]),
-            meta["dtype"],
-            float(meta.get("sample_rate_hz", "nan")),
-            float(meta.get("start_offset_s", "0")),
-            (float(meta["range_min"]), float(meta["range_max"]))
+            _number(where, meta, "samples", int),
+            _dtype(where, meta),
+            rate,
+            _number(where, meta, "start_offset_s", float, 0.0),
+            (_number(where, meta, "range_min", float), _number(where, meta, "range_max", float))
             if "range_min" in meta and not pulses
             else None,
         )
@@ -697,7 +936,7 @@ class McapSamples(SampleReader):
     def messages(source: Path, topic: str) -> Iterator[Any]:
         """The messages of one topic in log-time order, CRCs checked, errors named."""
         with open(source, "rb") as fh, _damage_named(f"{source}: channel {topic.lstrip('/')!r}"):
-            for _, _, message in make_reader(fh, validate_crcs=True).iter_messages(topics=[topic]):
+            for _, _, message in make_reader(_bounded(fh), validate_crcs=True).iter_messages(topics=[topic]):
                 yield message
 
     def close(self) -> None:
@@ -714,7 +953,7 @@ class McapSamples(SampleReader):
                 f"{self._where}: its blocks end after {self._expected} samples, but its metadata says "
                 f"{self._size}"
             )
-        start, _, values = decode_block(message.data)
+        start, _, values = _decoded(self._where, message.data)
         if abs(start - (self._offset + self._expected / self._rate)) > 0.5 / self._rate:
             raise FormatError(
                 f"{self._where}: a block starts at {start:.9g} s, expected "
