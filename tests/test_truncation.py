@@ -316,3 +316,15 @@ def test_a_batch_lists_cut_files_as_unreadable_and_diagnoses_the_others(tmp_path
     text = summary.text()
     assert "1 diagnosed, 0 failed, 3 unreadable" in text
     assert "cut short, read to its last whole chunk: summary-cut.mcap" in text
+
+
+def test_a_diagnosis_of_a_file_cut_short_says_so() -> None:
+    """compare's notes say a recording was cut short (it was only spectrum's output that said it)."""
+    from dataclasses import replace
+
+    from monitor.diagnosis import diagnose
+    from monitor.engine import load_engine
+
+    recording = read_recording(ROOT / "recordings" / "samples" / "7k98mc-misfire-cyl4.h5")
+    cut = diagnose(replace(recording, truncated=True), load_engine("man-b-w-7k98mc"))
+    assert any("cut short" in note for note in cut.notes)

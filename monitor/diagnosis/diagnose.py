@@ -355,6 +355,8 @@ def _analyse(
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
     notes: list[str] = list(result.reference.notes)
+    if recording.truncated:
+        notes.append("the file was cut short: diagnosed up to its last whole chunk")
     correction = result.reference.pitch_correction
     if correction is not None and correction.largest > math.radians(0.05):
         notes.append(
