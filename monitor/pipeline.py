@@ -8,8 +8,9 @@ index, else a keyphasor; a recording with none is refused, not guessed.
 A tooth wheel's or encoder's own pitch errors are estimated from the
 recording (or taken from a baseline) and corrected
 (:func:`monitor.signal.toothwheel.estimate_pitch_errors`).  Four-stroke
-engines also need the cycle phase: given, else from a cam channel, else from
-cylinder 1's pressure channel; without these it is refused.
+engines also need the cycle phase: given, else the recording's
+``cycle_phase_deg``, else from a cam channel, else from cylinder 1's pressure
+channel; without these it is refused.
 
 Crank speed.  The angle map's derivative gives the speed-fluctuation orders
 (``crank speed`` in the spectra, [rad/s]); they are what the torque orders
@@ -264,6 +265,8 @@ def angle_reference(
         firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
         if cycle_phase is not None:
             shift, how = float(cycle_phase), "given"
+        elif recording.cycle_phase_deg is not None:
+            shift, how = math.radians(recording.cycle_phase_deg), "recording"
         elif recording.of_kind("cam"):
             cam = recording.of_kind("cam")[0]
             shift = cycle_phase_from_cam(
@@ -278,7 +281,8 @@ def angle_reference(
             raise SignalError(
                 "four-stroke recording without a cam or cylinder-1 pressure channel: the cycle phase "
                 "(which revolution holds cylinder 1's firing TDC) cannot be found; give it with "
-                "--cycle-phase 0 or 360 (the crank angle added to the angle reference's, in degrees)"
+                "--cycle-phase 0 or 360 (the crank angle added to the angle reference's, in degrees), or "
+                "state it as the recording's cycle_phase_deg"
             )
         angle_map = angle_map.shifted(shift)
     return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))

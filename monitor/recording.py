@@ -508,6 +508,9 @@ class Recording:
     truth : str
         For a simulated recording, what the simulation put into it (JSON; see
         :mod:`monitor.scene`); "" for a measured one.
+    cycle_phase_deg : float or None
+        Four-stroke: which revolution of the angle reference holds cylinder 1's firing TDC, as the
+        degrees (0 or 360) added to its crank angle, where the acquisition knew it; None if not stated.
     """
 
     engine_id: str
@@ -516,6 +519,7 @@ class Recording:
     notes: str = ""
     truncated: bool = False
     truth: str = ""
+    cycle_phase_deg: float | None = None
 
     def __post_init__(self) -> None:
         from datetime import datetime
@@ -531,6 +535,10 @@ class Recording:
             ) from None
         if parsed.utcoffset() is None or parsed.utcoffset().total_seconds() != 0:  # type: ignore[union-attr]
             raise FormatError(f"recording: start_time {self.start_time!r} must be in UTC (end it with Z)")
+        if self.cycle_phase_deg is not None and self.cycle_phase_deg not in (0.0, 360.0):
+            raise FormatError(
+                f"recording: cycle_phase_deg = {self.cycle_phase_deg!r}: expected 0 or 360 (degrees)"
+            )
         names = [c.name for c in self.channels]
         if len(set(names)) != len(names):
             raise FormatError(

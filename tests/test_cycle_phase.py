@@ -13,7 +13,7 @@ from monitor.engine import load_engine
 from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.pipeline import angle_reference
-from monitor.recording import Recording
+from monitor.recording import FormatError, Recording
 from monitor.signal.pulses import SignalError
 
 from .conftest import ROOT
@@ -58,3 +58,25 @@ def test_without_a_cam_the_phase_is_refused_then_given_then_left_unknown(tmp_pat
     with pytest.raises(SystemExit) as refused:
         main(["spectrum", str(path), "--cycle-phase", "90"])
     assert refused.value.code == 2
+
+
+@pytest.mark.parametrize("suffix", [".h5", ".mcap"])
+def test_the_phase_stated_in_the_recording_is_used_and_kept_by_both_formats(
+    tmp_path: Path, suffix: str
+) -> None:
+    """cycle_phase_deg written with the recording (HDF5 attribute, MCAP metadata) is read back and
+    gives the same diagnosis as the cam did; a value other than 0 or 360 is refused."""
+    from dataclasses import replace
+
+    from monitor.io.mcap_io import write_mcap
+
+    recording, shift = _without_cam()
+    stated = replace(recording, cycle_phase_deg=math.degrees(shift))
+    path = (write_hdf5 if suffix == ".h5" else write_mcap)(stated, tmp_path / f"phase{suffix}")
+    again = read_recording(path)
+    assert again.cycle_phase_deg == pytest.approx(math.degrees(shift))
+    diagnosis = diagnose(again, load_engine("medium-speed-6l32"))
+    assert [f.subject for f in diagnosis.findings if f.kind == "cylinder"] == ["cylinder 3"]
+    assert angle_reference(again, cycle_revolutions=2).cycle_phase == "recording"
+    with pytest.raises(FormatError, match="cycle_phase_deg"):
+        replace(recording, cycle_phase_deg=90.0)

@@ -317,8 +317,10 @@ CyclePhase: TypeAlias = float | Literal["unknown"] | None
 
 def _phase_known(recording: Recording) -> bool:
     """True if the recording itself tells the four-stroke cycle phase (a cam or a cylinder-1 pressure)."""
-    return bool(recording.of_kind("cam")) or any(
-        int(c.fields.get("cylinder", 0)) == 1 for c in recording.of_kind("pressure")
+    return (
+        recording.cycle_phase_deg is not None
+        or bool(recording.of_kind("cam"))
+        or any(int(c.fields.get("cylinder", 0)) == 1 for c in recording.of_kind("pressure"))
     )
 
 

@@ -70,6 +70,8 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
             f.attrs["notes"] = recording.notes
             if recording.truth:
                 f.attrs["truth"] = recording.truth
+            if recording.cycle_phase_deg is not None:
+                f.attrs["cycle_phase_deg"] = float(recording.cycle_phase_deg)
             group = f.create_group("channels", track_order=True)
             for c in recording.channels:
                 if c.is_events:
@@ -206,7 +208,18 @@ def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:
         channels=tuple(channels),
         notes=_text(f.attrs.get("notes", "")),
         truth=_text(f.attrs.get("truth", "")),
+        cycle_phase_deg=_phase(f.attrs.get("cycle_phase_deg"), source),
     )
+
+
+def _phase(value: Any, source: Path) -> float | None:
+    """The recording attribute ``cycle_phase_deg``, if stated [deg]."""
+    if value is None:
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise FormatError(f"{source}: cycle_phase_deg = {value!r}: expected 0 or 360 (degrees)") from None
 
 
 class Hdf5Samples(SampleReader):

@@ -129,6 +129,7 @@ class ImportMapping(BaseModel):
     engine_id: str
     start_time: str | None = None
     notes: str = ""
+    cycle_phase_deg: float | None = None  # four-stroke without a cam: 0 or 360 (FORMAT.md)
     sample_rate_hz: _Rate | None = None
     time_tolerance_s: _Rate | None = None
     time_column: str | NonNegativeInt | None = None
@@ -448,7 +449,13 @@ def import_tdms(
                 str(props.get("unit_string", "")),
             )
         )
-    return Recording(mapping.engine_id, _start(mapping, start), tuple(channels), notes=mapping.notes)
+    return Recording(
+        mapping.engine_id,
+        _start(mapping, start),
+        tuple(channels),
+        notes=mapping.notes,
+        cycle_phase_deg=mapping.cycle_phase_deg,
+    )
 
 
 def import_mdf(path: str | Path, mapping: ImportMapping, *, sample_rate_hz: float | None = None) -> Recording:
@@ -505,7 +512,13 @@ def import_mdf(path: str | Path, mapping: ImportMapping, *, sample_rate_hz: floa
                 _channel(m, np.asarray(signal.samples), rate, float(stamps[0]), str(signal.unit or ""))
             )
         start = mdf.header.start_time
-    return Recording(mapping.engine_id, _start(mapping, start), tuple(channels), notes=mapping.notes)
+    return Recording(
+        mapping.engine_id,
+        _start(mapping, start),
+        tuple(channels),
+        notes=mapping.notes,
+        cycle_phase_deg=mapping.cycle_phase_deg,
+    )
 
 
 # ------------------------------------------------------------------------------------------ text
@@ -814,7 +827,9 @@ def import_text(
     channels = tuple(
         _channel(m, columns[c], rate, offset, "") for m, c in zip(mapping.channels, wanted, strict=True)
     )
-    return Recording(mapping.engine_id, start, channels, notes=mapping.notes)
+    return Recording(
+        mapping.engine_id, start, channels, notes=mapping.notes, cycle_phase_deg=mapping.cycle_phase_deg
+    )
 
 
 def _is_mdf(source: Path) -> bool:

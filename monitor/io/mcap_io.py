@@ -345,6 +345,11 @@ def write_mcap(
                     "start_time": recording.start_time,
                     "notes": recording.notes,
                     "channels": ",".join(c.name for c in recording.channels),
+                    **(
+                        {"cycle_phase_deg": repr(float(recording.cycle_phase_deg))}
+                        if recording.cycle_phase_deg is not None
+                        else {}
+                    ),
                 },
             )
             if recording.truth:
@@ -656,6 +661,7 @@ def read_mcap(path: str | Path) -> Recording:
         channels=tuple(c for _, c in result),
         truncated=truncated,
         truth=truth,
+        cycle_phase_deg=_phase(source, recording_meta),
     )
 
 
@@ -885,6 +891,7 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
             notes=recording_meta.get("notes", ""),
             channels=tuple(channels),
             truth=metadata.get("truth", {}).get("json", ""),
+            cycle_phase_deg=_phase(source, recording_meta),
         )
     finally:
         for samples in opened:
@@ -1038,3 +1045,14 @@ def list_mcap(path: str | Path) -> McapListing:
         elif isinstance(record, Message):
             counts[topics.get(record.channel_id, f"channel {record.channel_id}")] += 1
     return McapListing(dict(counts), names, truncated)
+
+
+def _phase(source: Path, recording_meta: dict[str, str]) -> float | None:
+    """The recording metadata's ``cycle_phase_deg``, if stated [deg]."""
+    text = recording_meta.get("cycle_phase_deg")
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise FormatError(f"{source}: cycle_phase_deg = {text!r}: expected 0 or 360 (degrees)") from None
