@@ -263,7 +263,7 @@ def _block_crossings(
     if not high_p > low_p:
         empty = np.empty(0)
         return empty, empty, empty, 0.0
-    baseline = float(np.median(x))
+    baseline = float(np.median(x[:: max(1, x.size // 65536)]))  # of 65536 samples spread over the block
     y = (x.astype(np.float64) - baseline) * (-1.0 if rising else 1.0)
     floor = float(min_arm) if min_arm is not None else NOISE_MARGIN * _quietest_noise(y)
     floor = max(floor, 1e-9 * (high_p - low_p))  # a noiseless record: above round-off only
@@ -278,11 +278,15 @@ def _quietest_noise(y: FloatArray) -> float:
     per period adds little to them, and the quietest stretch (a VR sensor turning slowly, or the gap)
     adds least.
     """
-    third = np.abs(np.diff(y, 3))
-    if third.size < 64 * 16:
-        medians = np.array([np.median(third)])
+    if y.size < 64 * 16:
+        medians = np.array([np.median(np.abs(np.diff(y, 3)))])
     else:
-        medians = np.median(third[: third.size // 64 * 64].reshape(64, -1), axis=1)
+        # 64 stretches spread over the block, up to 4096 samples of each
+        length = y.size // 64
+        starts = np.arange(64) * length
+        take = min(length, 4096)
+        pieces = y[starts[:, None] + np.arange(take)]
+        medians = np.median(np.abs(np.diff(pieces, 3, axis=1)), axis=1)
     noise = float(np.min(medians)) / (0.6745 * math.sqrt(20.0))
     if noise == 0.0:  # a quantised record whose quiet stretches do not move: a quantisation step
         steps = np.abs(np.diff(y))
