@@ -79,6 +79,7 @@ __all__ = [
 ]
 
 SPEED_CHANNEL = "crank speed"
+_SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
 ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
 
 
@@ -489,6 +490,10 @@ def spectra(
         # below pulses / 2 per revolution: a grid of at least 2 R pulses per cycle (a power of two) has
         # its Nyquist order above them, whatever max_order and the channels' grid are
         m = 2 ** math.ceil(math.log2(max(16, 2 * cycle_revolutions * reference.pulses_per_revolution)))
+        # an encoder of hundreds of pulses would need thousands of points a cycle: the grid is capped,
+        # and the speed taken as its mean over each grid step (below) so that nothing aliases
+        stepped = m > _SPEED_GRID_CAP
+        m = min(m, _SPEED_GRID_CAP)
         try:
             grid = angle_grid(
                 angle_map,
@@ -500,14 +505,35 @@ def spectra(
             )
         except SignalError:
             return None
-        speed = angle_map.speed_at(grid.times).reshape(grid.cycles, m)
+        step = 2 * math.pi * cycle_revolutions / m  # crank angle between grid points [rad]
+        if stepped:
+            # the mean over each step, step / (time across it): the slowness averaged over the step in
+            # angle, exactly; its orders come back scaled by sinc(k step / 2), delayed by half a step
+            end = angle_map.time_at(np.array([(grid.first_cycle + grid.cycles) * step * m]))
+            speed = (step / np.diff(np.concatenate([grid.times, end]))).reshape(grid.cycles, m)
+        else:
+            speed = angle_map.speed_at(grid.times).reshape(grid.cycles, m)
         # the map holds pulses_per_revolution samples of the speed per revolution: orders from
         # half of that up are not in it (a keyphasor gives the mean speed only)
         resolvable = max(min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9), 0.0)
 
         def spectrum_of(values: np.ndarray) -> OrderSpectrum:
             signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, 3)
-            return order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
+            spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
+            if not stepped:
+                return spectrum
+            x = 0.5 * spectrum.orders * step
+            gain = np.ones(x.size)
+            gain[1:] = x[1:] / np.sin(x[1:])  # 1 / sinc: the steps' mean undone, order by order
+            return OrderSpectrum(
+                spectrum.orders,
+                spectrum.amplitude * gain * np.exp(-1j * x),
+                spectrum.magnitude_mean * gain,
+                spectrum.magnitude_std * gain,
+                spectrum.scatter * gain,
+                spectrum.blocks,
+                spectrum.block_cycles,
+            )
 
         # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
         # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k)
