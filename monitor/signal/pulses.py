@@ -220,17 +220,23 @@ NOISE_MARGIN = 8.0  # default hysteresis over the noise's rms [-]
 _EDGE_BLOCK = 1 << 20  # samples per block of a long pulse waveform (4 MB of float32)
 
 
+def _finite_block(block: npt.ArrayLike) -> tuple[FloatArray, float, float]:
+    """A block as float32 or float64 (no copy if it is), its minimum and maximum; refused if not finite."""
+    x = np.asarray(block)
+    if x.dtype not in (np.float32, np.float64):
+        x = x.astype(np.float64)
+    low, high = float(np.min(x)), float(np.max(x))
+    if not (math.isfinite(low) and math.isfinite(high)):
+        bad = int(np.count_nonzero(~np.isfinite(x)))
+        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    return x, low, high
+
+
 def _block_edges(
     block: npt.ArrayLike, min_prominence: float | None, level: float, rising: bool
 ) -> tuple[FloatArray, FloatArray, FloatArray, float]:
     """Edges of one block in samples from its start, levels, swings, and the prominence used."""
-    x = np.asarray(block)
-    if x.dtype not in (np.float32, np.float64):
-        x = x.astype(np.float64)
-    low_p, high_p = float(np.min(x)), float(np.max(x))
-    if not (math.isfinite(low_p) and math.isfinite(high_p)):
-        bad = int(np.count_nonzero(~np.isfinite(x)))
-        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    x, low_p, high_p = _finite_block(block)
     if not high_p > low_p:  # flat: no pulse here
         empty = np.empty(0)
         return empty, empty, empty, 0.0
@@ -253,13 +259,7 @@ def _block_crossings(
     block: npt.ArrayLike, min_arm: float | None, arm: float, rising: bool
 ) -> tuple[FloatArray, FloatArray, FloatArray, float]:
     """Baseline crossings of one block (VR timing), in samples from its start; baselines, peaks, floor."""
-    x = np.asarray(block)
-    if x.dtype not in (np.float32, np.float64):
-        x = x.astype(np.float64)
-    low_p, high_p = float(np.min(x)), float(np.max(x))
-    if not (math.isfinite(low_p) and math.isfinite(high_p)):
-        bad = int(np.count_nonzero(~np.isfinite(x)))
-        raise SignalError(f"signal has {bad} NaN or Inf samples: mask or repair them before edge detection")
+    x, low_p, high_p = _finite_block(block)
     if not high_p > low_p:
         empty = np.empty(0)
         return empty, empty, empty, 0.0
