@@ -218,8 +218,11 @@ def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(
     with server.client() as client:
         recording = _upload_and_wait_running(client, tmp_path)
         assert server.process is not None
-        children = psutil.Process(server.process.pid).children(recursive=True)
-        assert children, "the analysis runs in a child process"
+        # the job is marked running as it is handed to the pool, a moment before its process starts
+        deadline = time.monotonic() + 30
+        while not (children := psutil.Process(server.process.pid).children(recursive=True)):
+            assert time.monotonic() < deadline, "the analysis runs in a child process"
+            time.sleep(0.02)
         for child in children:
             child.kill()
         done = _wait_done(client, recording)
