@@ -141,13 +141,7 @@ def _build_parser() -> argparse.ArgumentParser:
     spectrum.add_argument(
         "--map-plot", metavar="FILE.png", help="draw the order-speed maps (needs --speed-map)"
     )
-    spectrum.add_argument(
-        "--cycle-phase",
-        type=_cycle_phase_deg,
-        metavar="0|360",
-        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
-        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360)",
-    )
+    _add_cycle_phase(spectrum)
 
     imp = sub.add_parser(
         "import",
@@ -207,14 +201,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     compare.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
     compare.add_argument("--plot", metavar="FILE.png|FILE.html", help="also draw measured against predicted")
-    compare.add_argument(
-        "--cycle-phase",
-        type=_cycle_phase_deg_or_unknown,
-        metavar="0|360|unknown",
-        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
-        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360); "
-        "'unknown' names each cylinder together with the one firing 360 deg from it",
-    )
+    _add_cycle_phase(compare, unknown=True)
     compare.error = _exit_3_on_usage_error(compare)  # type: ignore[method-assign]
 
     calibrate = sub.add_parser(
@@ -234,13 +221,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
     calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
-    calibrate.add_argument(
-        "--cycle-phase",
-        type=_cycle_phase_deg,
-        metavar="0|360",
-        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
-        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360)",
-    )
+    _add_cycle_phase(calibrate)
 
     batch = sub.add_parser(
         "batch",
@@ -352,12 +333,7 @@ def _build_parser() -> argparse.ArgumentParser:
         metavar="DEG",
         help="motored: how far the compression peak leads TDC [deg] (default 0.7)",
     )
-    tdc.add_argument(
-        "--cycle-phase",
-        type=_cycle_phase_deg,
-        metavar="0|360",
-        help="fired four-stroke without a cam channel: the cycle phase (see 'spectrum')",
-    )
+    _add_cycle_phase(tdc)
     tdc.add_argument("--json", action="store_true", help="print a JSON document")
 
     sub.add_parser("engines", help="list the bundled engine descriptions")
@@ -385,6 +361,18 @@ def _engine_of(recording: Recording, given: str | None) -> Any:
         return load_engine(bundled_engines()[recording.engine_id])
     raise DiagnosisError(
         f"engine {recording.engine_id!r} is not bundled: give its description with --engine FILE.toml"
+    )
+
+
+def _add_cycle_phase(parser: argparse.ArgumentParser, *, unknown: bool = False) -> None:
+    """The --cycle-phase option of the commands that read a four-stroke recording."""
+    parser.add_argument(
+        "--cycle-phase",
+        type=_cycle_phase_deg_or_unknown if unknown else _cycle_phase_deg,
+        metavar="0|360|unknown" if unknown else "0|360",
+        help="four-stroke without a cam or cylinder-1 pressure channel: which revolution holds cylinder 1's "
+        "firing TDC, as degrees added to the angle reference's crank angle (0 or 360)"
+        + ("; 'unknown' names each cylinder together with the one firing 360 deg from it" if unknown else ""),
     )
 
 

@@ -7,7 +7,7 @@ revolution: a precise map at varying speed), then an encoder with its
 index, else a keyphasor; a recording with none is refused, not guessed.
 A tooth wheel's or encoder's own pitch errors are estimated from the
 recording (or taken from a baseline) and corrected
-(:func:`monitor.signal.toothwheel.estimate_pitch_errors`).  Four-stroke
+(:func:`monitor.signal.pitch.estimate_pitch_errors`).  Four-stroke
 engines also need the cycle phase: given, else the recording's
 ``cycle_phase_deg``, else from a cam channel, else from cylinder 1's pressure
 channel; without these it is refused.
@@ -56,16 +56,14 @@ from monitor.signal.angle_domain import (
     to_angle_domain,
 )
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.pitch import PitchCorrection, correct_pitch, estimate_pitch_errors
 from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
 from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 from monitor.signal.toothwheel import (
-    PitchCorrection,
     ToothWheelDecoding,
-    correct_pitch,
     decode_encoder,
     decode_tooth_signal,
     decode_tooth_wheel,
-    estimate_pitch_errors,
 )
 
 __all__ = [
@@ -210,7 +208,7 @@ def angle_reference(
         revolutions), or none.
     kept_orders : list of int, optional
         Integer orders left to the engine by the estimate (see
-        :func:`monitor.signal.toothwheel.estimate_pitch_errors`).
+        :func:`monitor.signal.pitch.estimate_pitch_errors`).
 
     Returns
     -------
@@ -314,7 +312,7 @@ def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> Pit
     -----
     A healthy engine's cylinders fire alike, so its gas and inertia torques, and the speed
     fluctuation they drive, sit at the firing harmonics; everything else that repeats every
-    revolution is taken as the wheel's (:func:`monitor.signal.toothwheel.estimate_pitch_errors`
+    revolution is taken as the wheel's (:func:`monitor.signal.pitch.estimate_pitch_errors`
     with every tooth corrected). What the baseline's own cylinders do unevenly at the other
     integer orders is taken as the wheel's too: later recordings corrected with it measure those
     orders against the baseline's.

@@ -20,12 +20,12 @@ from monitor.cli import main
 from monitor.io.hdf5 import write_hdf5
 from monitor.pipeline import angle_reference, learn_pitch_errors, spectra
 from monitor.recording import Channel, Recording
+from monitor.signal.pitch import estimate_pitch_errors
 from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
 from monitor.signal.toothwheel import (
     decode_encoder,
     decode_tooth_signal,
     decode_tooth_wheel,
-    estimate_pitch_errors,
     infer_tooth_sensor,
 )
 

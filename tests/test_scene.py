@@ -289,8 +289,9 @@ def test_a_worn_bearing_raises_the_higher_orders_at_its_own_sensor() -> None:
 def test_sensor_faults_are_put_in_and_found_by_the_pipeline(tmp_path: Path) -> None:
     """Keyphasor dropouts and extras (repaired, counted), tooth-spacing errors (recovered per tooth),
     a clipped channel (reported with its spans on reading), a gain error (the orders scaled)."""
+    from monitor.signal.pitch import tooth_spacing_errors
     from monitor.signal.pulses import detect_edges
-    from monitor.signal.toothwheel import decode_tooth_wheel, tooth_spacing_errors
+    from monitor.signal.toothwheel import decode_tooth_wheel
 
     effects = {
         "inertia": {},

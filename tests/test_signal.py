@@ -12,8 +12,9 @@ from scipy.integrate import cumulative_trapezoid
 
 from monitor.signal.angle_domain import order_spectrum, to_angle_domain
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.pitch import tooth_spacing_errors
 from monitor.signal.pulses import SignalError, detect_edges, repair_keyphasor
-from monitor.signal.toothwheel import decode_tooth_wheel, tooth_spacing_errors
+from monitor.signal.toothwheel import decode_tooth_wheel
 
 from .conftest import shared_path
 

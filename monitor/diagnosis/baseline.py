@@ -26,7 +26,7 @@ import numpy as np
 from monitor.engine import Engine
 from monitor.errors import DiagnosisError
 from monitor.signal.angle_domain import HighFrequencyPower
-from monitor.signal.toothwheel import PitchCorrection
+from monitor.signal.pitch import PitchCorrection
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["BASELINE_FORMAT", "Baseline", "SensorBaseline"]

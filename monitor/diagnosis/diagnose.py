@@ -67,8 +67,8 @@ from monitor.model_orders import (
 from monitor.orders import order_coefficients
 from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, learn_pitch_errors, spectra
 from monitor.recording import Channel, Recording
+from monitor.signal.pitch import PitchCorrection
 from monitor.signal.pulses import SignalError
-from monitor.signal.toothwheel import PitchCorrection
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [

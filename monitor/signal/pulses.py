@@ -417,7 +417,7 @@ def detect_pulses(
     start_time : float, optional
         Time of the first sample [s].
     relative_height : float, optional
-        Hysteresis as a fraction of the pulse height [-]: a glitch lower than this is no pulse.
+        Fraction of the local pulse height below which a pulse is a glitch [-].
 
     Returns
     -------

@@ -1,0 +1,233 @@
+"""A tooth wheel's (or an encoder's) own pitch errors: estimated from a recording, and corrected.
+
+No wheel is perfect, and a sensor's field bends near a wheel's gap: a tooth
+that sits ``e_i`` from its nominal angle shifts its edge by ``e_i`` in every
+revolution.  So does a speed fluctuation synchronous with the revolution (the
+engine's integer orders), and in one recording at steady speed the two cannot
+be told apart where they share an order.  :func:`estimate_pitch_errors`
+separates them where the physics allows: the engine's part is smooth in
+angle and made of the orders it excites, what is left is the wheel's.  By
+default only the teeth beside the gap are corrected, and only where their
+error stands out of what the engine could put there; a healthy baseline can
+teach every tooth, its firing harmonics left to the engine
+(:func:`monitor.pipeline.learn_pitch_errors`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from monitor.signal.pulses import SignalError
+from monitor.signal.toothwheel import ToothWheelDecoding
+from monitor.types import FloatArray
+
+__all__ = ["PitchCorrection", "correct_pitch", "estimate_pitch_errors", "tooth_spacing_errors"]
+
+
+@dataclass(frozen=True)
+class PitchCorrection:
+    """The wheel's own tooth-position errors, as applied to a decoding.
+
+    Attributes
+    ----------
+    errors : ndarray, shape (teeth - missing,)
+        Where each tooth after the gap really is minus where a perfect wheel has it, mean zero [rad].
+    kept_orders : tuple of int
+        The integer orders of what repeats every revolution that were left to the engine (not taken
+        as the wheel's).
+    revolutions : int
+        Revolutions the estimate averaged.
+    source : str
+        "recording" (estimated from the recording itself) or "baseline" (learned earlier).
+    scope : str
+        "gap" (the gap's neighbours corrected) or "all" (every tooth).
+    """
+
+    errors: FloatArray
+    kept_orders: tuple[int, ...]
+    revolutions: int
+    source: str = "recording"
+    scope: str = "gap"
+
+    @property
+    def rms(self) -> float:
+        """rms of the corrections [rad]."""
+        return float(np.sqrt(np.mean(self.errors**2)))
+
+    @property
+    def largest(self) -> float:
+        """Largest correction in magnitude [rad]."""
+        return float(np.max(np.abs(self.errors)))
+
+
+def estimate_pitch_errors(
+    decoding: ToothWheelDecoding,
+    *,
+    kept_orders: npt.ArrayLike | None = None,
+    gap_neighbours: int = 1,
+    scope: Literal["gap", "all"] = "gap",
+) -> PitchCorrection:
+    """The wheel's tooth-position errors, separated from the engine's own speed fluctuation.
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+        With at least four complete revolutions.
+    kept_orders : array_like of int, optional
+        Integer orders of the revolution-synchronous deviation that belong to the engine and are not
+        corrected. Default: 1 to ``teeth // 6`` (1 to 10 on a 60-2 wheel) [-].
+    gap_neighbours : int, optional
+        Teeth on each side of the gap left out of the fit of the engine's orders: the gap bends
+        the sensor's field there, so their errors are larger and not smooth [-].
+    scope : {"gap", "all"}, optional
+        Which teeth are corrected: only the gap's neighbours whose error stands out (the default:
+        the error is large and systematic on real wheels), or every
+        tooth (the wheel's errors in orders above the kept ones are then removed too, and with them
+        any of the engine's integer orders there: use it where the physics says the engine has
+        none, or on a baseline whose correction is stored).
+
+    Returns
+    -------
+    PitchCorrection
+
+    Raises
+    ------
+    SignalError
+        With fewer than four complete revolutions, or more kept orders than the teeth can fit.
+
+    Notes
+    -----
+    A tooth ``i`` that sits ``e_i`` away from its nominal angle ``2 pi i / teeth`` shifts its edge by
+    ``e_i`` in every revolution; a speed fluctuation synchronous with the revolution (the engine's
+    integer orders) shifts it too. Each tooth's angle is measured as its share of its revolution's
+    time, averaged over the complete revolutions: ``d_i``. The engine's part of ``d_i`` is smooth
+    in angle and made of the orders it excites, so ``d_i`` is fitted by least squares with a mean and
+    the ``kept_orders`` (cosine and sine) over the teeth away from the gap; what the fit leaves,
+    ``e_i = d_i - fit_i``, on every tooth including the gap's neighbours, is the wheel's error. The
+    part of the wheel's errors that lies in the kept orders cannot be told from the engine in one
+    recording at steady speed; it stays in the speed orders. Half orders of a four-stroke are not
+    revolution-synchronous and average out.
+
+    With ``scope="gap"`` a gap tooth is corrected only when its error exceeds what the engine could
+    put there unseen: the largest residual ``r`` of the fit on the other teeth (their own errors,
+    the engine's orders beyond the kept ones) times ``1 + g``, ``g`` the fit's gain across the gap
+    (the L1 norm of that tooth's row of ``B_gap pinv(B_inner)``), and 3 standard errors of its mean
+    position over the revolutions, and a hundredth of a pitch. A perfect wheel then gets no
+    correction however strong the engine's high orders are; the real wheel's 1.8 and 0.8 deg stand
+    far above the bound (about 0.5 deg there).
+    """
+    per_rev = decoding.teeth - decoding.missing
+    orders = (
+        np.arange(1, decoding.teeth // 6 + 1)
+        if kept_orders is None
+        else np.unique(np.asarray(kept_orders, dtype=np.int64))
+    )
+    starts = np.flatnonzero(decoding.tooth_index == 0)
+    starts = starts[starts + per_rev < decoding.times.size]
+    starts = starts[decoding.tooth_index[starts + per_rev] == 0]
+    if starts.size < 4:
+        raise SignalError(
+            f"tooth-pitch errors need at least four complete revolutions; the recording has {starts.size}"
+        )
+    window = decoding.times[starts[:, None] + np.arange(per_rev + 1)]
+    shares = (window[:, :-1] - window[:, :1]) / (window[:, -1:] - window[:, :1])
+    nominal = 2 * math.pi * np.arange(per_rev) / decoding.teeth
+    deviation = 2 * math.pi * shares.mean(axis=0) - nominal
+    # standard error of each tooth's mean position over the revolutions (timing noise, cycle-to-cycle
+    # variation): a gap tooth's estimate within 3 of them is not told from zero and not applied
+    scatter = 2 * math.pi * shares.std(axis=0, ddof=1) / math.sqrt(starts.size)
+    inner = np.arange(gap_neighbours, per_rev - gap_neighbours)
+    if 1 + 2 * orders.size >= inner.size:
+        raise SignalError(
+            f"{orders.size} kept orders need more than the {inner.size} teeth away from the gap to fit"
+        )
+    errors = np.zeros(per_rev)
+    for _ in range(4):
+        # the engine's part is a function of where each tooth really is: evaluated there, so that a
+        # large error (0.3 pitch beside the gap) does not leave the speed fluctuation's slope times
+        # that error in the estimate; three passes converge to round-off
+        position = nominal + errors
+        basis = np.column_stack(
+            [np.ones(per_rev)]
+            + [np.cos(k * position) for k in orders]
+            + [np.sin(k * position) for k in orders]
+        )
+        coefficients, *_ = np.linalg.lstsq(basis[inner], (deviation - errors)[inner], rcond=None)
+        errors = deviation - basis @ coefficients
+        if scope == "gap":
+            errors[inner] = 0.0
+    if scope == "gap":
+        # what the fit leaves on the other teeth (their own pitch errors, the engine's orders beyond the
+        # kept ones) may be as large at a gap tooth, and the fit carries it there amplified by its
+        # extrapolation across the gap (the L1 norm of the gap tooth's row of basis_gap pinv(basis_inner)):
+        # a gap tooth's estimate within that worst case is not told from the engine, nor within 3 of its
+        # standard errors over the revolutions, nor below a hundredth of a pitch (nothing a wheel needs)
+        residual = float(np.max(np.abs((deviation - basis @ coefficients)[inner])))
+        gain = np.abs(basis @ np.linalg.pinv(basis[inner])).sum(axis=1)
+        floor = np.maximum.reduce(
+            [(1.0 + gain) * residual, 3.0 * scatter, np.full(per_rev, 0.01 * decoding.pitch)]
+        )
+        errors[np.abs(errors) < floor] = 0.0
+    else:
+        errors = errors - errors.mean()
+    return PitchCorrection(errors, tuple(int(k) for k in orders), int(starts.size), scope=scope)
+
+
+def correct_pitch(decoding: ToothWheelDecoding, correction: PitchCorrection) -> ToothWheelDecoding:
+    """The decoding with each tooth at its measured place on the wheel (nominal plus its error).
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+    correction : PitchCorrection
+        For the same wheel (``teeth - missing`` errors).
+
+    Returns
+    -------
+    ToothWheelDecoding
+
+    Raises
+    ------
+    SignalError
+        If the correction is for another wheel, or would put a tooth at or beyond its neighbour.
+    """
+    per_rev = decoding.teeth - decoding.missing
+    if correction.errors.shape != (per_rev,):
+        raise SignalError(
+            f"tooth-pitch correction for {correction.errors.size} teeth: this wheel has {per_rev} "
+            f"({decoding.teeth}-{decoding.missing})"
+        )
+    if correction.largest >= 0.5 * decoding.pitch:
+        raise SignalError(
+            f"tooth-pitch correction of {math.degrees(correction.largest):.3g} deg is half a tooth pitch "
+            "or more: the wheel or its decoding is not what the channel states"
+        )
+    angles = decoding.angles + correction.errors[decoding.tooth_index]
+    return replace(decoding, angles=angles)
+
+
+def tooth_spacing_errors(decoding: ToothWheelDecoding) -> FloatArray:
+    """Angular position error of each tooth, averaged over the complete revolutions, nothing kept.
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+        With at least four complete revolutions.
+
+    Returns
+    -------
+    ndarray, shape (teeth - missing,)
+        Measured minus nominal angle of each tooth after the gap, mean removed [rad].
+
+    Notes
+    -----
+    :func:`estimate_pitch_errors` with no order left to the engine: every speed fluctuation
+    synchronous with the revolution is taken as the wheel's, so it is for a run whose fluctuation
+    is small (a coast-down, a steady run of a heavy shaft line).
+    """
+    return estimate_pitch_errors(decoding, kept_orders=[], gap_neighbours=0, scope="all").errors
