@@ -27,6 +27,7 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -221,6 +222,13 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
     calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
+    calibrate.add_argument(
+        "--pitch-from",
+        metavar="RUN",
+        help="learn the tooth wheel's pitch errors at every order, firing harmonics included, on this "
+        "run of the same wheel whose speed changes by a quarter or more: a motored run-up or a "
+        "coast-down with the fuel cut (default: on RECORDING, firing harmonics left to the engine)",
+    )
     _add_cycle_phase(calibrate)
 
     batch = sub.add_parser(
@@ -398,7 +406,9 @@ def _run_calibrate(args: argparse.Namespace) -> int:
 
     if Path(args.output).suffix.lower() not in (".json", ".toml"):
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
-    with open_recording(args.recording) as recording:
+    with ExitStack() as stack:
+        recording = stack.enter_context(open_recording(args.recording))
+        run = None if args.pitch_from is None else stack.enter_context(open_recording(args.pitch_from))
         engine = _engine_of(recording, args.engine)
         baseline = calibrate(
             recording,
@@ -406,6 +416,7 @@ def _run_calibrate(args: argparse.Namespace) -> int:
             load=args.load,
             source=Path(args.recording).name,
             cycle_phase=args.cycle_phase,
+            pitch_from=run,
         )
     try:
         if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
@@ -420,6 +431,24 @@ def _run_calibrate(args: argparse.Namespace) -> int:
         f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",
         file=sys.stderr,
     )
+    if (pitch := baseline.pitch) is not None:
+        where = f"the run {args.pitch_from}" if pitch.source == "run-up" else "the baseline"
+        kept = (
+            f", orders {', '.join(map(str, pitch.kept_orders))} left to the engine"
+            if pitch.kept_orders
+            else ""
+        )
+        spread = (
+            ""
+            if math.isnan(pitch.standard_error)
+            else f", standard error {math.degrees(pitch.standard_error):.2g} deg"
+        )
+        print(
+            f"tooth-pitch errors of {baseline.pitch_channel!r} learned on {where} ({pitch.revolutions} "
+            f"revolutions{kept}): rms {math.degrees(pitch.rms):.3f} deg, largest "
+            f"{math.degrees(pitch.largest):.3f} deg{spread}",
+            file=sys.stderr,
+        )
     return 0
 
 

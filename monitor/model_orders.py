@@ -38,6 +38,7 @@ forces.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,7 @@ __all__ = [
     "ModelOrders",
     "combine_cylinders",
     "cylinder_parts",
+    "inertia_angle_fluctuation",
     "load_reversals",
     "predict_orders",
 ]
@@ -400,3 +402,55 @@ def load_reversals(
     low = (magnitude < np.roll(magnitude, 1)) & (magnitude <= np.roll(magnitude, -1))
     low &= magnitude < magnitude.mean()
     return np.asarray(grid[low] if low.any() else grid[[int(np.argmin(magnitude))]])
+
+
+def inertia_angle_fluctuation(
+    engine: Engine, *, max_order: int = 36
+) -> Callable[[npt.ArrayLike], FloatArray]:
+    """The crank's angle fluctuation driven by the reciprocating parts' inertia: the same at every speed.
+
+    Parameters
+    ----------
+    engine : Engine
+        With its ``[shaft_line]`` (the rotating inertia the torque drives).
+    max_order : int, optional
+        Highest order kept [-].
+
+    Returns
+    -------
+    callable
+        ``f(theta)``: how far the crank runs ahead of uniform rotation at crank angle ``theta``
+        (from TDC of cylinder 1) [rad] -> [rad], mean zero.
+
+    Raises
+    ------
+    ModelError
+        If the engine has no ``[shaft_line]``.
+
+    Notes
+    -----
+    For a rigid engine side of inertia ``J`` (:func:`monitor.torsion.shaft_line.engine_side_inertia`)
+    turning at ``Omega (1 + delta)``, ``J Omega^2 d delta / d theta = T(theta)`` to first order, and
+    the angle ahead of uniform rotation obeys ``df / d theta = delta``; so order ``k`` of the
+    torque gives ``f_k = -T_k / (J Omega^2 k^2)``. The inertia torque (every cylinder's moving
+    parts, phased by its firing angle) is ``Omega^2`` times a shape fixed by the kinematics, so
+    ``f`` does not depend on speed; it is evaluated at the rated speed, without the weights (whose
+    torque does not scale with ``Omega^2``), and repeats every revolution.
+    """
+    from monitor.torsion.shaft_line import engine_side_inertia
+
+    inertia = engine_side_inertia(engine)
+    omega = engine.operation.rated_speed_rpm * math.pi / 30
+    model = EngineModel(engine, gas="none", gravity=0.0, grid_size=max(256, 8 * max_order))
+    parts = cylinder_parts(model, crank_speed=omega, load=0.0, max_order=max_order)
+    torque = combine_cylinders(parts, engine, np.zeros(engine.cylinders)).engine_torque
+    orders = parts.orders
+    keep = (orders > 0) & (orders == np.rint(orders))  # each throw's inertia repeats every revolution
+    coefficients = -torque[keep] / (inertia * omega**2 * orders[keep] ** 2)
+    kept_orders = orders[keep]
+
+    def fluctuation(theta: npt.ArrayLike) -> FloatArray:
+        phase = np.exp(1j * np.multiply.outer(np.asarray(theta, dtype=np.float64), kept_orders))
+        return np.asarray(np.real(phase @ coefficients), dtype=np.float64)
+
+    return fluctuation

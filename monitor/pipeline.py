@@ -42,6 +42,7 @@ from typing import Literal
 
 import numpy as np
 
+from monitor.engine import Engine
 from monitor.io import open_recording, read_recording
 from monitor.recording import Channel, Recording
 from monitor.signal.angle_domain import (
@@ -56,7 +57,12 @@ from monitor.signal.angle_domain import (
     to_angle_domain,
 )
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
-from monitor.signal.pitch import PitchCorrection, correct_pitch, estimate_pitch_errors
+from monitor.signal.pitch import (
+    PitchCorrection,
+    correct_pitch,
+    estimate_pitch_errors,
+    learn_pitch_over_speed,
+)
 from monitor.signal.pulses import SignalError, detect_edges, detect_pulses, repair_keyphasor
 from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 from monitor.signal.toothwheel import (
@@ -71,6 +77,7 @@ __all__ = [
     "SpectrumResult",
     "angle_reference",
     "learn_pitch_errors",
+    "learn_pitch_errors_over_speed",
     "open_recording",
     "read_recording",
     "spectra",
@@ -324,6 +331,49 @@ def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> Pit
     channel = teeth[0] if teeth else encoders[0]
     decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
     return replace(estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all"), source="baseline")
+
+
+def learn_pitch_errors_over_speed(recording: Recording, engine: Engine | None = None) -> PitchCorrection:
+    """Every tooth's pitch error at every order, learned on a run whose speed changes.
+
+    Parameters
+    ----------
+    recording : Recording
+        A motored run-up, a coast-down with the fuel cut, or a run-up at a fixed fuel setting, with
+        a tooth wheel or an encoder; its mean speed must change by a quarter or more.
+    engine : Engine, optional
+        With a ``[shaft_line]``: its reciprocating parts' inertia fluctuation (the same at every speed,
+        like the wheel's errors) is taken out of the estimate by the model
+        (:func:`monitor.model_orders.inertia_angle_fluctuation`). Without one it stays in.
+
+    Returns
+    -------
+    PitchCorrection
+        ``source="run-up"``.
+
+    Raises
+    ------
+    SignalError
+        Without a tooth wheel or encoder, or a run whose speed changes too little.
+
+    Notes
+    -----
+    See :func:`monitor.signal.pitch.learn_pitch_over_speed`: the gas forces' share of the crank's
+    fluctuation falls with the square of the speed, the wheel's errors do not change; the
+    inertia's share does not change either and comes from the model.
+    """
+    teeth = recording.of_kind("tooth")
+    encoders = recording.of_kind("encoder")
+    if not (teeth or encoders):
+        raise SignalError("the run has no tooth-wheel or encoder channel: no pitch errors to learn")
+    channel = teeth[0] if teeth else encoders[0]
+    decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
+    fluctuation = None
+    if engine is not None and engine.shaft_line is not None:
+        from monitor.model_orders import inertia_angle_fluctuation
+
+        fluctuation = inertia_angle_fluctuation(engine)
+    return learn_pitch_over_speed(decoding, speed_independent=fluctuation)
 
 
 @dataclass(frozen=True)

@@ -34,15 +34,23 @@ from .conftest import shared_path
 FS = 25600.0
 
 
-def _vr_voltage(angle: np.ndarray, speed: np.ndarray, *, teeth: int = 60, missing: int = 2) -> np.ndarray:
-    """d(flux)/dt of a wheel whose teeth each add a Gaussian flux bump 0.4 pitch wide [V per unit]."""
+def _vr_voltage(
+    angle: np.ndarray,
+    speed: np.ndarray,
+    *,
+    teeth: int = 60,
+    missing: int = 2,
+    errors: np.ndarray | None = None,
+) -> np.ndarray:
+    """d(flux)/dt of a wheel whose teeth each add a Gaussian flux bump 0.4 pitch wide [V per unit];
+    tooth k centred at k pitches plus its error [rad] (default: none)."""
     pitch = 2 * math.pi / teeth
     position = angle / pitch
     nearest = np.floor(position).astype(np.int64)
     dflux = np.zeros_like(angle)
     for step in range(-3, 4):
         k = nearest + step
-        u = position - k
+        u = position - k - (0.0 if errors is None else errors[np.mod(k, teeth)] / pitch)
         bump = -u / 0.16 * np.exp(-(u**2) / 0.32)  # d/du of exp(-u^2 / (2 * 0.4^2))
         dflux += np.where(np.mod(k, teeth) < teeth - missing, bump, 0.0)
     return dflux * speed / pitch

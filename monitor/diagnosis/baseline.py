@@ -126,6 +126,7 @@ class Baseline:
                 "kept_orders": list(self.pitch.kept_orders),
                 "revolutions": self.pitch.revolutions,
                 "scope": self.pitch.scope,
+                "learned_on": "run-up" if self.pitch.source == "run-up" else "baseline",
             },
             "sensors": {
                 name: {
@@ -238,7 +239,7 @@ class Baseline:
                     np.radians(np.asarray(stored["errors_deg"], dtype=np.float64)),
                     tuple(int(k) for k in stored["kept_orders"]),
                     int(stored["revolutions"]),
-                    source="baseline",
+                    source="run-up" if stored.get("learned_on") == "run-up" else "baseline",
                     scope=str(stored["scope"]),
                 )
                 if stored

@@ -65,7 +65,13 @@ from monitor.model_orders import (
     load_reversals,
 )
 from monitor.orders import order_coefficients
-from monitor.pipeline import SPEED_CHANNEL, SpectrumResult, learn_pitch_errors, spectra
+from monitor.pipeline import (
+    SPEED_CHANNEL,
+    SpectrumResult,
+    learn_pitch_errors,
+    learn_pitch_errors_over_speed,
+    spectra,
+)
 from monitor.recording import Channel, Recording
 from monitor.signal.pitch import PitchCorrection
 from monitor.signal.pulses import SignalError
@@ -516,6 +522,7 @@ def calibrate(
     max_order: float = 24.0,
     source: str = "",
     cycle_phase: float | None = None,
+    pitch_from: Recording | None = None,
 ) -> Baseline:
     """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
 
@@ -535,6 +542,11 @@ def calibrate(
     cycle_phase : float, optional
         Four-stroke: the shift (0 or 2 pi) that puts cylinder 1's firing TDC at cycle angle 0, for a
         recording without a cam or cylinder-1 pressure channel [rad].
+    pitch_from : Recording, optional
+        A run of the same wheel whose speed changes (motored run-up, coast-down with the fuel
+        cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
+        (:func:`monitor.pipeline.learn_pitch_errors_over_speed`), instead of on ``recording`` with
+        the firing harmonics left to the engine.
 
     Returns
     -------
@@ -552,8 +564,12 @@ def calibrate(
             "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
         )
     # the wheel's pitch errors, learned here once for every later recording (and used here too)
-    harmonics = _engine_orders(engine, recording, firing_only=True)
-    pitch = learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
+    pitch: PitchCorrection | None
+    if pitch_from is not None:
+        pitch = learn_pitch_errors_over_speed(pitch_from, engine)
+    else:
+        harmonics = _engine_orders(engine, recording, firing_only=True)
+        pitch = learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
     analysis = _analyse(
         recording,
         engine,

@@ -10,23 +10,35 @@ angle and made of the orders it excites, what is left is the wheel's.  By
 default only the teeth beside the gap are corrected, and only where their
 error stands out of what the engine could put there; a healthy baseline can
 teach every tooth, its firing harmonics left to the engine
-(:func:`monitor.pipeline.learn_pitch_errors`).
+(:func:`monitor.pipeline.learn_pitch_errors`); a run whose speed changes (a
+motored run-up, a coast-down with the fuel cut) teaches every tooth at every
+order (:func:`learn_pitch_over_speed`), because the wheel's errors do not
+change with speed and the gas forces' share does.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
+from scipy.interpolate import CubicSpline
+from scipy.ndimage import median_filter
 
 from monitor.signal.pulses import SignalError
 from monitor.signal.toothwheel import ToothWheelDecoding
 from monitor.types import FloatArray
 
-__all__ = ["PitchCorrection", "correct_pitch", "estimate_pitch_errors", "tooth_spacing_errors"]
+__all__ = [
+    "PitchCorrection",
+    "correct_pitch",
+    "estimate_pitch_errors",
+    "learn_pitch_over_speed",
+    "tooth_spacing_errors",
+]
 
 
 @dataclass(frozen=True)
@@ -43,9 +55,13 @@ class PitchCorrection:
     revolutions : int
         Revolutions the estimate averaged.
     source : str
-        "recording" (estimated from the recording itself) or "baseline" (learned earlier).
+        "recording" (estimated from the recording itself), "baseline" (learned earlier on a steady
+        healthy recording) or "run-up" (learned earlier on a run whose speed changed).
     scope : str
         "gap" (the gap's neighbours corrected) or "all" (every tooth).
+    standard_error : float
+        rms over the teeth of each error's standard error, where the method gives one [rad]; NaN
+        otherwise.
     """
 
     errors: FloatArray
@@ -53,6 +69,7 @@ class PitchCorrection:
     revolutions: int
     source: str = "recording"
     scope: str = "gap"
+    standard_error: float = math.nan
 
     @property
     def rms(self) -> float:
@@ -176,6 +193,120 @@ def estimate_pitch_errors(
     else:
         errors = errors - errors.mean()
     return PitchCorrection(errors, tuple(int(k) for k in orders), int(starts.size), scope=scope)
+
+
+def learn_pitch_over_speed(
+    decoding: ToothWheelDecoding,
+    *,
+    speed_independent: Callable[[FloatArray], FloatArray] | None = None,
+    lowest_speed_share: float = 0.25,
+    min_speed_ratio: float = 1.25,
+) -> PitchCorrection:
+    """Every tooth's error at every order, from a run whose mean speed changes (run-up, coast-down).
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+        A run whose mean speed changes by ``min_speed_ratio`` or more, with the engine's torque from
+        the gas forces the same at every speed: motored (no fuel), a coast-down with the fuel cut,
+        or a run-up at a fixed fuel setting.
+    speed_independent : callable, optional
+        The engine's angle fluctuation that does not change with speed (the reciprocating parts'
+        inertia torque over the rotating inertia, :func:`monitor.model_orders.inertia_angle_fluctuation`)
+        at crank angles [rad] -> [rad]. Without it the inertia's orders stay in the errors.
+    lowest_speed_share : float, optional
+        Revolutions slower than this share of the fastest one are left out: there the gas forces
+        shake the crank too much for the expansion below [-].
+    min_speed_ratio : float, optional
+        Fastest over slowest revolution used, at least [-].
+
+    Returns
+    -------
+    PitchCorrection
+        ``scope="all"``, no order kept, ``source="run-up"``, with its standard error.
+
+    Raises
+    ------
+    SignalError
+        With fewer than eight complete revolutions, or a speed that changes too little.
+
+    Notes
+    -----
+    A tooth ``k`` really at ``theta_k + e_k`` is reached when the crank's angle is there. Write the
+    crank's angle as a smooth trend ``Phi(t)`` (a cubic spline through the times the first tooth
+    after the gap comes round) plus the fluctuation ``f`` that repeats with the engine's cycle; the
+    tooth then comes ``y_k = Phi(t_k) - theta_k = e_k - f(theta_k)`` (plus a constant) ahead of the
+    trend. For a rigid crank, ``J Omega^2 df/dtheta^2 = T(theta)`` to first order: the gas torque
+    (the same at every speed) gives ``f`` in ``1 / Omega^2``, the reciprocating parts' inertia torque
+    (proportional to ``Omega^2``) a part that does not change with speed, as the wheel's errors do
+    not. So each tooth's ``y`` over the revolutions ``j`` is fitted by least squares with
+    ``1, x_j, x_j^2`` (``x_j = (Omega_max / Omega_j)^2``; the square takes the next term of
+    ``sqrt(1 + u)``), and the same three times ``(-1)^j`` (a four-stroke's half orders, which
+    alternate from one revolution to the next), each revolution weighted by the inverse of its timing
+    noise (from a first, unweighted fit); its value at ``x = 0`` is ``e_k - f_inertia(theta_k)``.
+    Adding back the model's ``f_inertia`` (or nothing) and removing the mean gives ``e``. A load that
+    grows with speed (a propeller) puts gas forces in the speed-independent part: learn on a motored
+    run or a coast-down then.
+    """
+    per_rev = decoding.teeth - decoding.missing
+    knots = np.flatnonzero(decoding.tooth_index == 0)
+    if knots.size < 10:
+        raise SignalError(
+            f"learning tooth-pitch errors over speed needs at least ten revolutions; the run has {knots.size}"
+        )
+    trend = CubicSpline(decoding.angles[knots], decoding.times[knots])
+    slope = trend.derivative()
+    # complete revolutions, the first and last left out (the spline's ends)
+    starts = knots[1:-2]
+    starts = starts[starts + per_rev < decoding.times.size]
+    starts = starts[decoding.tooth_index[starts + per_rev] == 0]
+    window = starts[:, None] + np.arange(per_rev)
+    angles, times = decoding.angles[window], decoding.times[window]
+    ahead = (times - trend(angles)) / slope(angles)  # y_k per revolution [rad]
+    speed = 2 * math.pi / (decoding.times[starts + per_rev] - decoding.times[starts])
+    used = speed >= lowest_speed_share * speed.max()
+    if used.sum() < 8:
+        raise SignalError(
+            f"learning tooth-pitch errors over speed needs eight complete revolutions above "
+            f"{lowest_speed_share:.0%} of the top speed; the run has {int(used.sum())}"
+        )
+    speed, ahead, angles = speed[used], ahead[used], angles[used]
+    ratio = float(speed.max() / speed.min())
+    if ratio < min_speed_ratio:
+        raise SignalError(
+            f"learning tooth-pitch errors over speed needs a run whose speed changes by a factor of "
+            f"{min_speed_ratio:g} or more (a run-up or a coast-down); this one spans "
+            f"{speed.min() * 30 / math.pi:.1f} to {speed.max() * 30 / math.pi:.1f} rpm"
+        )
+    x = (speed.max() / speed) ** 2
+    parity = np.where(np.arange(starts.size)[used] % 2 == 0, 1.0, -1.0)
+    design = np.column_stack([np.ones_like(x), x, x**2, parity, parity * x, parity * x**2])
+    if np.linalg.matrix_rank(design) < design.shape[1]:
+        raise SignalError("the run's revolutions do not separate speed-dependent from fixed errors")
+    # timing noise is not the same at every speed (a VR sensor's slope grows with the square of the
+    # speed): a first fit's residuals give each revolution's noise, smoothed over its neighbours, and the
+    # second fit weighs each revolution by its inverse
+    coefficients = np.linalg.lstsq(design, ahead, rcond=None)[0]
+    noise = np.mean((ahead - design @ coefficients) ** 2, axis=1)
+    noise = median_filter(noise, size=9, mode="nearest")
+    weight = 1.0 / np.maximum(noise, 1e-6 * float(np.median(noise)) + 1e-300)
+    root = np.sqrt(weight)[:, None]
+    coefficients = np.linalg.lstsq(design * root, ahead * root, rcond=None)[0]
+    residual = (ahead - design @ coefficients) * root
+    dof = max(x.size - design.shape[1], 1)
+    variance = (residual**2).sum(axis=0) / dof
+    spread = np.linalg.inv((design * root).T @ (design * root))[0, 0]
+    intercept = coefficients[0]
+    if speed_independent is not None:
+        intercept = intercept + np.asarray(
+            speed_independent(np.mod(angles[0], 2 * math.pi)), dtype=np.float64
+        )
+    errors = intercept - intercept.mean()
+    # the revolution's first tooth is where the trend is pinned: its error is fixed by the mean
+    standard_error = float(np.sqrt(np.mean(variance * spread)))
+    return PitchCorrection(
+        errors, (), int(x.size), source="run-up", scope="all", standard_error=standard_error
+    )
 
 
 def correct_pitch(decoding: ToothWheelDecoding, correction: PitchCorrection) -> ToothWheelDecoding:
