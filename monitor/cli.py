@@ -201,6 +201,7 @@ def _build_parser() -> argparse.ArgumentParser:
         help="torque to crank speed: the rigid engine side (default) or the shaft line's receptance",
     )
     compare.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
+    _add_exclude_channel(compare)
     compare.add_argument("--plot", metavar="FILE.png|FILE.html", help="also draw measured against predicted")
     _add_cycle_phase(compare, unknown=True)
     compare.error = _exit_3_on_usage_error(compare)  # type: ignore[method-assign]
@@ -230,6 +231,7 @@ def _build_parser() -> argparse.ArgumentParser:
         "coast-down with the fuel cut (default: on RECORDING, firing harmonics left to the engine)",
     )
     _add_cycle_phase(calibrate)
+    _add_exclude_channel(calibrate)
 
     batch = sub.add_parser(
         "batch",
@@ -372,6 +374,16 @@ def _engine_of(recording: Recording, given: str | None) -> Any:
     )
 
 
+def _add_exclude_channel(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--exclude-channel",
+        metavar="NAME",
+        action="append",
+        default=[],
+        help="leave this channel out (a sensor known to be faulty); repeat for more",
+    )
+
+
 def _add_cycle_phase(parser: argparse.ArgumentParser, *, unknown: bool = False) -> None:
     """The --cycle-phase option of the commands that read a four-stroke recording."""
     parser.add_argument(
@@ -417,6 +429,7 @@ def _run_calibrate(args: argparse.Namespace) -> int:
             source=Path(args.recording).name,
             cycle_phase=args.cycle_phase,
             pitch_from=run,
+            exclude=args.exclude_channel,
         )
     try:
         if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
@@ -607,6 +620,7 @@ def _run_compare(args: argparse.Namespace) -> int:
                         transfer=args.transfer,
                         source=Path(args.baseline).name,
                         cycle_phase=args.cycle_phase if isinstance(args.cycle_phase, float) else None,
+                        exclude=[n for n in args.exclude_channel if n in {c.name for c in healthy.channels}],
                     )
                 print(
                     f"calibrated on {args.baseline} (store it with 'engine-monitor calibrate' to reuse it)",
@@ -619,6 +633,7 @@ def _run_compare(args: argparse.Namespace) -> int:
             load=args.load,
             transfer=args.transfer,
             cycle_phase=args.cycle_phase,
+            exclude=args.exclude_channel,
         )
     name = Path(args.recording).name
     table = diagnosis_table(diagnosis, recording=name)

@@ -48,6 +48,7 @@ from monitor.diagnosis.bearings import (
     impact_score,
     order_deviations,
 )
+from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
     DEFAULT_BOUNDARIES_MM_S,
@@ -523,6 +524,7 @@ def calibrate(
     source: str = "",
     cycle_phase: float | None = None,
     pitch_from: Recording | None = None,
+    exclude: tuple[str, ...] | list[str] = (),
 ) -> Baseline:
     """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
 
@@ -547,6 +549,8 @@ def calibrate(
         cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
         (:func:`monitor.pipeline.learn_pitch_errors_over_speed`), instead of on ``recording`` with
         the firing harmonics left to the engine.
+    exclude : sequence of str, optional
+        Channels left out (not calibrated).
 
     Returns
     -------
@@ -555,8 +559,17 @@ def calibrate(
     Raises
     ------
     DiagnosisError
-        Without a vibration sensor on a main bearing.
+        Without a vibration sensor on a main bearing, or with one that is clipped, dead or
+        implausibly scaled (a baseline is the reference for later recordings: leave it out).
     """
+    recording, bad, _ = screen_sensors(recording, exclude=exclude)
+    if bad:
+        raise DiagnosisError(
+            "cannot calibrate on faulty sensors: "
+            + "; ".join(f"{f.channel}: {f.fault}: {f.detail}" for f in bad)
+            + ". Mend them, or leave them out with "
+            + " ".join(f"--exclude-channel {f.channel}" for f in bad)
+        )
     sensors = _bearing_sensors(recording, engine)
     if not sensors:
         raise DiagnosisError(
@@ -764,6 +777,22 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
     return findings
 
 
+def _sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
+    channel = recording.channel(fault.channel)
+    where = channel.location or "location not given"
+    return Finding(
+        kind="sensor",
+        subject=f"sensor {fault.channel}",
+        severity="warning",
+        summary=(
+            f"sensor {fault.channel} ({where}): {fault.fault}: {fault.detail}; left out of the diagnosis "
+            "(check the sensor, or leave it out with --exclude-channel)"
+        ),
+        confidence=1.0,
+        evidence=[{"quantity": fault.fault, "channel": fault.channel, "detail": fault.detail}],
+    )
+
+
 def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
     by_subject: dict[str, Finding] = {}
 
@@ -875,6 +904,7 @@ def diagnose(
     transfer: Transfer = "rigid",
     max_order: float = 24.0,
     cycle_phase: CyclePhase = None,
+    exclude: tuple[str, ...] | list[str] = (),
 ) -> Diagnosis:
     """Diagnose a recording against the engine's model (see the module docstring).
 
@@ -895,10 +925,14 @@ def diagnose(
         Four-stroke, for a recording without a cam or cylinder-1 pressure channel: the shift (0 or
         2 pi) that puts cylinder 1's firing TDC at cycle angle 0 [rad], or "unknown": diagnosed
         with 0, and each cylinder named together with the one firing 360 deg from it.
+    exclude : sequence of str, optional
+        Channels left out of the diagnosis.
 
     Returns
     -------
     Diagnosis
+        Vibration channels found clipped, dead or implausibly scaled are findings on the sensor
+        and left out of the rest (:mod:`monitor.diagnosis.sensors`).
 
     Raises
     ------
@@ -908,6 +942,25 @@ def diagnose(
     SignalError
         Without a usable angle reference.
     """
+    recording_before = recording
+    recording, sensor_faults, screen_notes = screen_sensors(recording, exclude=exclude)
+    limits = engine.vibration_limits
+    boundaries = limits.zone_boundaries_mm_s if limits is not None else DEFAULT_BOUNDARIES_MM_S
+    band = limits.band_hz if limits is not None else DEFAULT_BAND_HZ
+    rms: dict[str, VelocityRms] = {}
+    unrated = []
+    for channel in _vibration_channels(recording):
+        try:
+            rms[channel.name] = velocity_rms(channel, band)
+        except SignalError as error:
+            unrated.append(f"rms velocity not rated: {error}")
+    if baseline is not None:
+        scaled = level_faults(
+            {name: s.velocity_rms for name, s in baseline.sensors.items()},
+            {name: v.value for name, v in rms.items()},
+        )
+        sensor_faults += scaled
+        recording = without(recording, [f.channel for f in scaled])
     if baseline is not None:
         _check_baseline(recording, engine, baseline)
     if load is None:
@@ -922,7 +975,7 @@ def diagnose(
         pitch=_baseline_pitch(recording, baseline),
     )
     result = analysis.spectra
-    notes = list(analysis.notes)
+    notes = screen_notes + list(analysis.notes) + unrated
     R = engine.cycle_revolutions
     speed_rpm = result.mean_speed * 30 / math.pi
     comparisons = []
@@ -1006,19 +1059,13 @@ def diagnose(
                     reference = None
                 impacts.append(impact_score(profile, reversals, neighbour, R, reference))
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
-    limits = engine.vibration_limits
-    boundaries = limits.zone_boundaries_mm_s if limits is not None else DEFAULT_BOUNDARIES_MM_S
-    band = limits.band_hz if limits is not None else DEFAULT_BAND_HZ
     velocity = {}
-    findings: list[Finding] = []
+    findings: list[Finding] = [_sensor_finding(f, recording_before) for f in sensor_faults]
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
         findings += _cylinder_findings(analysis.balance, analysis.partners)
     findings += _bearing_findings(bearings)
     for channel in _vibration_channels(recording):
-        try:
-            v = velocity_rms(channel, band)
-        except SignalError as error:
-            notes.append(f"rms velocity not rated: {error}")
+        if (v := rms.get(channel.name)) is None:
             continue
         zone = zone_of(v.value, boundaries)
         velocity[channel.name] = (v, zone)
