@@ -22,7 +22,7 @@ from monitor.engine import Engine, VibrationLimits, bundled_engines, load_engine
 from monitor.errors import DiagnosisError, EngineDescriptionError
 from monitor.io.hdf5 import write_hdf5
 from monitor.recording import Channel, Recording
-from monitor.scene import load_scene, simulate
+from monitor.scene import load_scene, parse_scene, simulate
 from monitor.signal.pulses import SignalError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +60,9 @@ def test_every_single_cylinder_misfire_is_named(
 ) -> None:
     """The misfiring cylinder, and only it, is named: an alarm, its strength within 4 standard errors
     of 0 and below the misfire threshold; no bearing or zone finding (the bearing prediction carries
-    the estimated strengths)."""
+    the estimated strengths). Its confidence (that it is below the alarm threshold, 50 % of the
+    others) carries the model's 10 % uncertainty at the firing harmonics, which leaves the level of
+    all cylinders open by about 20 %: above 95 %."""
     diagnosis = diagnose(
         _recording(f"{prefix}-misfire-cyl{cylinder}"), _engine(prefix), baseline=baselines[prefix]
     )
@@ -73,7 +75,7 @@ def test_every_single_cylinder_misfire_is_named(
     relative, error = balance.relative[cylinder - 1], balance.relative_error[cylinder - 1]
     assert abs(relative) < 4 * error + 0.05
     assert "misfiring" in diagnosis.findings[0].summary
-    assert diagnosis.findings[0].confidence > 0.99
+    assert diagnosis.findings[0].confidence > 0.95
 
 
 def test_a_30_percent_weak_cylinder_is_named_at_rated_speed(baselines: dict[str, Baseline]) -> None:
@@ -355,3 +357,48 @@ def test_a_run_up_is_inconclusive_not_healthy() -> None:
     diagnosis = diagnose(recording, _engine("7k98mc"))
     assert diagnosis.findings == [] and diagnosis.status == "inconclusive"
     assert any("the speed was not steady" in note for note in diagnosis.notes)
+
+
+@pytest.mark.parametrize(("misfiring", "status"), [(False, "healthy"), (True, "alarm")])
+def test_a_single_cylinder_is_judged_against_the_model(tmp_path: Path, misfiring: bool, status: str) -> None:
+    """A single cylinder has no others to be compared with: its strength is judged against the model's at
+    the stated load, with an error of at least 15 % (the model and the load). The paper-003 two-stroke
+    with a flywheel: healthy, nothing is named; motored (a misfire), cylinder 1 is an alarm."""
+    source = (ROOT / "recordings" / "engines" / "zubaydi-1cyl-2stroke.toml").read_text()
+    engine_file = tmp_path / "zubaydi-flywheel.toml"
+    engine_file.write_text(
+        source.replace('id = "zubaydi-1cyl-2stroke"', 'id = "zubaydi-flywheel"')
+        + "\n[shaft_line]\nthrow_inertia_kgm2 = 0.002\nthrow_stiffness_nm_per_rad = 2.0e5\n"
+        + '[[shaft_line.driven_end]]\nname = "flywheel"\nkind = "flywheel"\ninertia_kgm2 = 2.0\n'
+        + "stiffness_to_previous_nm_per_rad = 5.0e4\n"
+    )
+    effects = {"inertia": {}, "gas": {}, "crank_speed": {}} | (
+        {"misfire": {"cylinders": [1]}} if misfiring else {}
+    )
+    scene = parse_scene(
+        {
+            "engine": str(engine_file),
+            "duration_s": 10.0,
+            "seed": 3,
+            "operating_point": {"speed_rpm": 500.0, "load": 1.0},
+            "sensors": [
+                {
+                    "name": "tooth",
+                    "kind": "tooth",
+                    "teeth": 60,
+                    "missing_teeth": 2,
+                    "representation": "events",
+                }
+            ],
+            "effects": effects,
+        }
+    )
+    engine = load_engine(engine_file)
+    diagnosis = diagnose(simulate(scene).recording, engine)
+    assert diagnosis.status == status, (diagnosis.findings, diagnosis.notes)
+    cylinders = [f for f in diagnosis.findings if f.kind == "cylinder"]
+    if misfiring:
+        assert [f.subject for f in cylinders] == ["cylinder 1"]
+        assert "misfiring" in cylinders[0].summary and "judged against the model" in cylinders[0].summary
+    else:
+        assert cylinders == []

@@ -51,6 +51,12 @@ __all__ = ["CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
 Transfer = Literal["rigid", "shaft-line"]
 
 ALIKE = 0.15  # cylinders within this fraction of the median strength form the reference [-]
+# the model's relative uncertainty of the engine's torque at each order at nominal strengths, where no
+# baseline measured it: engine files differ from engines (masses and inertia by up to 10 %, combustion
+# timing by a few degrees, the load by 10 %), so the firing harmonics, where every cylinder adds, are
+# known to about this; the orders where healthy cylinders cancel are not affected by a gap that all
+# cylinders share
+MODEL_UNCERTAINTY = 0.10
 # above this condition number of the column-normalised problem two cylinders cannot be told apart
 SEPARABLE_CONDITION = 1e3
 
@@ -68,6 +74,12 @@ class CylinderBalance:
         Strength over the mean of the cylinders that fire alike, itself excluded [-].
     relative_error : ndarray, shape (n_cylinders,)
         Standard error of ``relative`` [-].
+    contrast_error : ndarray, shape (n_cylinders,)
+        Standard error of ``relative - 1`` as a contrast against the others: what the cylinders'
+        differences are known to, without the uncertainty of their common level (a model gap at the
+        firing harmonics moves every cylinder alike) [-].
+    model_uncertainty : float
+        The model's relative uncertainty at the orders where the cylinders add up [-].
     orders : ndarray
         The orders used [-].
     measured, predicted : ndarray, complex
@@ -94,6 +106,8 @@ class CylinderBalance:
     strength_covariance: FloatArray
     relative: FloatArray
     relative_error: FloatArray
+    contrast_error: FloatArray
+    model_uncertainty: float
     orders: FloatArray
     measured: ComplexArray
     predicted: ComplexArray
@@ -173,6 +187,7 @@ def cylinder_balance(
     *,
     transfer: Transfer = "rigid",
     highest_order: float | None = None,
+    model_uncertainty: float = MODEL_UNCERTAINTY,
 ) -> CylinderBalance:
     """Estimate each cylinder's strength from the crank-speed orders (see the module docstring).
 
@@ -186,6 +201,9 @@ def cylinder_balance(
     transfer : {"rigid", "shaft-line"}, optional
     highest_order : float, optional
         Highest order used; default ``n_cylinders / R`` [-].
+    model_uncertainty : float, optional
+        The model's relative uncertainty: each order's weight carries ``model_uncertainty`` times the
+        engine's predicted value at nominal strengths beside the measurement's standard error [-].
 
     Returns
     -------
@@ -232,7 +250,12 @@ def cylinder_balance(
     design = (H * combustion).T  # (n_orders, n_cyl)
     # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution);
     # se is the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
-    sigma = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
+    # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large
+    # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
+    # cylinders share cancels there too)
+    nominal = (H * (known + combustion)).sum(axis=0)
+    spread = np.hypot(se, model_uncertainty * np.abs(nominal))
+    sigma = np.maximum(spread, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
     a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
     b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
     norms = np.linalg.norm(a, axis=0)
@@ -241,20 +264,27 @@ def cylinder_balance(
     scaled = a / norms
     strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
     strength = strength_scaled / norms
-    singular = np.linalg.svd(scaled, compute_uv=False)
+    # whether the orders tell the cylinders apart is the measurement's geometry (the firing order, the
+    # orders resolved), judged with the measurement's own weights: the model's uncertainty weakens only
+    # the cylinders' common level, which no single cylinder's finding rests on
+    own = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
+    geometry = np.vstack([design.real, design.imag]) / np.concatenate([own, own])[:, None]
+    singular = np.linalg.svd(geometry / np.linalg.norm(geometry, axis=0), compute_uv=False)
     condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
     residual = scaled @ strength_scaled - b
     dof = a.shape[0] - n
     chi2 = float(residual @ residual / dof) if dof > 0 else 1.0
     inverse = np.linalg.pinv(scaled.T @ scaled)
     covariance = inverse / np.outer(norms, norms) * max(chi2, 1.0)
-    relative, relative_error = _relative(strength, covariance)
+    relative, relative_error, contrast_error = _relative(strength, covariance)
     predicted = (H * (known + strength[:, None] * combustion)).sum(axis=0)
     return CylinderBalance(
         strength=strength,
         strength_covariance=covariance,
         relative=relative,
         relative_error=relative_error,
+        contrast_error=contrast_error,
+        model_uncertainty=float(model_uncertainty),
         orders=orders,
         measured=y,
         predicted=predicted,
@@ -269,19 +299,24 @@ def cylinder_balance(
     )
 
 
-def _relative(strength: FloatArray, covariance: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Each strength over the mean of the cylinders that fire alike, itself excluded, with its error.
+def _relative(strength: FloatArray, covariance: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each strength over the mean of the cylinders that fire alike, itself excluded, with its errors.
 
     Those that fire alike are within :data:`ALIKE` of the median strength, so one or two faulty
-    cylinders do not move the reference; the error is first order in the covariance.
+    cylinders do not move the reference. Two errors, first order in the covariance: of the ratio
+    itself, and of the contrast ``(s_c - reference) / reference`` with the reference's level held
+    (a change of every strength alike moves it by nothing): whether the cylinder differs from the
+    others.
     """
     n = strength.size
     if n < 2:
-        return np.ones(1), np.zeros(1)
+        error = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+        return np.ones(1), error, error
     median = float(np.median(strength))
     alike = np.abs(strength - median) <= ALIKE * abs(median)
     relative = np.empty(n)
     error = np.empty(n)
+    contrast = np.empty(n)
     for c in range(n):
         group = alike.copy()
         group[c] = False
@@ -294,4 +329,7 @@ def _relative(strength: FloatArray, covariance: FloatArray) -> tuple[FloatArray,
         gradient[c] = 1.0 / reference
         relative[c] = strength[c] / reference
         error[c] = math.sqrt(max(float(gradient @ covariance @ gradient), 0.0))
-    return relative, error
+        difference = np.where(group, -1.0 / (reference * m), 0.0)
+        difference[c] = 1.0 / reference
+        contrast[c] = math.sqrt(max(float(difference @ covariance @ difference), 0.0))
+    return relative, error, contrast

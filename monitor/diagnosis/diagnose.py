@@ -99,6 +99,7 @@ IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's 
 SEVERITIES = ("healthy", "warning", "alarm")
 STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
+ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which the notes say the model misfits
 
 
@@ -708,11 +709,13 @@ def _unresolved(analysis: _Analysis, engine: Engine) -> list[str]:
             reasons.append("the cylinders were not compared (see the notes)")
         elif not balance.separable or balance.chi2_reduced > MISFIT:
             reasons.append("the crank-speed orders do not resolve the cylinders (see the notes)")
-        elif (worst := float(np.max(balance.relative_error))) > RESOLVED:
+        elif (worst := float(np.max(balance.contrast_error))) > RESOLVED:
             reasons.append(
-                f"the cylinder strengths are uncertain by up to {100 * worst:.0f} % (one standard error): "
-                "too little to call them healthy"
+                f"the cylinders' differences are uncertain by up to {100 * worst:.0f} % (one standard "
+                "error): too little to call them healthy"
             )
+    elif analysis.balance is None and engine.combustion is not None:
+        reasons.append("the cylinder was not judged (see the notes)")
     return reasons
 
 
@@ -730,6 +733,7 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
         partner = partners[c] if partners is not None else None
         named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
         r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
+        contrast = max(float(balance.contrast_error[c]), 1e-12)
         severity, threshold = "healthy", None
         if r < CYLINDER_WARNING[0]:
             severity, threshold = "warning", CYLINDER_WARNING[0]
@@ -739,7 +743,9 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
             severity, threshold = "warning", CYLINDER_WARNING[1]
             if r > CYLINDER_ALARM[1]:
                 severity, threshold = "alarm", CYLINDER_ALARM[1]
-        if threshold is None or abs(r - 1.0) < SIGNIFICANCE * e:
+        # different from the others beyond what the data leave open: the contrast, whose error does not
+        # carry the uncertainty of the cylinders' common level
+        if threshold is None or abs(r - 1.0) < SIGNIFICANCE * contrast:
             continue
         low = r < 1.0
         what = (
@@ -767,6 +773,7 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
                         "predicted": 1.0,
                         "threshold": threshold,
                         "unit": "-",
+                        "contrast_standard_error": contrast,
                         "orders": balance.orders.tolist(),
                         "strength": float(balance.strength[c]),
                         "condition_number": balance.condition,
@@ -775,6 +782,53 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
             )
         )
     return findings
+
+
+def _single_cylinder_findings(balance: CylinderBalance, load: float) -> list[Finding]:
+    """A single cylinder has no others to be compared with: its strength against the model's at the stated
+    load, with an error of at least :data:`ABSOLUTE_UNCERTAINTY` (the model and the stated load)."""
+    s = float(balance.strength[0])
+    e = max(float(balance.strength_error[0]), ABSOLUTE_UNCERTAINTY)
+    severity, threshold = "healthy", None
+    if s < CYLINDER_WARNING[0]:
+        severity, threshold = "warning", CYLINDER_WARNING[0]
+        if s < CYLINDER_ALARM[0]:
+            severity, threshold = "alarm", CYLINDER_ALARM[0]
+    elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding
+        severity, threshold = "warning", CYLINDER_ALARM[1]
+    if threshold is None or abs(s - 1.0) < SIGNIFICANCE * e:
+        return []
+    low = s < 1.0
+    what = (
+        "misfiring"
+        if s < MISFIRE_BELOW
+        else ("weak, leaking or misfiring" if low else "stronger than the model")
+    )
+    return [
+        Finding(
+            kind="cylinder",
+            subject="cylinder 1",
+            severity=severity,
+            summary=(
+                f"cylinder 1 at {round(100 * s)} % +- {round(196 * e)} % of the model's "
+                f"{balance.strength_meaning} at load {load:.2f} ({what}; from the crank-speed orders; a "
+                "single cylinder is judged against the model, not against others)"
+            ),
+            confidence=_phi((threshold - s) / e) if low else _phi((s - threshold) / e),
+            evidence=[
+                {
+                    "quantity": "strength against the model",
+                    "measured": s,
+                    "standard_error": e,
+                    "predicted": 1.0,
+                    "threshold": threshold,
+                    "unit": "-",
+                    "orders": balance.orders.tolist(),
+                    "load": load,
+                }
+            ],
+        )
+    ]
 
 
 def _sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
@@ -1061,8 +1115,12 @@ def diagnose(
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
     velocity = {}
     findings: list[Finding] = [_sensor_finding(f, recording_before) for f in sensor_faults]
-    if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
+    # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
+    fits = analysis.balance is not None and analysis.balance.chi2_reduced <= MISFIT
+    if analysis.balance is not None and fits and analysis.balance.separable and engine.cylinders > 1:
         findings += _cylinder_findings(analysis.balance, analysis.partners)
+    elif analysis.balance is not None and fits and engine.cylinders == 1:
+        findings += _single_cylinder_findings(analysis.balance, load)
     findings += _bearing_findings(bearings)
     for channel in _vibration_channels(recording):
         if (v := rms.get(channel.name)) is None:

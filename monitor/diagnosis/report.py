@@ -89,6 +89,8 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             "strength_standard_error": balance.strength_error,
             "relative": balance.relative,
             "relative_standard_error": balance.relative_error,
+            "contrast_standard_error": balance.contrast_error,
+            "model_uncertainty": balance.model_uncertainty,
             "orders": balance.orders,
             "condition_number": balance.condition,
             "chi2_reduced": balance.chi2_reduced,

@@ -199,7 +199,18 @@ def screen_sensors(
 
 
 def without(recording: Recording, names: list[str] | tuple[str, ...]) -> Recording:
-    """The recording without the named channels."""
+    """The recording without the named channels.
+
+    Parameters
+    ----------
+    recording : Recording
+    names : sequence of str
+        Channels to leave out (names not in the recording are ignored).
+
+    Returns
+    -------
+    Recording
+    """
     return replace(recording, channels=tuple(c for c in recording.channels if c.name not in names))
 
 
