@@ -19,7 +19,8 @@ knocks.  The high-frequency power profile of each sensor
 crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each reversal to
 :data:`WINDOW_AFTER_DEG` after it (the knock rings down after the turn), and
 divided by the baseline's power in the same bins; without a baseline, by the
-median of the recording's own profile.  A sensor hears its neighbours'
+median of the recording's own profile (a weaker reference, judged more
+strictly by :mod:`monitor.diagnosis.diagnose`).  A sensor hears its neighbours'
 bearings too, so the windows of the bearing it sits on and of the bearings
 next to it are scored, and the worst is named.
 """

@@ -26,14 +26,19 @@ Thresholds (the product's defaults, for the shipped acceptance set):
 - a bearing sensor's order against its calibrated prediction: a warning at a
   deviation of 50 % of the prediction, an alarm at 100 %;
 - impact power in a bearing's reversal windows against the baseline's: a
-  warning at 3 times, an alarm at 10 times;
+  warning at 3 times, an alarm at 10 times; without a baseline, against the
+  recording's own median: a warning at 10 times, where the bearing's own
+  sensor hears it at least twice as loud as any other;
+- a single cylinder's strength against the model at the stated load: the
+  cylinder thresholds, with an error of at least 15 %;
+- a clipped, dead or implausibly scaled sensor: a warning (it is left out);
 - rms velocity: zone C a warning, zone D an alarm.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeAlias
 
 import numpy as np
@@ -74,6 +79,7 @@ from monitor.pipeline import (
     spectra,
 )
 from monitor.recording import Channel, Recording
+from monitor.signal.angle_domain import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
 from monitor.signal.pulses import SignalError
 from monitor.types import ComplexArray, FloatArray
@@ -96,6 +102,13 @@ CYLINDER_ALARM = (0.5, 1.3)
 MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
 BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
 IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's [-]
+# without a baseline: impact power against the recording's own median, a warning at most, and only where
+# the bearing's own sensor hears it LOCALISED times louder than any other bearing sensor does [-]
+IMPACT_WITHOUT_BASELINE = 10.0
+LOCALISED = 2.0
+# the model's uncertainty of the change in a bearing force that the cylinders' estimated strengths make
+# against the baseline's (a changed gas force's high orders are known to tens of per cent) [-]
+CHANGE_UNCERTAINTY = 0.5
 SEVERITIES = ("healthy", "warning", "alarm")
 STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
@@ -174,12 +187,16 @@ class BearingResult:
         None without a usable calibration (the reason is in the diagnosis' notes).
     impacts : list of ImpactScore
         The sensor's own bearing's windows and its neighbours'.
+    elsewhere : float
+        The highest score of its own bearing's windows on the other bearing sensors (NaN without
+        others): an impact that is the bearing's own is heard loudest on the sensor on it [-].
     """
 
     channel: str
     bearing: int
     orders: OrderDeviation | None
     impacts: list[ImpactScore]
+    elsewhere: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -301,6 +318,7 @@ class _Analysis:
     notes: list[str]
     inertia: float
     force_error: FloatArray  # (n_bearings, 2, n_orders): of combined.bearing_force, from the strengths [N]
+    parts: CylinderParts
     partners: list[int | None] | None = None  # four-stroke phase unknown: each cylinder's 360 deg partner
 
 
@@ -424,6 +442,7 @@ def _analyse(
         notes=notes,
         inertia=inertia,
         force_error=_force_error(parts, engine, covariance),
+        parts=parts,
         partners=_phase_partners(engine) if ambiguous else None,
     )
 
@@ -847,7 +866,38 @@ def _sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
     )
 
 
-def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
+def _with_elsewhere(
+    bearings: list[BearingResult],
+    profiles: dict[str, HighFrequencyPower],
+    analysis: _Analysis,
+    engine: Engine,
+    baseline: Baseline | None,
+) -> list[BearingResult]:
+    """Each sensor's own bearing's windows scored on the other bearing sensors too (the highest kept)."""
+    R = engine.cycle_revolutions
+    out = []
+    for result in bearings:
+        reversals = load_reversals(
+            analysis.combined.bearing_force[result.bearing - 1], analysis.combined.orders, R
+        )
+        scores = []
+        for other in bearings:
+            profile = profiles.get(other.channel)
+            if other.channel == result.channel or profile is None:
+                continue
+            reference = None
+            if baseline is not None and (known := baseline.sensors.get(other.channel)) is not None:
+                reference = known.high_frequency
+                if reference is not None and (
+                    reference.sample_rate != profile.sample_rate or reference.mean.size != profile.mean.size
+                ):
+                    reference = None
+            scores.append(impact_score(profile, reversals, result.bearing, R, reference).score)
+        out.append(replace(result, elsewhere=max(scores) if scores else math.nan))
+    return out
+
+
+def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> list[Finding]:
     by_subject: dict[str, Finding] = {}
 
     def add(finding: Finding) -> None:
@@ -865,6 +915,7 @@ def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
             old.evidence + finding.evidence,
         )
 
+    sensed = {result.bearing for result in results}
     for result in results:
         dev = result.orders
         if dev is not None and dev.orders.size:
@@ -912,15 +963,36 @@ def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
         if not result.impacts:
             continue
         own = next(s for s in result.impacts if s.bearing == result.bearing)
-        best = max(result.impacts, key=lambda s: s.score)
+
+        def heard(score: ImpactScore) -> bool:
+            e = max(score.score_error, 1e-12)
+            least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
+            return score.score >= least and score.score - 1.0 >= SIGNIFICANCE * e
+
+        # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
+        # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
+        best = own
+        if not heard(own):
+            others = [
+                s
+                for s in result.impacts
+                if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
+            ]
+            best = max(others, key=lambda s: s.score) if others else own
         if (
-            best.score < 1.5 * own.score
-        ):  # a sensor hears its own bearing best: name a neighbour only if clearly
-            best = own
+            best is own
+            and not with_baseline
+            and not (math.isnan(result.elsewhere) or own.score >= LOCALISED * result.elsewhere)
+        ):
+            continue  # against its own median only what its own sensor hears loudest is a bearing's
         e = max(best.score_error, 1e-12)
-        if best.score >= IMPACT_WARNING and best.score - 1.0 >= SIGNIFICANCE * e:
-            severity = "alarm" if best.score >= IMPACT_ALARM else "warning"
-            threshold = IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING
+        if heard(best):
+            severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
+            threshold = (
+                (IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING)
+                if with_baseline
+                else IMPACT_WITHOUT_BASELINE
+            )
             add(
                 Finding(
                     kind="main bearing",
@@ -939,7 +1011,7 @@ def _bearing_findings(results: list[BearingResult]) -> list[Finding]:
                             "measured": best.score,
                             "standard_error": best.score_error,
                             "predicted": 1.0,
-                            "threshold": IMPACT_WARNING,
+                            "threshold": threshold,
                             "unit": f"x {best.reference}",
                             "reversal_angles_deg": best.reversal_angles_deg,
                         }
@@ -1048,10 +1120,14 @@ def diagnose(
     if transfers is None:
         notes.append(
             "no baseline and no sensor transfers in the engine file: bearing orders not compared; "
-            "impacts judged against the recording's own median"
+            "impacts judged against the recording's own median (a warning at 10 times, where the "
+            "bearing's own sensor hears it loudest)"
         )
     elif baseline is None:
-        notes.append("no baseline: impacts judged against the recording's own median")
+        notes.append(
+            "no baseline: impacts judged against the recording's own median (a warning at 10 times, "
+            "where the bearing's own sensor hears it loudest)"
+        )
     bearings = []
     for channel, b in _bearing_sensors(recording, engine):
         spectrum = result.spectra[channel.name]
@@ -1066,7 +1142,16 @@ def diagnose(
         deviation = None
         if calibration is not None and transfers is not None and usable:
             force = analysis.combined.bearing_force[b - 1, component]
-            force_error = analysis.force_error[b - 1, component]
+            # what the cylinders' strengths change against the baseline's is the model's to explain, and
+            # it explains a changed gas force's high orders to tens of per cent only: that share of the
+            # change is uncertain, so an order that a misfire moves is no bearing finding
+            calibrated = np.asarray(transfers.strengths, dtype=np.float64)
+            if calibrated.shape != (engine.cylinders,):
+                calibrated = np.ones(engine.cylinders)
+            before = combine_cylinders(analysis.parts, engine, calibrated).bearing_force[b - 1, component]
+            force_error = np.hypot(
+                analysis.force_error[b - 1, component], CHANGE_UNCERTAINTY * np.abs(force - before)
+            )
             deviation = order_deviations(
                 spectrum,
                 force,
@@ -1113,6 +1198,7 @@ def diagnose(
                     reference = None
                 impacts.append(impact_score(profile, reversals, neighbour, R, reference))
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
+    bearings = _with_elsewhere(bearings, result.high_frequency, analysis, engine, baseline)
     velocity = {}
     findings: list[Finding] = [_sensor_finding(f, recording_before) for f in sensor_faults]
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
@@ -1121,7 +1207,7 @@ def diagnose(
         findings += _cylinder_findings(analysis.balance, analysis.partners)
     elif analysis.balance is not None and fits and engine.cylinders == 1:
         findings += _single_cylinder_findings(analysis.balance, load)
-    findings += _bearing_findings(bearings)
+    findings += _bearing_findings(bearings, with_baseline=baseline is not None)
     for channel in _vibration_channels(recording):
         if (v := rms.get(channel.name)) is None:
             continue
