@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
-.PHONY: demo test lint typecheck bench bench-performance bench-service samples lock clean
+.PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -38,6 +38,11 @@ bench: $(STAMP)
 ## temporary disk; installs the peer rota-order into .venv-peers/ on first use); rewrites docs/performance.md
 bench-performance: $(STAMP)
 	$(BIN)/python -m benchmarks.performance --minutes 60
+
+## bench-diagnosis: the diagnosis on a population of engines from the validation simulator (540 cases,
+## about an hour on 2 cores); rewrites docs/diagnosis-validation.md
+bench-diagnosis: $(STAMP)
+	$(BIN)/python -m benchmarks.diagnosis_validation --cases 540 --workers 2
 
 ## bench-service: the HTTP service under load on loopback (SQLite, and PostgreSQL where a server answers);
 ## rewrites its section of docs/performance.md

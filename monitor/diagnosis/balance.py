@@ -254,16 +254,24 @@ def cylinder_balance(
     # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
     # cylinders share cancels there too)
     nominal = (H * (known + combustion)).sum(axis=0)
-    spread = np.hypot(se, model_uncertainty * np.abs(nominal))
-    sigma = np.maximum(spread, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
-    a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
-    b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
-    norms = np.linalg.norm(a, axis=0)
-    if np.any(norms == 0):
+    floor = 1e-6 * float(np.abs(y).max()) + 1e-300
+    if np.any(np.linalg.norm(np.abs(design), axis=0) == 0):
         raise ModelError("a cylinder's combustion does not reach the orders used: strengths not identifiable")
-    scaled = a / norms
-    strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
-    strength = strength_scaled / norms
+    strength = np.ones(n)
+    for _ in range(3):
+        # a cylinder that fires unlike the model's (a misfire, a weak one) has a torque the model knows to
+        # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel
+        unlike = np.sqrt((np.abs((strength - 1.0)[:, None] * H * combustion) ** 2).sum(axis=0))
+        spread = np.sqrt(
+            se**2 + (model_uncertainty * np.abs(nominal)) ** 2 + (model_uncertainty * unlike) ** 2
+        )
+        sigma = np.maximum(spread, floor) / math.sqrt(2.0)
+        a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
+        b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
+        norms = np.linalg.norm(a, axis=0)
+        scaled = a / norms
+        strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
+        strength = strength_scaled / norms
     # whether the orders tell the cylinders apart is the measurement's geometry (the firing order, the
     # orders resolved), judged with the measurement's own weights: the model's uncertainty weakens only
     # the cylinders' common level, which no single cylinder's finding rests on

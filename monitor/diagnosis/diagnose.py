@@ -113,6 +113,7 @@ SEVERITIES = ("healthy", "warning", "alarm")
 STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
 ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
+BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which the notes say the model misfits
 
 
@@ -803,11 +804,18 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
     return findings
 
 
-def _single_cylinder_findings(balance: CylinderBalance, load: float) -> list[Finding]:
-    """A single cylinder has no others to be compared with: its strength against the model's at the stated
-    load, with an error of at least :data:`ABSOLUTE_UNCERTAINTY` (the model and the stated load)."""
-    s = float(balance.strength[0])
-    e = max(float(balance.strength_error[0]), ABSOLUTE_UNCERTAINTY)
+def _single_cylinder_findings(
+    balance: CylinderBalance, load: float, calibrated: float | None
+) -> list[Finding]:
+    """A single cylinder has no others to be compared with: its strength against the baseline's (which
+    calibrates the model's level on this engine; an error of at least :data:`BASELINE_UNCERTAINTY`, the
+    stated loads), or without one against the model's at the stated load (at least
+    :data:`ABSOLUTE_UNCERTAINTY`, the model and the stated load)."""
+    reference = calibrated if calibrated is not None and calibrated > MISFIRE_BELOW else 1.0
+    s = float(balance.strength[0]) / reference
+    floor = BASELINE_UNCERTAINTY if reference != 1.0 or calibrated is not None else ABSOLUTE_UNCERTAINTY
+    e = max(float(balance.strength_error[0]) / reference, floor)
+    against = "the baseline's" if calibrated is not None else f"the model's {balance.strength_meaning}"
     severity, threshold = "healthy", None
     if s < CYLINDER_WARNING[0]:
         severity, threshold = "warning", CYLINDER_WARNING[0]
@@ -829,9 +837,9 @@ def _single_cylinder_findings(balance: CylinderBalance, load: float) -> list[Fin
             subject="cylinder 1",
             severity=severity,
             summary=(
-                f"cylinder 1 at {round(100 * s)} % +- {round(196 * e)} % of the model's "
-                f"{balance.strength_meaning} at load {load:.2f} ({what}; from the crank-speed orders; a "
-                "single cylinder is judged against the model, not against others)"
+                f"cylinder 1 at {round(100 * s)} % +- {round(196 * e)} % of {against} at load {load:.2f} "
+                f"({what}; from the crank-speed orders; a single cylinder is judged against "
+                f"{'its baseline' if calibrated is not None else 'the model'}, not against others)"
             ),
             confidence=_phi((threshold - s) / e) if low else _phi((s - threshold) / e),
             evidence=[
@@ -1206,7 +1214,10 @@ def diagnose(
     if analysis.balance is not None and fits and analysis.balance.separable and engine.cylinders > 1:
         findings += _cylinder_findings(analysis.balance, analysis.partners)
     elif analysis.balance is not None and fits and engine.cylinders == 1:
-        findings += _single_cylinder_findings(analysis.balance, load)
+        single = (
+            float(baseline.strengths[0]) if baseline is not None and len(baseline.strengths) == 1 else None
+        )
+        findings += _single_cylinder_findings(analysis.balance, load, single)
     findings += _bearing_findings(bearings, with_baseline=baseline is not None)
     for channel in _vibration_channels(recording):
         if (v := rms.get(channel.name)) is None:

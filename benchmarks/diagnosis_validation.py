@@ -1,0 +1,303 @@
+"""The diagnosis on engines it was not built with; writes docs/diagnosis-validation.md.
+
+Every case comes from the validation simulator (:mod:`validation.simulator`), written apart from the
+product's scenes and physics: its own gas model, structure, sensors and noise, random engines of 1 to
+12 cylinders, two- and four-stroke, and engine files that differ from the simulated engine as real
+ones do. For each case the product is given what a user has: the engine file, a healthy recording
+of the same engine to calibrate on (the case's healthy twin), the recording, and a load that is
+off by up to 10 %. Its verdict is compared with what the simulator put in.
+
+    python -m benchmarks.diagnosis_validation [--cases 540] [--workers 2]
+
+Every number in the document comes from the run that wrote it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+import traceback
+from collections import Counter, defaultdict
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+DURATIONS = (10.0, 30.0, 60.0)
+CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
+EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One case: what was put in and what the product said."""
+
+    seed: int
+    duration_s: float
+    cylinders: int
+    cycle: str
+    speed_rpm: float
+    truth: str
+    subject: str  # the true cylinder, bearing or channel ("" for a healthy run)
+    strength: float  # a weak cylinder's heat release over a healthy one's (NaN otherwise)
+    status: str  # healthy, warning, alarm, inconclusive, or error
+    exit_code: int
+    predicted: str  # the top finding's class, or healthy / inconclusive / error
+    named: bool  # the fault was named on the right subject (for a healthy run: no finding at all)
+    alarm: bool  # any alarm
+    findings: str  # the findings' subjects and severities, for the record
+    seconds: float
+    error: str = ""
+
+
+def classify(finding: Any) -> tuple[str, str]:
+    """A finding's class and subject in the simulator's terms."""
+    if finding.kind == "sensor":
+        return "sensor_fault", finding.subject.removeprefix("sensor ")
+    if finding.kind == "cylinder":
+        what = "misfire" if "misfiring" in finding.summary else "weak"
+        return what, finding.subject.split(" or ")[0].removeprefix("cylinder ")
+    if finding.kind == "main bearing":
+        return "worn_bearing", finding.subject.removeprefix("main bearing ")
+    return "vibration_zone", finding.subject
+
+
+def _named(truth: dict[str, Any], findings: list[tuple[str, str, str]]) -> bool:
+    kind = truth["class"]
+    if kind == "healthy":
+        return not findings
+    subject = {
+        "misfire": truth.get("cylinder"),
+        "weak": truth.get("cylinder"),
+        "worn_bearing": truth.get("bearing"),
+        "sensor_fault": truth.get("channel"),
+    }[kind]
+    wanted = {"misfire": ("misfire",), "weak": ("weak", "misfire"), "worn_bearing": ("worn_bearing",)}.get(
+        kind, (kind,)
+    )
+    return any(c in wanted and s == str(subject) for c, s, _ in findings)
+
+
+def _said(error: Exception) -> str:
+    """The error's first line; for one the product does not raise on purpose, where it came from."""
+    from monitor.errors import MonitorError
+
+    said = f"{type(error).__name__}: {error}".splitlines()[0][:300]
+    if not isinstance(error, MonitorError):
+        said += " at " + traceback.format_exc(limit=-1).strip().splitlines()[-3].strip()[:150]
+    return said
+
+
+def run_case(seed: int, duration_s: float) -> Outcome:
+    """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case."""
+    import math
+
+    import numpy as np
+
+    from monitor.diagnosis import calibrate, diagnose
+    from monitor.engine import load_engine
+    from validation.simulator import healthy_twin, random_case
+
+    start = time.perf_counter()
+    case = random_case(seed, duration_s=duration_s)
+    truth = case.truth
+    subject = str(truth.get("cylinder") or truth.get("bearing") or truth.get("channel") or "")
+    # a weak cylinder's heat release as a share of the healthy one's (the simulator's "weak_factor")
+    strength = float(truth["weak_factor"]) if truth["class"] == "weak" else math.nan
+    engine_text = case.engine_toml
+    cylinders = 0
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "engine.toml"
+            path.write_text(engine_text)
+            engine = load_engine(path)
+        cylinders = engine.cylinders
+        twin = healthy_twin(case, seed=seed + 1_000_000)
+        baseline = calibrate(twin.recording, engine, load=twin.load_given)
+        diagnosis = diagnose(case.recording, engine, baseline=baseline, load=case.load_given)
+    except Exception as error:  # a case the product cannot diagnose is recorded, not fatal
+        return Outcome(
+            seed,
+            duration_s,
+            int(cylinders or 0),
+            str(truth.get("cycle", "")),
+            float(truth.get("speed_rpm", math.nan)),
+            truth["class"],
+            subject,
+            strength,
+            "error",
+            3,
+            "error",
+            False,
+            False,
+            "",
+            time.perf_counter() - start,
+            _said(error),
+        )
+    findings = [(*classify(f), f.severity) for f in diagnosis.findings]
+    top = findings[0][0] if findings else diagnosis.status
+    return Outcome(
+        seed,
+        duration_s,
+        engine.cylinders,
+        engine.cycle,
+        float(np.round(diagnosis.speed_rpm, 1)),
+        truth["class"],
+        subject,
+        strength,
+        diagnosis.status,
+        EXIT[diagnosis.status],
+        top,
+        _named(truth, findings),
+        any(f.severity == "alarm" for f in diagnosis.findings),
+        "; ".join(f"{c} {s} ({v})" for c, s, v in findings),
+        time.perf_counter() - start,
+    )
+
+
+def _rate(hits: int, total: int) -> str:
+    return f"{hits}/{total} ({100 * hits / total:.1f} %)" if total else "-"
+
+
+def _named_rate(group: list[Outcome]) -> str:
+    return _rate(sum(o.named for o in group), len(group))
+
+
+def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int) -> str:
+    """The Markdown document."""
+    by = defaultdict(list)
+    for o in outcomes:
+        by[(o.truth, o.duration_s)].append(o)
+    lines = [
+        "# Diagnosis validation on engines it was not built with",
+        "",
+        f"Written by `make bench-diagnosis` (`python -m benchmarks.diagnosis_validation --cases {cases}`) on "
+        f"{datetime.now(UTC):%Y-%m-%d}: {len(outcomes)} cases in {seconds / 60:.1f} min on {workers} "
+        "worker(s). Every number below comes from that run.",
+        "",
+        "Each case is simulated by `validation.simulator`, written apart from the product's scenes and "
+        "physics (its own gas model, structure, sensors and noise): a random engine of 1 to 12 "
+        "cylinders, two- or four-stroke, 60 to 1500 rpm; the engine file given to the product differs "
+        "from the simulated engine (geometry +-2 %, masses and inertias +-10 %, combustion timing "
+        "+-3 deg, compression ratio +-3 %) and so does the stated load (+-10 %). The product "
+        "calibrates on a healthy recording of the same engine (another seed) and diagnoses the case.",
+        "",
+        "## Acceptance",
+        "",
+    ]
+
+    def pick(truth: str, least: float = 0.0, weak_below: float | None = None) -> list[Outcome]:
+        chosen = [o for o in outcomes if o.truth == truth and o.duration_s >= least]
+        if weak_below is not None:
+            chosen = [o for o in chosen if o.strength <= weak_below]
+        return chosen
+
+    misfires = pick("misfire")
+    weak = pick("weak", 30.0, 0.70)
+    worn = pick("worn_bearing")
+    healthy = pick("healthy")
+    lines += [
+        "| what | required | measured |",
+        "|---|---|---|",
+        f"| misfire named (right cylinder) | 100 % | {_named_rate(misfires)} |",
+        f"| weak cylinder at or below 70 % named, 30 s or longer | at least 95 % | {_named_rate(weak)} |",
+        f"| worn bearing named at the right bearing | at least 95 % | {_named_rate(worn)} |",
+        f"| healthy runs exit 0 | at least 98 % | "
+        f"{_rate(sum(o.exit_code == 0 for o in healthy), len(healthy))} |",
+        f"| alarms on healthy runs | none | {sum(o.alarm for o in healthy)} |",
+        "",
+        "## Per class and length",
+        "",
+        "`named`: the fault found on the right subject (a healthy run: no finding at all). Exit codes as "
+        "`compare` gives them: 0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed.",
+        "",
+        "| true class | length [s] | cases | named | exit 0 | exit 1 | exit 2 | exit 3 |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for truth in CLASSES:
+        for duration in sorted({o.duration_s for o in outcomes}):
+            group = by.get((truth, duration), [])
+            if not group:
+                continue
+            exits = Counter(o.exit_code for o in group)
+            lines.append(
+                f"| {truth} | {duration:g} | {len(group)} | {_named_rate(group)} | "
+                + " | ".join(str(exits.get(code, 0)) for code in range(4))
+                + " |"
+            )
+    predicted_classes = sorted({o.predicted for o in outcomes}, key=lambda c: (c not in CLASSES, c))
+    lines += [
+        "",
+        "## Confusion matrix",
+        "",
+        "Rows: what the simulator put in; columns: the class of the product's first finding (alarms "
+        "first, then by confidence), or its status when it found nothing.",
+        "",
+        "| true \\ said | " + " | ".join(predicted_classes) + " |",
+        "|---|" + "---|" * len(predicted_classes),
+    ]
+    for truth in CLASSES:
+        row = Counter(o.predicted for o in outcomes if o.truth == truth)
+        lines.append(f"| {truth} | " + " | ".join(str(row.get(c, 0)) for c in predicted_classes) + " |")
+    failures = [o for o in outcomes if not o.named]
+    lines += [
+        "",
+        f"## Cases not named ({len(failures)})",
+        "",
+        "Seed and length reproduce a case: `validation.simulator.random_case(seed, duration_s=...)`.",
+        "",
+        "| seed | length [s] | engine | true | subject | status | findings / error |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for o in sorted(failures, key=lambda o: (o.truth, o.seed))[:200]:
+        said = o.error or o.findings or "-"
+        lines.append(
+            f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | {o.truth} | "
+            f"{o.subject} | {o.status} | {said.replace('|', '/')} |"
+        )
+    lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=540, help="cases, spread over the lengths (default 540)")
+    parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=DOCS / "diagnosis-validation.md")
+    args = parser.parse_args(argv)
+    jobs = [(args.first_seed + i, DURATIONS[i % len(DURATIONS)]) for i in range(args.cases)]
+    outcomes: list[Outcome] = []
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = [pool.submit(run_case, seed, duration) for seed, duration in jobs]
+        for done, future in enumerate(as_completed(futures), start=1):
+            outcomes.append(future.result())
+            elapsed = time.perf_counter() - start
+            print(
+                f"\r{done}/{len(jobs)} cases, {elapsed / 60:.1f} min, about "
+                f"{elapsed / done * (len(jobs) - done) / 60:.1f} min left",
+                end="",
+                file=sys.stderr,
+                flush=True,
+            )
+    print(file=sys.stderr)
+    outcomes.sort(key=lambda o: o.seed)
+    seconds = time.perf_counter() - start
+    args.out.write_text(report(outcomes, cases=args.cases, seconds=seconds, workers=args.workers))
+    rows = args.out.with_suffix(".json")
+    import json
+
+    rows.write_text(json.dumps([asdict(o) for o in outcomes], indent=0, default=str))
+    print(
+        f"{len(outcomes)} cases in {seconds / 60:.1f} min; written to {args.out} and {rows}", file=sys.stderr
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
