@@ -39,8 +39,8 @@ bench: $(STAMP)
 bench-performance: $(STAMP)
 	$(BIN)/python -m benchmarks.performance --minutes 60
 
-## bench-diagnosis: the diagnosis on a population of engines from the validation simulator (540 cases,
-## about an hour on 2 cores); rewrites docs/diagnosis-validation.md
+## bench-diagnosis: the diagnosis on a population of engines from the validation simulator (540 cases;
+## its document states the time the run took); rewrites docs/diagnosis-validation.md
 bench-diagnosis: $(STAMP)
 	$(BIN)/python -m benchmarks.diagnosis_validation --cases 540 --workers 2
 

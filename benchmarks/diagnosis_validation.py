@@ -9,7 +9,8 @@ off by up to 10 %. Its verdict is compared with what the simulator put in.
 
     python -m benchmarks.diagnosis_validation [--cases 540] [--workers 2]
 
-Every number in the document comes from the run that wrote it.
+Every number in the document comes from the run that wrote it; each case's row is written beside it
+as JSON (docs/diagnosis-validation.json, not kept in the repository).
 """
 
 from __future__ import annotations
