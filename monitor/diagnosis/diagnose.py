@@ -874,6 +874,20 @@ def _sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
     )
 
 
+def _reference_profile(
+    calibration: SensorBaseline | None, profile: HighFrequencyPower
+) -> HighFrequencyPower | None:
+    """A sensor's baseline high-frequency profile, if it was taken on the same bins and sampling rate."""
+    reference = calibration.high_frequency if calibration is not None else None
+    if (
+        reference is None
+        or reference.sample_rate != profile.sample_rate
+        or reference.mean.size != profile.mean.size
+    ):
+        return None
+    return reference
+
+
 def _with_elsewhere(
     bearings: list[BearingResult],
     profiles: dict[str, HighFrequencyPower],
@@ -893,13 +907,8 @@ def _with_elsewhere(
             profile = profiles.get(other.channel)
             if other.channel == result.channel or profile is None:
                 continue
-            reference = None
-            if baseline is not None and (known := baseline.sensors.get(other.channel)) is not None:
-                reference = known.high_frequency
-                if reference is not None and (
-                    reference.sample_rate != profile.sample_rate or reference.mean.size != profile.mean.size
-                ):
-                    reference = None
+            known = baseline.sensors.get(other.channel) if baseline is not None else None
+            reference = _reference_profile(known, profile)
             scores.append(impact_score(profile, reversals, result.bearing, R, reference).score)
         out.append(replace(result, elsewhere=max(scores) if scores else math.nan))
     return out
@@ -1199,11 +1208,7 @@ def diagnose(
                 reversals = load_reversals(
                     analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
                 )
-                reference = calibration.high_frequency if calibration is not None else None
-                if reference is not None and reference.sample_rate != profile.sample_rate:
-                    reference = None
-                if reference is not None and reference.mean.size != profile.mean.size:
-                    reference = None
+                reference = _reference_profile(calibration, profile)
                 impacts.append(impact_score(profile, reversals, neighbour, R, reference))
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
     bearings = _with_elsewhere(bearings, result.high_frequency, analysis, engine, baseline)

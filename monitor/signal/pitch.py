@@ -82,6 +82,13 @@ class PitchCorrection:
         return float(np.max(np.abs(self.errors)))
 
 
+def _complete(decoding: ToothWheelDecoding, starts: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Those first teeth after the gap whose revolution holds every tooth (the next gap's edge follows)."""
+    per_rev = decoding.teeth - decoding.missing
+    starts = starts[starts + per_rev < decoding.times.size]
+    return starts[decoding.tooth_index[starts + per_rev] == 0]
+
+
 def estimate_pitch_errors(
     decoding: ToothWheelDecoding,
     *,
@@ -144,9 +151,7 @@ def estimate_pitch_errors(
         if kept_orders is None
         else np.unique(np.asarray(kept_orders, dtype=np.int64))
     )
-    starts = np.flatnonzero(decoding.tooth_index == 0)
-    starts = starts[starts + per_rev < decoding.times.size]
-    starts = starts[decoding.tooth_index[starts + per_rev] == 0]
+    starts = _complete(decoding, np.flatnonzero(decoding.tooth_index == 0))
     if starts.size < 4:
         raise SignalError(
             f"tooth-pitch errors need at least four complete revolutions; the recording has {starts.size}"
@@ -257,9 +262,7 @@ def learn_pitch_over_speed(
     trend = CubicSpline(decoding.angles[knots], decoding.times[knots])
     slope = trend.derivative()
     # complete revolutions, the first and last left out (the spline's ends)
-    starts = knots[1:-2]
-    starts = starts[starts + per_rev < decoding.times.size]
-    starts = starts[decoding.tooth_index[starts + per_rev] == 0]
+    starts = _complete(decoding, knots[1:-2])
     window = starts[:, None] + np.arange(per_rev)
     angles, times = decoding.angles[window], decoding.times[window]
     ahead = (times - trend(angles)) / slope(angles)  # y_k per revolution [rad]

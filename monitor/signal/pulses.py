@@ -266,8 +266,9 @@ def _block_crossings(
         return empty, empty, empty, 0.0
     # a VR sensor's voltage is the rate of change of its flux: over a block of many teeth it averages
     # to the channel's offset. A median sits off the offset by a share of the amplitude, which moves
-    # the zero crossings by an angle that changes with speed (measured on a 60-2 run-up from 150 to
-    # 750 rpm: 2e-3 deg at mid-wheel teeth, a tenth of that with the mean)
+    # the zero crossings by an angle that changes with speed (on the VR run-up from 150 to 750 rpm of
+    # tests/test_pitch_over_speed.py, mid-wheel teeth moved by about 2e-3 deg with the median and a
+    # quarter of that with the mean)
     baseline = float(np.mean(x, dtype=np.float64))
     y = (x.astype(np.float64) - baseline) * (-1.0 if rising else 1.0)
     floor = float(min_arm) if min_arm is not None else NOISE_MARGIN * _quietest_noise(y)
