@@ -84,6 +84,10 @@ __all__ = [
 ]
 
 SPEED_CHANNEL = "crank speed"
+# a learned pitch error of a tooth away from the gap larger than this share of the pitch is no wheel's
+# machining (hundredths of a degree): it is the engine's own speed fluctuation at orders above those
+# left to it (a single cylinder's sharp firing pulse); correcting it would take that motion away [-]
+PLAUSIBLE_PITCH_ERROR = 0.1
 _SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
 ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
 
@@ -240,7 +244,7 @@ def angle_reference(
             correction = pitch_correction
         elif pitch_correction == "estimate":
             try:
-                correction = estimate_pitch_errors(decoding, kept_orders=kept_orders)
+                correction = _plausible(estimate_pitch_errors(decoding, kept_orders=kept_orders), decoding)
             except SignalError as why:
                 notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
         if correction is not None:
@@ -308,7 +312,8 @@ def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> Pit
     Returns
     -------
     PitchCorrection or None
-        None without a tooth wheel or encoder.
+        None without a tooth wheel or encoder, or where the errors it would learn are more than
+        :data:`PLAUSIBLE_PITCH_ERROR` of a tooth pitch (the engine's motion, not the wheel's).
 
     Raises
     ------
@@ -330,7 +335,26 @@ def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> Pit
         return None
     channel = teeth[0] if teeth else encoders[0]
     decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
-    return replace(estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all"), source="baseline")
+    learned = estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all")
+    try:
+        _plausible(learned, decoding)
+    except SignalError:
+        return None  # the recordings diagnosed later estimate their own, and say why they cannot
+    return replace(learned, source="baseline")
+
+
+def _plausible(correction: PitchCorrection, decoding: ToothWheelDecoding) -> PitchCorrection:
+    """The correction, if its largest error is one a wheel can have (:data:`PLAUSIBLE_PITCH_ERROR`).
+
+    Only a correction of every tooth is judged: the gap's neighbours are timed late or early by the
+    bent field by up to a third of a pitch on a real wheel (the tue-4gb10 wheel, tests/test_real_sensors.py).
+    """
+    if correction.scope == "all" and correction.largest > PLAUSIBLE_PITCH_ERROR * decoding.pitch:
+        raise SignalError(
+            f"the errors it would learn reach {math.degrees(correction.largest):.2g} deg, more than "
+            f"{PLAUSIBLE_PITCH_ERROR:g} of a tooth pitch: that is the engine's own motion, not the wheel's"
+        )
+    return correction
 
 
 def learn_pitch_errors_over_speed(recording: Recording, engine: Engine | None = None) -> PitchCorrection:

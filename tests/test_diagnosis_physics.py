@@ -25,7 +25,13 @@ from monitor.model_orders import (
     predict_orders,
 )
 from monitor.recording import Channel
-from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrum, order_spectrum, to_angle_domain
+from monitor.signal.angle_domain import (
+    HIGH_FREQUENCY_BINS_PER_REVOLUTION,
+    AngleDomainSignal,
+    OrderSpectrum,
+    order_spectrum,
+    to_angle_domain,
+)
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.pulses import SignalError
 from monitor.torsion.shaft_line import engine_side_inertia
@@ -407,8 +413,9 @@ def test_cylinder_balance_finds_a_weak_cylinder_in_noise(name: str, rng: np.rand
     """Cylinder 3 at 40 %: the speed from the exact rigid body plus complex normal noise of a stated
     standard error (1e-4 rad/s, about 1 % of the firing order's amplitude) at every order; every
     estimated strength within 4 of its standard errors of the truth, the weak cylinder's share within 4
-    of its errors of 0.4, and the contrasts' errors small enough that this says something (< 0.02;
-    the strengths' own errors carry the model's 10 % uncertainty of their common level).
+    of its errors of 0.4, and the contrasts' errors small enough that this says something (< 0.05:
+    the 3 % each healthy cylinder fires unlike the others, balance.IMBALANCE, sets their floor; the
+    strengths' own errors carry the model's 10 % uncertainty of their common level too).
 
     Noise: E |n|^2 = se^2, half in each of the real and imaginary parts, as the standard error of a
     complex mean over blocks is defined (``scatter / sqrt(blocks)``).
@@ -425,7 +432,7 @@ def test_cylinder_balance_finds_a_weak_cylinder_in_noise(name: str, rng: np.rand
     balance = cylinder_balance(_speed_spectrum(parts.orders, speed + noise, se), engine, parts)
     np.testing.assert_allclose(balance.orders, np.arange(1, engine.cylinders + 1) / R)  # 0 < k <= n / R
     assert balance.separable
-    assert np.all(balance.contrast_error < 0.02)
+    assert np.all(balance.contrast_error < 0.05)
     assert np.all(np.abs(balance.strength - truth) <= 4 * balance.strength_error)
     assert abs(balance.relative[2] - 0.4) <= 4 * balance.relative_error[2]
     healthy = np.delete(np.arange(engine.cylinders), 2)
@@ -470,7 +477,12 @@ def test_strength_errors_match_the_scatter_of_the_estimates(rng: np.random.Gener
         noise = se * (rng.standard_normal(speed.size) + 1j * rng.standard_normal(speed.size)) / math.sqrt(2)
         noise[0] = 0.0
         balance = cylinder_balance(
-            _speed_spectrum(parts.orders, speed + noise, se), engine, parts, model_uncertainty=0.0
+            _speed_spectrum(parts.orders, speed + noise, se),
+            engine,
+            parts,
+            model_uncertainty=0.0,
+            timing_uncertainty=0.0,
+            imbalance=0.0,
         )
         estimates.append(balance.strength)
         reported.append(balance.strength_error)
@@ -609,9 +621,9 @@ def _second_difference_power_variance(n: int) -> float:
 
 
 def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Generator) -> None:
-    """Constant speed (10 rev/s, a keyphasor), 10 240 Hz, 64 bins per cycle of 16 samples each, 60 s of
-    white noise of rms sigma, plus a burst (6 samples alternating +-5 sigma) a quarter into bin 17 of
-    every cycle:
+    """Constant speed (10 rev/s, a keyphasor), 81 920 Hz, 512 bins per cycle (the profile's own
+    resolution, so the grid's bins are its bins) of 16 samples each, 20 s of white noise of rms sigma,
+    plus a burst (6 samples alternating +-5 sigma) a quarter into bin 17 of every cycle:
 
     - the profile equals a plain numpy evaluation of its definition (each bin's samples from the grid
       time up to the next, mean square second difference, mean over the cycles) within 1e-9;
@@ -620,7 +632,7 @@ def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Genera
       its own, and ``std`` is the single-cycle spread within 3 %;
     - bin 17 holds 6 sigma^2 plus the burst's own second-difference power, within 2 %, and stands out.
     """
-    fs, revolution_rate, m, sigma, seconds = 10240.0, 10.0, 64, 0.5, 60.0
+    fs, revolution_rate, m, sigma, seconds = 81920.0, 10.0, HIGH_FREQUENCY_BINS_PER_REVOLUTION, 0.5, 20.0
     n = int(seconds * fs)
     noise = sigma * rng.standard_normal(n)
     start = 0.0123 + 0.5 / fs  # grid times half-way between samples: whole bins of 16 samples

@@ -34,10 +34,11 @@ others near 100 %.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 
 from monitor.engine import Engine
 from monitor.errors import ModelError
@@ -46,7 +47,7 @@ from monitor.orders import order_coefficients
 from monitor.signal.angle_domain import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 
-__all__ = ["CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
+__all__ = ["CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
 
 Transfer = Literal["rigid", "shaft-line"]
 
@@ -57,8 +58,50 @@ ALIKE = 0.15  # cylinders within this fraction of the median strength form the r
 # known to about this; the orders where healthy cylinders cancel are not affected by a gap that all
 # cylinders share
 MODEL_UNCERTAINTY = 0.10
+# the combustion's timing in an engine file is known to a few degrees of crank angle (start and duration of
+# the heat release fitted to the real, double law): a cylinder's combustion torque at order k is known in
+# phase to k times this [rad], which grows past the level's uncertainty above the first few orders
+TIMING_UNCERTAINTY = math.radians(3.0)
+# healthy cylinders do not fire exactly alike (injection, wear, the cycles' scatter), and not alike from one
+# run to the next: each cylinder's combustion torque carries this much that is its own [-]
+IMBALANCE = 0.03
+# what remains of it at an order a healthy baseline calibrated (CrankCalibration): the operating point
+# drifts between the baseline and the recording (speed, load, the cycles' scatter)
+CALIBRATED_UNCERTAINTY = 0.05
+# orders whose predicted value at nominal strengths is below this share of the largest are not calibrated
+# (where healthy cylinders cancel, the baseline's residual is the wheel's, taken by its pitch correction)
+CALIBRATED_FRACTION = 0.1
+SIGNIFICANT = 4.0  # standard errors a baseline's order must stand above nothing to be calibrated [-]
 # above this condition number of the column-normalised problem two cylinders cannot be told apart
 SEPARABLE_CONDITION = 1e3
+
+
+@dataclass(frozen=True)
+class CrankCalibration:
+    """The crank-speed model calibrated on a healthy baseline, order by order.
+
+    At the orders where the cylinders add up (the firing harmonics) the engine file's model is
+    known only to its masses', inertias' and combustion's accuracy; the baseline measures the gap:
+    ``factor_k = y_k / nominal_k``, the measured left-hand side over the model's at nominal
+    strengths (a complex factor, as a sensor's transfer).  A later recording's prediction at those
+    orders is multiplied by it, so its strengths are against the engine as the baseline found it.
+
+    Attributes
+    ----------
+    transfer : str
+        "rigid" or "shaft-line": the left-hand side the factors belong to.
+    orders : ndarray
+        The orders calibrated [-].
+    factor : ndarray, complex
+        ``y_k / nominal_k`` [-].
+    factor_error : ndarray
+        Standard error of ``factor`` (the baseline's block spread) [-].
+    """
+
+    transfer: str
+    orders: FloatArray
+    factor: ComplexArray
+    factor_error: FloatArray
 
 
 @dataclass(frozen=True)
@@ -82,9 +125,10 @@ class CylinderBalance:
         The model's relative uncertainty at the orders where the cylinders add up [-].
     orders : ndarray
         The orders used [-].
-    measured, predicted : ndarray, complex
-        The left-hand side ``y_k`` measured and as fitted, at those orders
-        (torque [N m] for the rigid body, speed [rad/s] for the shaft line).
+    measured, predicted, nominal : ndarray, complex
+        The left-hand side ``y_k`` measured, as fitted, and as the model gives it at nominal strengths
+        (the calibration's factors applied), at those orders (torque [N m] for the rigid body, speed
+        [rad/s] for the shaft line).
     standard_error : ndarray
         Of ``measured`` [same unit].
     unit : str
@@ -100,6 +144,8 @@ class CylinderBalance:
         "rigid" or "shaft-line".
     inertia : float
         The rigid body's inertia, for the rigid transfer [kg m^2].
+    calibrated : ndarray of bool
+        Which of the orders a baseline's :class:`CrankCalibration` calibrated.
     """
 
     strength: FloatArray
@@ -119,6 +165,25 @@ class CylinderBalance:
     strength_meaning: str
     transfer: str
     inertia: float
+    nominal: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    calibrated: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def calibration(self) -> CrankCalibration:
+        """This (healthy) balance's calibration of the model at the orders where the cylinders add up.
+
+        Orders whose nominal value is below :data:`CALIBRATED_FRACTION` of the largest, or whose
+        measured value is within :data:`SIGNIFICANT` standard errors of nothing, are left out.
+        """
+        size = np.abs(self.nominal)
+        keep = (size >= CALIBRATED_FRACTION * float(size.max(initial=0.0))) & (size > 0)
+        keep &= np.abs(self.measured) >= SIGNIFICANT * self.standard_error
+        factor = self.measured[keep] / self.nominal[keep]
+        return CrankCalibration(
+            self.transfer,
+            self.orders[keep].copy(),
+            np.asarray(factor, dtype=np.complex128),
+            np.asarray(self.standard_error[keep] / size[keep], dtype=np.float64),
+        )
 
     @property
     def strength_error(self) -> FloatArray:
@@ -127,7 +192,7 @@ class CylinderBalance:
 
 
 def measured_torque(
-    speed: OrderSpectrum, inertia: float, cycle_revolutions: int
+    speed: OrderSpectrum, inertia: float | ComplexArray, cycle_revolutions: int
 ) -> tuple[ComplexArray, FloatArray]:
     """Torque orders of a rigid body from its measured speed orders: ``i k (J / 2) (omega^2)_k``.
 
@@ -135,8 +200,9 @@ def measured_torque(
     ----------
     speed : OrderSpectrum
         Crank-speed orders (order 0 the mean speed) [rad/s].
-    inertia : float
-        The rigid body's inertia [kg m^2].
+    inertia : float or ndarray, complex, shape (n_orders,)
+        The rigid body's inertia, or the inertia each order meets
+        (:func:`monitor.torsion.shaft_line.engine_side_inertia_at`; order 0's unused) [kg m^2].
     cycle_revolutions : int
 
     Returns
@@ -156,9 +222,9 @@ def measured_torque(
     fluctuation[0] = mean
     omega = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ fluctuation)
     squared = order_coefficients(omega**2, cycle_revolutions=cycle_revolutions, max_order=highest)
-    torque = 1j * orders * (inertia / 2) * squared.coefficients[: orders.size]
+    torque = 1j * orders * (np.asarray(inertia) / 2) * squared.coefficients[: orders.size]
     torque[0] = 0.0
-    return torque, orders * inertia * mean * speed.standard_error
+    return torque, orders * np.abs(inertia) * mean * speed.standard_error
 
 
 def _shaft_line_receptance(engine: Engine, orders: FloatArray, crank_speed: float) -> ComplexArray:
@@ -188,6 +254,9 @@ def cylinder_balance(
     transfer: Transfer = "rigid",
     highest_order: float | None = None,
     model_uncertainty: float = MODEL_UNCERTAINTY,
+    calibration: CrankCalibration | None = None,
+    timing_uncertainty: float = TIMING_UNCERTAINTY,
+    imbalance: float = IMBALANCE,
 ) -> CylinderBalance:
     """Estimate each cylinder's strength from the crank-speed orders (see the module docstring).
 
@@ -204,6 +273,14 @@ def cylinder_balance(
     model_uncertainty : float, optional
         The model's relative uncertainty: each order's weight carries ``model_uncertainty`` times the
         engine's predicted value at nominal strengths beside the measurement's standard error [-].
+    timing_uncertainty : float, optional
+        The combustion timing's uncertainty [rad] (:data:`TIMING_UNCERTAINTY`).
+    imbalance : float, optional
+        Each healthy cylinder's own share of its combustion torque [-] (:data:`IMBALANCE`).
+    calibration : CrankCalibration, optional
+        A healthy baseline's calibration of the model (same transfer): at the orders it holds the
+        prediction is multiplied by its factor, and the model's uncertainty there is
+        :data:`CALIBRATED_UNCERTAINTY` beside the factor's own error.
 
     Returns
     -------
@@ -215,7 +292,7 @@ def cylinder_balance(
         Without gas forces in the model, with too few resolvable orders, or a transfer the
         engine description cannot give.
     """
-    from monitor.torsion.shaft_line import engine_side_inertia
+    from monitor.torsion.shaft_line import engine_side_inertia, engine_side_inertia_at
 
     n = engine.cylinders
     R = engine.cycle_revolutions
@@ -238,7 +315,11 @@ def cylinder_balance(
     inertia = 0.0
     if transfer == "rigid":
         inertia = engine_side_inertia(engine)
-        y_all, se_all = measured_torque(speed, inertia, R)
+        # each order meets the engine side and, through its shafts, what the engine drives
+        met = np.full(speed.orders.size, inertia, dtype=np.complex128)
+        positive = speed.orders > 1e-9
+        met[positive] = engine_side_inertia_at(engine, speed.orders[positive] * parts.crank_speed)
+        y_all, se_all = measured_torque(speed, met, R)
         y, se, unit = y_all[use], se_all[use], "N m"
         H = np.ones((n, orders.size), dtype=np.complex128)
     elif transfer == "shaft-line":
@@ -246,14 +327,37 @@ def cylinder_balance(
         H = _shaft_line_receptance(engine, orders, parts.crank_speed)
     else:
         raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
-    rhs = y - (H * known).sum(axis=0)
-    design = (H * combustion).T  # (n_orders, n_cyl)
+    # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
+    factor = np.ones(orders.size, dtype=np.complex128)
+    factor_error = np.zeros(orders.size)
+    calibrated = np.zeros(orders.size, dtype=bool)
+    if calibration is not None:
+        if calibration.transfer != transfer:
+            raise ModelError(
+                f"the crank calibration is for the {calibration.transfer} transfer, "
+                f"the balance uses {transfer}"
+            )
+        for i, k in enumerate(orders):
+            match = np.flatnonzero(np.abs(calibration.orders - k) < 1e-9)
+            if match.size:
+                factor[i] = calibration.factor[match[0]]
+                factor_error[i] = calibration.factor_error[match[0]]
+                calibrated[i] = True
+    rhs = y - factor * (H * known).sum(axis=0)
+    design = (factor * H * combustion).T  # (n_orders, n_cyl)
     # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution);
     # se is the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
     # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large
     # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
     # cylinders share cancels there too)
-    nominal = (H * (known + combustion)).sum(axis=0)
+    uncalibrated = (H * (known + combustion)).sum(axis=0)
+    nominal = factor * uncalibrated
+    uncertainty = np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty)
+    # the combustion's timing: on every cylinder's combustion where no baseline calibrated the order
+    timing = np.minimum(orders * timing_uncertainty, 1.0)
+    timed = np.where(calibrated, 0.0, timing * np.abs((factor * H * combustion).sum(axis=0)))
+    # the healthy cylinders' own differences, independent from cylinder to cylinder
+    uneven = imbalance * np.sqrt((np.abs(factor * H * combustion) ** 2).sum(axis=0))
     floor = 1e-6 * float(np.abs(y).max()) + 1e-300
     if np.any(np.linalg.norm(np.abs(design), axis=0) == 0):
         raise ModelError("a cylinder's combustion does not reach the orders used: strengths not identifiable")
@@ -261,9 +365,14 @@ def cylinder_balance(
     for _ in range(3):
         # a cylinder that fires unlike the model's (a misfire, a weak one) has a torque the model knows to
         # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel
-        unlike = np.sqrt((np.abs((strength - 1.0)[:, None] * H * combustion) ** 2).sum(axis=0))
+        unlike = np.sqrt((np.abs((strength - 1.0)[:, None] * factor * H * combustion) ** 2).sum(axis=0))
         spread = np.sqrt(
-            se**2 + (model_uncertainty * np.abs(nominal)) ** 2 + (model_uncertainty * unlike) ** 2
+            se**2
+            + (uncertainty * np.abs(nominal)) ** 2
+            + (factor_error * np.abs(uncalibrated)) ** 2
+            + (np.hypot(model_uncertainty, timing) * unlike) ** 2
+            + timed**2
+            + uneven**2
         )
         sigma = np.maximum(spread, floor) / math.sqrt(2.0)
         a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
@@ -285,7 +394,7 @@ def cylinder_balance(
     inverse = np.linalg.pinv(scaled.T @ scaled)
     covariance = inverse / np.outer(norms, norms) * max(chi2, 1.0)
     relative, relative_error, contrast_error = _relative(strength, covariance)
-    predicted = (H * (known + strength[:, None] * combustion)).sum(axis=0)
+    predicted = factor * (H * (known + strength[:, None] * combustion)).sum(axis=0)
     return CylinderBalance(
         strength=strength,
         strength_covariance=covariance,
@@ -304,6 +413,8 @@ def cylinder_balance(
         strength_meaning=parts.strength,
         transfer=transfer,
         inertia=inertia,
+        nominal=nominal,
+        calibrated=calibrated,
     )
 
 

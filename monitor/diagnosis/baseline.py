@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from monitor.diagnosis.balance import CrankCalibration
 from monitor.engine import Engine
 from monitor.errors import DiagnosisError
 from monitor.signal.angle_domain import HighFrequencyPower
@@ -96,6 +97,8 @@ class Baseline:
         The tooth wheel's (or encoder's) pitch errors learned on the baseline.
     pitch_channel : str
         The channel they belong to.
+    crank : CrankCalibration or None
+        The crank-speed model calibrated on the baseline at the orders where the cylinders add up.
     """
 
     engine_id: str
@@ -107,6 +110,7 @@ class Baseline:
     source: str
     pitch: PitchCorrection | None = None
     pitch_channel: str = ""
+    crank: CrankCalibration | None = None
 
     def to_document(self) -> dict[str, Any]:
         """The JSON document (complex numbers as [re, im] pairs)."""
@@ -127,6 +131,14 @@ class Baseline:
                 "revolutions": self.pitch.revolutions,
                 "scope": self.pitch.scope,
                 "learned_on": "run-up" if self.pitch.source == "run-up" else "baseline",
+            },
+            "crank_speed_model": None
+            if self.crank is None
+            else {
+                "transfer": self.crank.transfer,
+                "orders": self.crank.orders.tolist(),
+                "factor": [[z.real, z.imag] for z in self.crank.factor.tolist()],
+                "factor_error": self.crank.factor_error.tolist(),
             },
             "sensors": {
                 name: {
@@ -245,6 +257,17 @@ class Baseline:
                 if stored
                 else None
             )
+            model = document.get("crank_speed_model")  # absent from baselines written before it
+            crank = (
+                CrankCalibration(
+                    str(model["transfer"]),
+                    np.asarray(model["orders"], dtype=np.float64),
+                    np.asarray(model["factor"], dtype=np.float64).reshape(-1, 2) @ np.array([1.0, 1j]),
+                    np.asarray(model["factor_error"], dtype=np.float64),
+                )
+                if model
+                else None
+            )
             sensors = {}
             for name, s in document["sensors"].items():
                 profile = (
@@ -281,6 +304,7 @@ class Baseline:
                 source=str(document.get("source", "")),
                 pitch=pitch,
                 pitch_channel=str(stored["channel"]) if stored else "",
+                crank=crank,
             )
         except (KeyError, TypeError, ValueError) as error:
             raise DiagnosisError(f"{origin}: not a complete baseline document ({error!r})") from error

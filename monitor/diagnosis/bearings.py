@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -43,11 +44,14 @@ __all__ = [
     "OrderDeviation",
     "impact_score",
     "order_deviations",
+    "span_score",
 ]
 
 SPEED_TOLERANCE = 0.05  # largest relative speed difference at which a calibrated transfer is used [-]
-WINDOW_BEFORE_DEG = 10.0  # crank angle before a load reversal in its impact window [deg]
+WINDOW_BEFORE_DEG = 20.0  # crank angle before a load reversal in its impact window [deg]
 WINDOW_AFTER_DEG = 30.0  # and after it [deg]
+KNOCK_SPAN_DEG = 2.0  # crank angle over which a knock's ringing is summed [deg]
+FAMILY_FALSE_ALARM = 1e-4  # chance that noise alone lifts one span of a bearing's windows to significance [-]
 RELEVANT_FRACTION = 0.02  # orders predicted below this fraction of the channel's largest carry no evidence
 RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
 
@@ -142,13 +146,25 @@ class ImpactScore:
     bearing : int
         The bearing whose windows were scored.
     score : float
-        Mean high-frequency power in the windows over the reference's [-] (1 = as the reference).
+        High-frequency power of the knock span that stands out most in the windows, over the
+        reference's in the same bins [-] (1 = as the reference).
     score_error : float
         Standard error [-].
     reference : str
         "baseline" or "own median".
     reversal_angles_deg : list of float
         The load reversals' cycle angles [deg].
+    significance : float
+        The span's excess power over the reference in standard errors [-].
+    significance_needed : float
+        The excess that one span in all the windows reaches by chance with probability
+        :data:`FAMILY_FALSE_ALARM` [-] (one-sided normal quantile, Sidak-corrected for the spans tested).
+    angle_deg : float
+        Cycle angle of that span's centre [deg].
+    elsewhere : float
+        The same span's power over its reference on the other bearing sensors, the highest (NaN
+        without others; :func:`span_score`): a knock of this bearing is heard loudest on its own
+        sensor, a change of the engine's own noise (combustion moved by a misfire) on all alike [-].
     """
 
     bearing: int
@@ -156,6 +172,10 @@ class ImpactScore:
     score_error: float
     reference: str
     reversal_angles_deg: list[float]
+    significance: float = math.nan
+    significance_needed: float = math.nan
+    angle_deg: float = math.nan
+    elsewhere: float = math.nan
 
 
 def window_bins(reversals: FloatArray, bins: int, cycle_revolutions: int) -> FloatArray:
@@ -169,6 +189,16 @@ def window_bins(reversals: FloatArray, bins: int, cycle_revolutions: int) -> Flo
         offset = (centre - r + before) % cycle  # 0 at the window's start
         mask |= offset <= before + after
     return mask
+
+
+def _span_sums(values: FloatArray, span: int) -> FloatArray:
+    """Circular sums of ``span`` consecutive bins, centred on each bin (the cycle closes on itself)."""
+    if span <= 1:
+        return np.asarray(values, dtype=np.float64)
+    low = span // 2
+    padded = np.concatenate([values[-low:] if low else values[:0], values, values[: span - 1 - low]])
+    cumulative = np.concatenate([[0.0], np.cumsum(padded)])
+    return np.asarray(cumulative[span:] - cumulative[:-span])
 
 
 def impact_score(
@@ -196,20 +226,63 @@ def impact_score(
     """
     bins = profile.mean.size
     mask = window_bins(reversals, bins, cycle_revolutions)
-    count = int(mask.sum())
-    inside = float(profile.mean[mask].mean())
-    inside_error = float(np.sqrt(np.sum(profile.std[mask] ** 2)) / count / math.sqrt(max(profile.cycles, 1)))
+    cycle_deg = 360.0 * cycle_revolutions
+    span = max(1, round(KNOCK_SPAN_DEG / (cycle_deg / bins)))
+    variance = profile.std**2 / max(profile.cycles, 1)
     if baseline is not None:
-        reference = float(baseline.mean[mask].mean())
-        reference_error = float(
-            np.sqrt(np.sum(baseline.std[mask] ** 2)) / count / math.sqrt(max(baseline.cycles, 1))
-        )
+        reference = baseline.mean
+        reference_variance = baseline.std**2 / max(baseline.cycles, 1)
         how = "baseline"
     else:
-        reference = float(np.median(profile.mean))
-        reference_error = float(np.median(profile.std) / math.sqrt(max(profile.cycles * bins, 1)))
+        reference = np.full(bins, float(np.median(profile.mean)))
+        reference_variance = np.full(bins, float(np.median(profile.std)) ** 2 / max(profile.cycles * bins, 1))
         how = "own median"
-    reference = max(reference, 1e-300)
-    score = inside / reference
-    error = score * math.hypot(inside_error / max(inside, 1e-300), reference_error / reference)
-    return ImpactScore(bearing, score, error, how, np.degrees(reversals).round(2).tolist())
+    measured = _span_sums(profile.mean, span)
+    expected = np.maximum(_span_sums(reference, span), 1e-300)
+    error = np.sqrt(np.maximum(_span_sums(variance + reference_variance, span), 1e-300))
+    z = np.where(mask, (measured - expected) / error, -np.inf)
+    peak = int(np.argmax(z))
+    tested = max(1.0, float(mask.sum()) / span)  # about independent spans in the windows
+    needed = NormalDist().inv_cdf((1.0 - FAMILY_FALSE_ALARM) ** (1.0 / tested))
+    return ImpactScore(
+        bearing,
+        float(measured[peak] / expected[peak]),
+        float(error[peak] / expected[peak]),
+        how,
+        np.degrees(reversals).round(2).tolist(),
+        float(z[peak]),
+        float(needed),
+        round((peak + 0.5) * cycle_deg / bins, 2),
+    )
+
+
+def span_score(
+    profile: HighFrequencyPower,
+    angle_deg: float,
+    cycle_revolutions: int,
+    baseline: HighFrequencyPower | None = None,
+) -> float:
+    """A sensor's high-frequency power in the knock span centred at a cycle angle, over its reference.
+
+    Parameters
+    ----------
+    profile : HighFrequencyPower
+    angle_deg : float
+        Cycle angle [deg].
+    cycle_revolutions : int
+    baseline : HighFrequencyPower, optional
+        The same sensor's baseline profile; without one, the profile's own median is the reference.
+
+    Returns
+    -------
+    float
+        The span's power over the reference's in the same bins (those of :func:`impact_score`) [-].
+    """
+    bins = profile.mean.size
+    cycle_deg = 360.0 * cycle_revolutions
+    span = max(1, round(KNOCK_SPAN_DEG / (cycle_deg / bins)))
+    centre = math.floor(angle_deg / (cycle_deg / bins)) % bins
+    reference = baseline.mean if baseline is not None else np.full(bins, float(np.median(profile.mean)))
+    measured = _span_sums(profile.mean, span)[centre]
+    expected = max(float(_span_sums(reference, span)[centre]), 1e-300)
+    return float(measured / expected)

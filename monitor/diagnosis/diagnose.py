@@ -44,7 +44,7 @@ from typing import Any, Literal, TypeAlias
 import numpy as np
 
 from monitor.crankshaft import EngineModel
-from monitor.diagnosis.balance import CylinderBalance, Transfer, cylinder_balance
+from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfer, cylinder_balance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import (
     SPEED_TOLERANCE,
@@ -52,6 +52,7 @@ from monitor.diagnosis.bearings import (
     OrderDeviation,
     impact_score,
     order_deviations,
+    span_score,
 )
 from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
@@ -101,10 +102,17 @@ CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
 CYLINDER_ALARM = (0.5, 1.3)
 MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
 BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
-IMPACT_WARNING, IMPACT_ALARM = 3.0, 10.0  # impact power against the baseline's [-]
-# without a baseline: impact power against the recording's own median, a warning at most, and only where
-# the bearing's own sensor hears it LOCALISED times louder than any other bearing sensor does [-]
+# a knock span's high-frequency power against the baseline's, where it stands out of the noise by more
+# than chance over the windows allows (bearings.FAMILY_FALSE_ALARM) [-]
+IMPACT_WARNING, IMPACT_ALARM = 1.25, 10.0
+# with a cylinder finding: its changed combustion changes the structure's own high-frequency noise near
+# it (heard loudest on the nearest sensor), so only a clearer knock is a bearing's [-]
+IMPACT_WITH_CYLINDER_FINDING = 2.0
+# without a baseline: against the recording's own median, a warning at most [-]
 IMPACT_WITHOUT_BASELINE = 10.0
+# and always: the span's excess over its reference on the bearing's own sensor at least this many times
+# its excess on any other bearing sensor (a knock is heard loudest where it is; the engine's own noise,
+# moved by a misfire or a load change, alike on all) [-]
 LOCALISED = 2.0
 # the model's uncertainty of the change in a bearing force that the cylinders' estimated strengths make
 # against the baseline's (a changed gas force's high orders are known to tens of per cent) [-]
@@ -114,7 +122,8 @@ STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
 ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
 BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
-MISFIT = 25.0  # reduced chi-square of the cylinder balance above which the notes say the model misfits
+MISFIT = 25.0  # reduced chi-square of the cylinder balance above which no cylinder is named (inconclusive)
+POOR_FIT = 4.0  # and above which the notes say it fits poorly (the strengths' errors are widened by it)
 
 
 @dataclass(frozen=True)
@@ -244,20 +253,25 @@ class Diagnosis:
 
 # ------------------------------------------------------------------------------------------ model
 def predicted_speed(
-    torque: ComplexArray, orders: FloatArray, inertia: float, mean_speed: float, cycle_revolutions: int
+    torque: ComplexArray,
+    orders: FloatArray,
+    inertia: float | ComplexArray,
+    mean_speed: float,
+    cycle_revolutions: int,
 ) -> ComplexArray:
     """Speed orders of a rigid body driven by a torque, exactly: ``omega = sqrt(c + 2 E / J)``.
 
     ``E`` is the torque's integral over the angle (order by order ``T_k / (i k)``) and ``c``
-    is chosen so that the mean speed over the cycle is ``mean_speed``.
+    is chosen so that the mean speed over the cycle is ``mean_speed``; with an inertia per order,
+    ``E / J`` is formed order by order.
 
     Parameters
     ----------
     torque : ndarray, complex, shape (n_orders,)
         [N m] (order 0 ignored: the load takes the mean).
     orders : ndarray
-    inertia : float
-        [kg m^2]
+    inertia : float or ndarray, complex, shape (n_orders,)
+        The body's, or the inertia each order meets (order 0's unused) [kg m^2].
     mean_speed : float
         [rad/s]
     cycle_revolutions : int
@@ -271,16 +285,17 @@ def predicted_speed(
     points = 2 ** math.ceil(math.log2(max(64, 8 * highest * cycle_revolutions)))
     theta = np.arange(points) * (2 * math.pi * cycle_revolutions / points)
     energy_orders = np.zeros(orders.size, dtype=np.complex128)
-    energy_orders[1:] = torque[1:] / (1j * orders[1:])
-    energy = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ energy_orders)
+    met = np.broadcast_to(np.asarray(inertia), orders.shape)
+    energy_orders[1:] = torque[1:] / (1j * orders[1:]) / met[1:]
+    energy = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ energy_orders)  # E / J
     c = mean_speed**2
     for _ in range(50):  # Newton on the mean speed
-        omega = np.sqrt(np.maximum(c + 2 * energy / inertia, 1e-12 * mean_speed**2))
+        omega = np.sqrt(np.maximum(c + 2 * energy, 1e-12 * mean_speed**2))
         miss = float(omega.mean()) - mean_speed
         c -= miss / float(np.mean(0.5 / omega))
         if abs(miss) < 1e-13 * mean_speed:
             break
-    omega = np.sqrt(np.maximum(c + 2 * energy / inertia, 1e-12 * mean_speed**2))
+    omega = np.sqrt(np.maximum(c + 2 * energy, 1e-12 * mean_speed**2))
     out = order_coefficients(omega, cycle_revolutions=cycle_revolutions, max_order=highest).coefficients
     return np.asarray(out[: orders.size])
 
@@ -360,6 +375,7 @@ def _analyse(
     max_order: float,
     cycle_phase: CyclePhase = None,
     pitch: PitchCorrection | None = None,
+    crank: CrankCalibration | None = None,
 ) -> _Analysis:
     if recording.engine_id and recording.engine_id != engine.id:
         raise DiagnosisError(
@@ -402,11 +418,15 @@ def _analyse(
         )
     else:
         try:
-            balance = cylinder_balance(speed, engine, parts, transfer=transfer)
+            usable = crank if crank is not None and crank.transfer == transfer else None
+            balance = cylinder_balance(speed, engine, parts, transfer=transfer, calibration=usable)
+            if usable is not None and balance.calibrated.any():
+                orders = ", ".join(f"{k:g}" for k in balance.orders[balance.calibrated])
+                notes.append(f"the crank-speed model is calibrated on the baseline at orders {orders}")
         except ModelError as error:
             notes.append(f"cylinder balance not done: {error}")
         else:
-            if balance.chi2_reduced > MISFIT:
+            if balance.chi2_reduced > POOR_FIT:
                 other = "shaft-line" if transfer == "rigid" else "rigid"
                 notes.append(
                     f"the {transfer} crank-speed model fits the measured orders poorly (reduced chi-square "
@@ -505,14 +525,16 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
     if transfer == "rigid":
         if analysis.inertia <= 0:
             return None
-        predicted = predicted_speed(
-            nominal.engine_torque[index],
-            orders,
-            analysis.inertia,
-            float(speed.amplitude[0].real),
-            engine.cycle_revolutions,
+        from monitor.torsion.shaft_line import engine_side_inertia_at
+
+        mean = float(speed.amplitude[0].real)
+        met = np.full(orders.size, analysis.inertia, dtype=np.complex128)
+        met[1:] = engine_side_inertia_at(engine, orders[1:] * mean)
+        predicted = predicted_speed(nominal.engine_torque[index], orders, met, mean, engine.cycle_revolutions)
+        basis = (
+            f"healthy model, rigid engine side (J = {analysis.inertia:.4g} kg m^2) and the driven end "
+            "through its shafts"
         )
-        basis = f"healthy model, rigid engine side (J = {analysis.inertia:.4g} kg m^2)"
     else:
         from monitor.diagnosis.balance import _shaft_line_receptance
 
@@ -667,6 +689,7 @@ def calibrate(
         source=source,
         pitch=result.reference.pitch_correction,
         pitch_channel=result.reference.source if result.reference.pitch_correction is not None else "",
+        crank=balance.calibration() if balance is not None else None,
     )
 
 
@@ -768,11 +791,12 @@ def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | No
         if threshold is None or abs(r - 1.0) < SIGNIFICANCE * contrast:
             continue
         low = r < 1.0
-        what = (
-            "misfiring"
-            if r < MISFIRE_BELOW
-            else ("weak, leaking or misfiring" if low else "stronger than the others")
-        )
+        if r < MISFIRE_BELOW:
+            what = "misfiring"
+        elif severity == "alarm" and low and r < 1.96 * e:
+            what = "misfiring, or nearly: no firing is within its 95 % interval"
+        else:
+            what = "weak, leaking or misfiring" if low else "stronger than the others"
         confidence = _phi((threshold - r) / e) if low else _phi((r - threshold) / e)
         findings.append(
             Finding(
@@ -891,30 +915,31 @@ def _reference_profile(
 def _with_elsewhere(
     bearings: list[BearingResult],
     profiles: dict[str, HighFrequencyPower],
-    analysis: _Analysis,
     engine: Engine,
     baseline: Baseline | None,
 ) -> list[BearingResult]:
-    """Each sensor's own bearing's windows scored on the other bearing sensors too (the highest kept)."""
+    """Each impact score with the same knock span's score on the other bearing sensors (the highest)."""
     R = engine.cycle_revolutions
     out = []
     for result in bearings:
-        reversals = load_reversals(
-            analysis.combined.bearing_force[result.bearing - 1], analysis.combined.orders, R
-        )
-        scores = []
-        for other in bearings:
-            profile = profiles.get(other.channel)
-            if other.channel == result.channel or profile is None:
-                continue
-            known = baseline.sensors.get(other.channel) if baseline is not None else None
-            reference = _reference_profile(known, profile)
-            scores.append(impact_score(profile, reversals, result.bearing, R, reference).score)
-        out.append(replace(result, elsewhere=max(scores) if scores else math.nan))
+        scored = []
+        for score in result.impacts:
+            heard = []
+            for other in bearings:
+                profile = profiles.get(other.channel)
+                if other.channel == result.channel or profile is None:
+                    continue
+                known = baseline.sensors.get(other.channel) if baseline is not None else None
+                heard.append(span_score(profile, score.angle_deg, R, _reference_profile(known, profile)))
+            scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
+        own = next((s for s in scored if s.bearing == result.bearing), None)
+        out.append(replace(result, impacts=scored, elsewhere=own.elsewhere if own is not None else math.nan))
     return out
 
 
-def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> list[Finding]:
+def _bearing_findings(
+    results: list[BearingResult], *, with_baseline: bool, cylinders_changed: bool = False
+) -> list[Finding]:
     by_subject: dict[str, Finding] = {}
 
     def add(finding: Finding) -> None:
@@ -982,9 +1007,17 @@ def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> l
         own = next(s for s in result.impacts if s.bearing == result.bearing)
 
         def heard(score: ImpactScore) -> bool:
-            e = max(score.score_error, 1e-12)
             least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
-            return score.score >= least and score.score - 1.0 >= SIGNIFICANCE * e
+            if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
+                least = max(least, IMPACT_WITH_CYLINDER_FINDING)
+            localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
+                score.elsewhere - 1.0, 0.0
+            )
+            return (
+                score.score >= least
+                and score.significance >= max(SIGNIFICANCE, score.significance_needed)
+                and localised
+            )
 
         # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
         # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
@@ -996,12 +1029,8 @@ def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> l
                 if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
             ]
             best = max(others, key=lambda s: s.score) if others else own
-        if (
-            best is own
-            and not with_baseline
-            and not (math.isnan(result.elsewhere) or own.score >= LOCALISED * result.elsewhere)
-        ):
-            continue  # against its own median only what its own sensor hears loudest is a bearing's
+        if best is own and not with_baseline and math.isnan(own.elsewhere):
+            continue  # against its own median only, a knock must be shown to be this sensor's alone
         e = max(best.score_error, 1e-12)
         if heard(best):
             severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
@@ -1017,7 +1046,7 @@ def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> l
                     severity=severity,
                     summary=(
                         f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
-                        f"the {best.reference}'s high-frequency power in those windows "
+                        f"the {best.reference}'s high-frequency power at {best.angle_deg:.0f} deg "
                         f"({result.channel}; clearance or wear)"
                     ),
                     confidence=_phi((best.score - threshold) / e),
@@ -1031,6 +1060,9 @@ def _bearing_findings(results: list[BearingResult], *, with_baseline: bool) -> l
                             "threshold": threshold,
                             "unit": f"x {best.reference}",
                             "reversal_angles_deg": best.reversal_angles_deg,
+                            "angle_deg": best.angle_deg,
+                            "significance": best.significance,
+                            "significance_needed": best.significance_needed,
                         }
                     ],
                 )
@@ -1116,6 +1148,7 @@ def diagnose(
         max_order=max_order,
         cycle_phase=cycle_phase,
         pitch=_baseline_pitch(recording, baseline),
+        crank=baseline.crank if baseline is not None else None,
     )
     result = analysis.spectra
     notes = screen_notes + list(analysis.notes) + unrated
@@ -1211,7 +1244,7 @@ def diagnose(
                 reference = _reference_profile(calibration, profile)
                 impacts.append(impact_score(profile, reversals, neighbour, R, reference))
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
-    bearings = _with_elsewhere(bearings, result.high_frequency, analysis, engine, baseline)
+    bearings = _with_elsewhere(bearings, result.high_frequency, engine, baseline)
     velocity = {}
     findings: list[Finding] = [_sensor_finding(f, recording_before) for f in sensor_faults]
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
@@ -1220,10 +1253,26 @@ def diagnose(
         findings += _cylinder_findings(analysis.balance, analysis.partners)
     elif analysis.balance is not None and fits and engine.cylinders == 1:
         single = (
-            float(baseline.strengths[0]) if baseline is not None and len(baseline.strengths) == 1 else None
+            # a calibrated model gives the strength against the baseline's directly
+            (
+                1.0
+                if baseline.crank is not None and baseline.crank.orders.size
+                else float(baseline.strengths[0])
+            )
+            if baseline is not None and len(baseline.strengths) == 1
+            else None
         )
         findings += _single_cylinder_findings(analysis.balance, load, single)
-    findings += _bearing_findings(bearings, with_baseline=baseline is not None)
+        notes.append(
+            f"a single cylinder is judged against the load stated ({load:.2f}): state the load set "
+            "(the fuel or the governor's setting), not the power delivered, or a weak cylinder reads as "
+            "a lower load"
+        )
+    findings += _bearing_findings(
+        bearings,
+        with_baseline=baseline is not None,
+        cylinders_changed=any(f.kind == "cylinder" for f in findings),
+    )
     for channel in _vibration_channels(recording):
         if (v := rms.get(channel.name)) is None:
             continue

@@ -107,7 +107,8 @@ class AngleDomainSignal:
 class HighFrequencyPower:
     """Where in the cycle a channel's high-frequency content lies: impacts, knocks, rattles.
 
-    For each bin of the angle grid (from a grid angle to the next) the mean
+    For each bin of the cycle (the grid's intervals, split evenly into at least
+    :data:`HIGH_FREQUENCY_BINS_PER_REVOLUTION` per revolution) the mean
     square of the time-domain samples' second difference ``x[j+1] - 2 x[j] +
     x[j-1]``, a high-pass whose power gain is ``(2 sin(pi f / fs))^4``: it
     weighs content near the sampling rate's Nyquist frequency most (a 2 kHz ring
@@ -118,7 +119,7 @@ class HighFrequencyPower:
 
     Attributes
     ----------
-    mean, std : ndarray, shape (samples_per_cycle,)
+    mean, std : ndarray, shape (bins,)
         Mean over the cycles of each bin's power, and its standard deviation
         over the cycles [unit^2].
     cycles : int
@@ -235,6 +236,9 @@ OVERSAMPLING = 10.0
 _RIPPLE_DB = 100.0  # anti-alias FIR: passband ripple and stopband attenuation 1e-5
 _SPLINE_MARGIN = 32  # decimated samples beyond the grid: the B-spline prefilter's edge effect < 1e-12
 _BLOCK_SAMPLES = 1 << 18  # input samples per processed block
+# bins of the high-frequency profile per revolution, at least: 0.7 deg, so that a knock's ring (about a
+# millisecond, 4 deg at 600 rpm) fills its bins instead of being averaged with a grid interval's noise
+HIGH_FREQUENCY_BINS_PER_REVOLUTION = 512
 
 
 @dataclass(frozen=True)
@@ -383,7 +387,10 @@ def to_angle_domain(
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
     m = grid.samples_per_cycle
-    power_sum, power_squares, power_counts = np.zeros(m), np.zeros(m), np.zeros(m)
+    # the profile's bins: the grid's, split evenly until they are no wider than a knock's ring at speed
+    split = max(1, (HIGH_FREQUENCY_BINS_PER_REVOLUTION * cycle_revolutions) // m)
+    bins = m * split
+    power_sum, power_squares, power_counts = np.zeros(bins), np.zeros(bins), np.zeros(bins)
     for g0 in range(0, grid.times.size, step):
         # in input samples; one more grid time than the block's closes its last bin
         edges = (grid.times[g0 : g0 + step + 1] - start_time) * sample_rate
@@ -393,7 +400,10 @@ def to_angle_domain(
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
         x = _read(source, a, b, start_time, sample_rate)
         if high_frequency:
-            _bin_power(x, edges - a, m, power_sum, power_squares, power_counts)
+            fine = edges - a
+            if split > 1:
+                fine = np.interp(np.arange((fine.size - 1) * split + 1) / split, np.arange(fine.size), fine)
+            _bin_power(x, fine, bins, power_sum, power_squares, power_counts)
         y = fir.apply(x) if fir is not None else x
         _interpolate(
             _spline_coefficients(y, interpolation_order),

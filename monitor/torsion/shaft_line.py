@@ -63,6 +63,7 @@ __all__ = [
     "cylinder_torque_orders",
     "engine_forced_response",
     "engine_side_inertia",
+    "engine_side_inertia_at",
     "mean_reciprocating_inertia",
     "reciprocating_inertia",
     "shaft_line_of",
@@ -417,6 +418,12 @@ def engine_side_inertia(engine: Engine) -> float:
     ModelError
         If the engine has no ``[shaft_line]``.
     """
+    line, last = _engine_side(engine)
+    return float(sum(node.inertia for node in line.nodes[: last + 1]))
+
+
+def _engine_side(engine: Engine) -> tuple[ShaftLineModel, int]:
+    """The shaft-line model and the index of the engine side's last node (the flywheel, or last throw)."""
     if engine.shaft_line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line]: its inertias are unknown")
     line = shaft_line_of(engine)
@@ -426,7 +433,68 @@ def engine_side_inertia(engine: Engine) -> float:
         if element.kind == "flywheel":
             last = names.index(element.name)
             break
-    return float(sum(node.inertia for node in line.nodes[: last + 1]))
+    return line, last
+
+
+def engine_side_inertia_at(engine: Engine, angular_frequency: npt.ArrayLike) -> ComplexArray:
+    """The inertia a torque on the engine side meets at each frequency [kg m^2], complex.
+
+    The engine side (:func:`engine_side_inertia`) turns as one body; the driven end beyond it
+    (propeller, generator, a shaft) follows through its shafts.  Seen from the engine side's last
+    node, the elements beyond it, from the far end inwards, have the dynamic stiffness
+    ``Z_i = -w^2 J_i + i w c_i + Z'_(i+1)`` and, through their shaft ``k_i + i w d_i``,
+    ``Z'_i = (k_i + i w d_i) Z_i / (k_i + i w d_i + Z_i)``; the torque on the engine side for an
+    angle ``theta`` is ``(-w^2 J_engine + Z'_first) theta``, so ``J(w) = J_engine - Z'_first / w^2``.
+    Far below the engine-against-load mode the whole line turns as one (``J`` the sum of every
+    inertia); far above it the driven end stands still (``J`` the engine side's), the rigid
+    engine side's usual regime (a propeller or generator on a flexible shaft or coupling, its mode
+    at a few hertz).  The driven end is taken in this way only where that mode (two masses: the
+    engine side, and everything beyond on the first shaft) lies above every frequency asked for: a
+    stiff coupling; where it lies among them the orders straddle a resonance that no rigid body
+    describes, and the engine side alone is kept, as :func:`engine_side_inertia` gives it.
+
+    Parameters
+    ----------
+    engine : Engine
+        With its ``[shaft_line]``.
+    angular_frequency : array_like
+        [rad/s], positive.
+
+    Returns
+    -------
+    ndarray, complex, shape of ``angular_frequency``
+        [kg m^2]; the imaginary part is the driven end's damping seen by the engine side.
+
+    Raises
+    ------
+    ModelError
+        If the engine has no ``[shaft_line]``, or for a frequency that is not positive.
+    """
+    w = np.asarray(angular_frequency, dtype=np.float64)
+    if np.any(~np.isfinite(w)) or np.any(w <= 0):
+        raise ModelError(
+            "engine_side_inertia_at: the angular frequencies must be positive and finite [rad/s]"
+        )
+    line, last = _engine_side(engine)
+    rigid = float(sum(node.inertia for node in line.nodes[: last + 1]))
+    driven = engine.shaft_line.driven_end if engine.shaft_line is not None else []
+    beyond = [e for e in driven if line.node_names.index(e.name) > last]
+    tail = np.zeros(w.shape, dtype=np.complex128)
+    if beyond:
+        rest = sum(e.inertia_kgm2 for e in beyond)
+        first = beyond[0].stiffness_to_previous_nm_per_rad
+        mode = math.sqrt(first * (1 / rigid + 1 / rest)) if rest > 0 else math.inf
+        if mode <= float(w.max(initial=0.0)):
+            beyond = []  # a flexible coupling: above its mode the driven end is left to itself
+    for element in reversed(beyond):
+        own = -(w**2) * element.inertia_kgm2 + 1j * w * element.absolute_damping_nms_per_rad + tail
+        shaft = element.stiffness_to_previous_nm_per_rad + 1j * w * element.relative_damping_nms_per_rad
+        total = shaft + own
+        # at a free resonance of the tail (total = 0) the tail holds the engine side still: huge stiffness
+        tail = np.where(
+            np.abs(total) > 0, shaft * own / np.where(np.abs(total) > 0, total, 1.0), shaft * 1e12
+        )
+    return np.asarray(rigid - tail / w**2)
 
 
 def shaft_line_of(
