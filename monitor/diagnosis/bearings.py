@@ -201,6 +201,22 @@ def _span_sums(values: FloatArray, span: int) -> FloatArray:
     return np.asarray(cumulative[span:] - cumulative[:-span])
 
 
+def _span_bins(bins: int, cycle_revolutions: int) -> int:
+    """Bins of a profile in one knock span (:data:`KNOCK_SPAN_DEG`), at least one."""
+    return max(1, round(KNOCK_SPAN_DEG / (360.0 * cycle_revolutions / bins)))
+
+
+def _reference(
+    profile: HighFrequencyPower, baseline: HighFrequencyPower | None
+) -> tuple[FloatArray, FloatArray]:
+    """Each bin's reference power and the variance of its mean: the baseline's, else the profile's median."""
+    if baseline is not None:
+        return baseline.mean, baseline.std**2 / max(baseline.cycles, 1)
+    bins = profile.mean.size
+    median_variance = float(np.median(profile.std)) ** 2 / max(profile.cycles * bins, 1)
+    return np.full(bins, float(np.median(profile.mean))), np.full(bins, median_variance)
+
+
 def impact_score(
     profile: HighFrequencyPower,
     reversals: FloatArray,
@@ -227,16 +243,10 @@ def impact_score(
     bins = profile.mean.size
     mask = window_bins(reversals, bins, cycle_revolutions)
     cycle_deg = 360.0 * cycle_revolutions
-    span = max(1, round(KNOCK_SPAN_DEG / (cycle_deg / bins)))
+    span = _span_bins(bins, cycle_revolutions)
     variance = profile.std**2 / max(profile.cycles, 1)
-    if baseline is not None:
-        reference = baseline.mean
-        reference_variance = baseline.std**2 / max(baseline.cycles, 1)
-        how = "baseline"
-    else:
-        reference = np.full(bins, float(np.median(profile.mean)))
-        reference_variance = np.full(bins, float(np.median(profile.std)) ** 2 / max(profile.cycles * bins, 1))
-        how = "own median"
+    reference, reference_variance = _reference(profile, baseline)
+    how = "baseline" if baseline is not None else "own median"
     measured = _span_sums(profile.mean, span)
     expected = np.maximum(_span_sums(reference, span), 1e-300)
     error = np.sqrt(np.maximum(_span_sums(variance + reference_variance, span), 1e-300))
@@ -279,10 +289,9 @@ def span_score(
         The span's power over the reference's in the same bins (those of :func:`impact_score`) [-].
     """
     bins = profile.mean.size
-    cycle_deg = 360.0 * cycle_revolutions
-    span = max(1, round(KNOCK_SPAN_DEG / (cycle_deg / bins)))
-    centre = math.floor(angle_deg / (cycle_deg / bins)) % bins
-    reference = baseline.mean if baseline is not None else np.full(bins, float(np.median(profile.mean)))
+    span = _span_bins(bins, cycle_revolutions)
+    centre = math.floor(angle_deg / (360.0 * cycle_revolutions / bins)) % bins
+    reference, _ = _reference(profile, baseline)
     measured = _span_sums(profile.mean, span)[centre]
     expected = max(float(_span_sums(reference, span)[centre]), 1e-300)
     return float(measured / expected)
