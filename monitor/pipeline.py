@@ -252,7 +252,11 @@ def angle_reference(
                 decoding = correct_pitch(decoding, correction)
             except SignalError as error:
                 raise SignalError(f"{channel.name}: {error}") from None
-        angle_map = AngleMap(decoding.times, decoding.angles)
+        # the wheel's gap: the speed's shape inside it from the cycle's shape elsewhere (orders the
+        # pulses determine, below half the pulses per cycle)
+        angle_map = AngleMap(decoding.times, decoding.angles).with_gaps_filled(
+            2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
+        )
         repairs = int(decoding.inserted.size + decoding.removed.size)
         pulses = decoding.teeth - decoding.missing
     elif keyphasors:

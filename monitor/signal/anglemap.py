@@ -35,6 +35,8 @@ __all__ = ["AngleMap", "cycle_phase_from_cam", "cycle_phase_from_pressure"]
 
 _SPEED_WINDOW = 1 << 14  # pulses per window of the speed spline
 _SPEED_OVERLAP = 64  # pulses added on each side of a window
+REPEATING = 0.5  # share of the speed's fluctuation the cycle's shape must explain for a gap to be filled
+_FILL_NEIGHBOURS = 32  # pulses on each side of a gap through which its spline error on the shape is taken
 
 
 @dataclass(frozen=True)
@@ -85,6 +87,197 @@ class AngleMap:
         """
         t = np.asarray(times, dtype=np.float64)
         return cls(t, pulse_angle + 2 * math.pi * np.arange(t.size, dtype=np.float64))
+
+    def with_gaps_filled(self, cycle: float, harmonics: int) -> AngleMap:
+        """The map with points in its wheel's gaps (missing teeth), where the cycle's shape puts them.
+
+        Across a gap of ``n`` pitches the map has one interval, where the speed's spline sees no
+        pulse: the speed's fluctuation inside it (a slow engine's firing order, 18 deg of a 60-2
+        wheel's gap against its 30 deg period on a 12-cylinder two-stroke) is lost, and its loss leaks
+        into every order once per revolution.  The part of the speed that repeats every cycle is seen
+        by the pulses everywhere but in the gaps: the slowness relative to its local mean, as a
+        Fourier series of the cycle angle, is fitted by least squares to every interval's mean of it
+        (an interval's time over its angle, averaged over the cycles at its place in the cycle), the
+        gaps' intervals included; of a quarter, a third and nearly a half of the places in a cycle as
+        the number of harmonics, the one whose fit predicts each place best from the others
+        (leave-one-out) is kept.  Each missing tooth is then put where the spline through the pulses
+        reaches its angle, moved by the error the same spline makes across the same gap on that shape
+        alone (the shape's own pulses through the same spline): the repeating part is corrected,
+        anything else (a transient, a sensor's error beside the gap) stays as the spline has it.  A
+        map without gaps (an encoder, a keyphasor), or one whose speed does not repeat by at least
+        :data:`REPEATING` of its variance, is returned as it is.
+
+        Parameters
+        ----------
+        cycle : float
+            The cycle angle the shape repeats over [rad].
+        harmonics : int
+            Orders of the cycle fitted, at most [-].
+
+        Returns
+        -------
+        AngleMap
+        """
+        span = np.diff(self.angles)
+        if span.size < 8:
+            return self
+        pitch = float(np.median(span))
+        gaps = np.flatnonzero(span > 1.5 * pitch)
+        per_cycle = cycle / pitch
+        if gaps.size == 0 or per_cycle < 8:
+            return self
+        # the places of intervals in a cycle (a gap's pitches share one) sample the shape; the number of
+        # harmonics fitted is the one of a quarter, a third and nearly a half of the places whose fit
+        # predicts each place best from the others (leave-one-out): more follow a sharper shape, fewer
+        # keep a noisy one from swinging where no pulse sees it
+        gaps_per_cycle = np.unique(np.round(np.mod(self.angles[gaps], cycle) / pitch)).size
+        gap_pitches = round(float(np.median(span[gaps])) / pitch)
+        places_per_cycle = round(per_cycle) - gaps_per_cycle * (gap_pitches - 1)
+        candidates = sorted(
+            {
+                min(int(harmonics), c)
+                for c in (places_per_cycle // 4, places_per_cycle // 3, (places_per_cycle - 3) // 2)
+            }
+            - {0}
+        )
+        if not candidates:
+            return self
+        dt = np.diff(self.times)
+        # the slowness's local mean: the time the crank takes over the cycle centred on each interval
+        middle = 0.5 * (self.angles[1:] + self.angles[:-1])
+        low = np.clip(middle - 0.5 * cycle, self.angles[0], self.angles[-1])
+        high = np.clip(middle + 0.5 * cycle, self.angles[0], self.angles[-1])
+        local = (np.interp(high, self.angles, self.times) - np.interp(low, self.angles, self.times)) / (
+            high - low
+        )
+        relative = dt / span / local
+        # the intervals at one place in the cycle are averaged: one row per place
+        place = np.round(np.mod(self.angles[:-1], cycle) / (1e-3 * pitch)).astype(np.int64)
+        places, which = np.unique(place, return_inverse=True)
+        count = np.bincount(which)
+        mean = np.bincount(which, relative) / count
+        start = np.bincount(which, np.mod(self.angles[:-1], cycle)) / count
+        width = np.bincount(which, span) / count
+        best: tuple[float, FloatArray, FloatArray] = (math.inf, np.zeros(0), np.zeros(0))
+        for h_count in candidates:
+            w = 2 * math.pi / cycle * np.arange(1, h_count + 1)
+            a, b = start[:, None], (start + width)[:, None]
+            design = np.hstack(
+                [
+                    np.ones((places.size, 1)),
+                    (np.sin(w * b) - np.sin(w * a)) / (w * (b - a)),
+                    (np.cos(w * a) - np.cos(w * b)) / (w * (b - a)),
+                ]
+            )
+            root = np.sqrt(count)
+            q, r = np.linalg.qr(design * root[:, None])
+            fitted = np.linalg.solve(r, q.T @ (mean * root)) if np.all(np.abs(np.diag(r)) > 1e-12) else None
+            if fitted is None:
+                continue
+            leverage = np.minimum((q**2).sum(axis=1), 1 - 1e-9)
+            residual = (design @ fitted - mean) * root / (1 - leverage)
+            score = float(residual @ residual)
+            if score < best[0]:
+                best = (score, np.asarray(fitted, dtype=np.float64), np.asarray(w, dtype=np.float64))
+        _, coefficients, w = best
+        # the shape that repeats every cycle must be most of the speed's fluctuation: where it is not (a
+        # free vibration at an order that is not whole, a run-up), the spline across the gap is left
+        a, b = start[:, None], (start + width)[:, None]
+        shape = (
+            np.hstack(
+                [
+                    np.ones((places.size, 1)),
+                    (np.sin(w * b) - np.sin(w * a)) / (w * (b - a)),
+                    (np.cos(w * a) - np.cos(w * b)) / (w * (b - a)),
+                ]
+            )
+            @ coefficients
+        )
+        if np.var(relative - shape[which]) > (1 - REPEATING) * np.var(relative):
+            return self
+        if coefficients.size == 0:
+            return self
+        h_count = w.size
+
+        def integral(x: FloatArray) -> FloatArray:
+            """The fitted shape's integral from 0 to each cycle angle in ``x``."""
+            x = x[:, None]
+            return np.asarray(
+                coefficients[0] * x[:, 0]
+                + (np.sin(w * x) / w) @ coefficients[1 : h_count + 1]
+                + ((1 - np.cos(w * x)) / w) @ coefficients[h_count + 1 :]
+            )
+
+        full = float(integral(np.array([cycle]))[0])
+
+        def elapsed(x: FloatArray) -> FloatArray:
+            """The shape's integral from cycle angle 0 to each (absolute) angle in ``x``."""
+            turns = np.floor(x / cycle)
+            return np.asarray(turns * full + integral(x - turns * cycle))
+
+        # the missing teeth: their angles, and the gap each is in
+        pitches = np.rint(span[gaps] / pitch).astype(np.int64)
+        gaps, pitches = gaps[pitches >= 2], pitches[pitches >= 2]
+        inside = np.repeat(gaps, pitches - 1)
+        step = np.concatenate([np.arange(1, k) for k in pitches]) if gaps.size else np.zeros(0)
+        missing = self.angles[inside] + span[inside] * step / np.repeat(pitches, pitches - 1)
+        # the spline through the pulses (the one speed_at differentiates) reaches each missing angle at
+        crossing = self._spline_crossings(missing, inside)
+        # and it misses the cycle's shape across a gap by as much at every gap in the same place of the
+        # cycle: that error, in the shape's time, from the same spline through the shape's own pulses
+        correction = np.zeros(missing.size)
+        gap_place = np.round(np.mod(self.angles[inside], cycle) / (1e-3 * pitch)).astype(np.int64)
+        for where in np.unique(gap_place):
+            chosen = np.flatnonzero(gap_place == where)
+            g = int(inside[chosen[0]])
+            alike = chosen[inside[chosen] == g]
+            lo, hi = max(0, g - _FILL_NEIGHBOURS), min(self.angles.size, g + _FILL_NEIGHBOURS + 2)
+            shape_times = elapsed(self.angles[lo:hi])
+            spline = make_interp_spline(shape_times, self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
+            target = missing[alike]
+            low = np.full(target.size, shape_times[g - lo])
+            high = np.full(target.size, shape_times[g + 1 - lo])
+            for _ in range(60):  # bisection: the spline is monotone across a gap
+                middle = 0.5 * (low + high)
+                ahead = spline(middle) >= target
+                high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
+            error = elapsed(target) - 0.5 * (low + high)
+            correction[np.flatnonzero(gap_place == where)] = np.resize(error, chosen.size)
+        filled = crossing + local[inside] * correction
+        # each gap's points in order inside it, or the gap left as it is
+        bounds = np.concatenate([self.times[inside][:, None], self.times[inside + 1][:, None]], axis=1)
+        ok = (filled > bounds[:, 0]) & (filled < bounds[:, 1])
+        ordered = np.ones(filled.size, dtype=bool)
+        ordered[1:] = (inside[1:] != inside[:-1]) | (np.diff(filled) > 0)
+        bad = np.unique(inside[~(ok & ordered)])
+        use = ~np.isin(inside, bad)
+        t = np.concatenate([self.times, filled[use]])
+        x = np.concatenate([self.angles, missing[use]])
+        order = np.argsort(t, kind="stable")
+        return AngleMap(t[order], x[order])
+
+    def _spline_crossings(self, targets: FloatArray, gaps: npt.NDArray[np.int64]) -> FloatArray:
+        """When the speed's spline through the pulses reaches each target angle inside its gap [s].
+
+        ``gaps`` holds the index of the pulse that starts each target's gap; the spline is built over
+        the same windows of pulses as :meth:`speed_at`'s, and each crossing found by bisection.
+        """
+        out = np.empty(targets.size)
+        n = self.times.size
+        window = np.asarray(gaps, dtype=np.int64) // _SPEED_WINDOW
+        for w in np.unique(window):
+            chosen = np.flatnonzero(window == w)
+            lo = max(0, int(w) * _SPEED_WINDOW - _SPEED_OVERLAP)
+            hi = min(n, (int(w) + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
+            spline = make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
+            g = np.asarray(gaps, dtype=np.int64)[chosen]
+            low, high, target = self.times[g], self.times[g + 1], targets[chosen]
+            for _ in range(60):
+                middle = 0.5 * (low + high)
+                ahead = spline(middle) >= target
+                high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
+            out[chosen] = 0.5 * (low + high)
+        return out
 
     def shifted(self, angle: float) -> AngleMap:
         """The same map with ``angle`` added to every angle (a cycle-phase correction) [rad]."""
