@@ -112,7 +112,8 @@ def test_the_worn_bearing_is_named_at_its_location(
     assert [(f.kind, f.subject) for f in diagnosis.findings] == [("main bearing", "main bearing 5")]
     assert "impacts" in diagnosis.findings[0].summary
     scores = {r.channel: {s.bearing: s.score for s in r.impacts} for r in diagnosis.bearings}
-    assert max(scores["mb5-vertical"], key=scores["mb5-vertical"].get) == 5  # type: ignore[arg-type]
+    # its knock may lie in the neighbours' windows too (their reversals are within 30 deg): not louder there
+    assert scores["mb5-vertical"][5] == max(scores["mb5-vertical"].values())
     assert max(scores["mb2-vertical"].values()) < 1.5
 
 
@@ -309,8 +310,9 @@ def test_compare_exits_with_the_health_it_found(tmp_path: Path, capsys: pytest.C
 
 def test_compare_exits_3_when_it_cannot_diagnose(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Errors and usage errors exit 3, so that 2 always means an alarm; so does a recording that cannot
-    be called healthy though nothing was found (an unresolved balance); output that cannot be written
-    is a message, not a traceback."""
+    be called healthy though nothing was found (a run-up: not a steady run); output that cannot be
+    written is a message, not a traceback. The misfire through a shaft-line model that fits it poorly
+    is still named (cylinder 4), with a note on the fit."""
     bad = tmp_path / "b.json"
     bad.write_text("{}")
     assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", str(bad)]) == 3
@@ -328,8 +330,13 @@ def test_compare_exits_3_when_it_cannot_diagnose(tmp_path: Path, capsys: pytest.
     assert info.value.code == 3
     assert main(["compare", str(tmp_path / "missing.h5")]) == 3
     capsys.readouterr()
-    assert main(["compare", str(SAMPLES / "7k98mc-misfire-cyl4.h5"), "--transfer", "shaft-line"]) == 3
-    assert "status: INCONCLUSIVE" in capsys.readouterr().out
+    assert main(["compare", str(SAMPLES / "7k98mc-misfire-cyl4.h5"), "--transfer", "shaft-line"]) == 2
+    said = capsys.readouterr().out
+    assert "[alarm] cylinder 4 at" in said and "fits the measured orders poorly" in said
+    run_up = write_hdf5(simulate(load_scene(SCENES / "7k98mc-run-up.toml")).recording, tmp_path / "run-up.h5")
+    assert main(["compare", str(run_up)]) == 3
+    said = capsys.readouterr().out
+    assert "status: INCONCLUSIVE" in said and "the speed was not steady" in said
     assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--plot", str(tmp_path / "x.pdf")]) == 3
     assert main(["calibrate", str(SAMPLES / "7k98mc-baseline.h5"), "-o", str(tmp_path / "b.yaml")]) == 2
     assert "expected a .json (baseline) or .toml" in capsys.readouterr().err

@@ -29,6 +29,7 @@ from monitor.signal.angle_domain import (
     HIGH_FREQUENCY_BINS_PER_REVOLUTION,
     AngleDomainSignal,
     OrderSpectrum,
+    impact_band,
     order_spectrum,
     to_angle_domain,
 )
@@ -442,7 +443,8 @@ def test_cylinder_balance_finds_a_weak_cylinder_in_noise(name: str, rng: np.rand
 @settings(max_examples=30)
 @given(strengths=st.lists(st.floats(0.0, 1.2), min_size=6, max_size=6))
 def test_cylinder_balance_recovers_any_strengths_without_noise(strengths: list[float]) -> None:
-    """The 6L32 (half orders 0.5..3), any strengths in [0, 1.2], no noise: recovered within 1e-6.
+    """The 6L32 (half orders 0.5..3), any strengths in [0, 1.2], no noise: recovered from the orders
+    alone (no prior on their common level, ``level_uncertainty=0``) within 1e-6.
 
     Tolerance: the only error is the speed's cut at order 24 (below 1e-7 of the torque, see the round
     trip above), over a problem whose condition number is a few.
@@ -452,7 +454,7 @@ def test_cylinder_balance_recovers_any_strengths_without_noise(strengths: list[f
     inertia, R = engine_side_inertia(engine), engine.cycle_revolutions
     torque = combine_cylinders(parts, engine, strengths).engine_torque
     speed = predicted_speed(torque, parts.orders, inertia, SPEED[name], R)
-    balance = cylinder_balance(_speed_spectrum(parts.orders, speed), engine, parts)
+    balance = cylinder_balance(_speed_spectrum(parts.orders, speed), engine, parts, level_uncertainty=0.0)
     np.testing.assert_allclose(balance.strength, strengths, rtol=0, atol=1e-6)
 
 
@@ -611,26 +613,35 @@ def test_load_reversals_of_known_forces() -> None:
 # --- 8. high-frequency power over the cycle -------------------------------------------------------
 
 
-def _second_difference_power_variance(n: int) -> float:
-    """Variance [sigma^4] of the mean of n consecutive squared second differences of unit white noise.
+def _band_power_variance(taps: np.ndarray, n: int) -> float:
+    """Variance [sigma^4] of the mean of n consecutive squares of unit white noise through the FIR ``taps``.
 
-    d_j = x[j+1] - 2 x[j] + x[j-1] has autocovariance 6, -4, 1 at lags 0, 1, 2; for normal d,
-    cov(d_i^2, d_j^2) = 2 cov(d_i, d_j)^2: 72, 32, 2.
+    y = h * x has autocovariance r(l) = sum_i h_i h_(i+l); for normal y, cov(y_i^2, y_j^2) =
+    2 r(i - j)^2, so the mean's variance is 2 / n^2 sum over |l| < n of (n - |l|) r(l)^2.
     """
-    return (n * 72.0 + 2 * (n - 1) * 32.0 + 2 * (n - 2) * 2.0) / n**2
+    r = np.correlate(taps, taps, mode="full")[taps.size - 1 :][:n]
+    weights = n - np.arange(r.size)
+    return float(2.0 / n**2 * (n * r[0] ** 2 + 2 * np.sum(weights[1:] * r[1:] ** 2)))
 
 
 def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Generator) -> None:
     """Constant speed (10 rev/s, a keyphasor), 81 920 Hz, 512 bins per cycle (the profile's own
-    resolution, so the grid's bins are its bins) of 16 samples each, 20 s of white noise of rms sigma,
-    plus a burst (6 samples alternating +-5 sigma) a quarter into bin 17 of every cycle:
+    resolution at this speed, so the grid's bins are its bins) of 16 samples each, 20 s of white noise
+    of rms sigma, plus a 4 kHz burst (48 samples, Hann envelope, 5 sigma) a quarter into bin 17 of
+    every cycle:
 
-    - the profile equals a plain numpy evaluation of its definition (each bin's samples from the grid
-      time up to the next, mean square second difference, mean over the cycles) within 1e-9;
-    - the noise bins' mean is 6 sigma^2 within 5 standard deviations of the estimate (the variance of a
-      bin's power above, over 16 samples and the cycles averaged), their mean over the bins within 5 of
-      its own, and ``std`` is the single-cycle spread within 3 %;
-    - bin 17 holds 6 sigma^2 plus the burst's own second-difference power, within 2 %, and stands out.
+    - the pass band is 1-10 kHz, and the band-pass passes (10.25 - 0.75) / 40.96 of white noise's
+      power, an ideal filter's between its transitions' centres, within 2 % (a transition's power
+      is not symmetric about its centre);
+    - the profile equals a plain numpy evaluation of its definition (the samples band-passed by
+      ``np.convolve`` with the same taps, each bin's samples from the grid time up to the next, mean
+      square, mean over the cycles) within 1e-9;
+    - the noise bins' mean is sigma^2 sum(h^2) within 5 standard deviations of the estimate (the
+      variance of a bin's power from the filter's autocovariance, over the cycles and bins averaged),
+      and ``std`` is the single-cycle spread within 3 %;
+    - the burst's bin holds the noise's power plus the burst's own band-passed power within 5 standard
+      deviations of their cross term (the noise's band-passed samples times the burst's, averaged over
+      the cycles), and stands out.
     """
     fs, revolution_rate, m, sigma, seconds = 81920.0, 10.0, HIGH_FREQUENCY_BINS_PER_REVOLUTION, 0.5, 20.0
     n = int(seconds * fs)
@@ -640,22 +651,25 @@ def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Genera
     angle_map = AngleMap.from_keyphasor(pulses, pulse_angle=0.0)
     burst_bin = 17
     burst = np.zeros(n)
-    pattern = 5 * sigma * np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+    j = np.arange(48)
+    pattern = 5 * sigma * np.hanning(48) * np.sin(2 * math.pi * 4000.0 * j / fs)
     for cycle in range(pulses.size):
         first = round((start + (cycle + (burst_bin + 0.25) / m) / revolution_rate) * fs)
         if first + pattern.size < n:
             burst[first : first + pattern.size] = pattern
-    signal = (noise + burst).astype(np.float32)
+    signal = noise + burst
     resampled = to_angle_domain(signal, fs, angle_map, samples_per_cycle=m, high_frequency=True)
     profile = resampled.high_frequency
     assert profile is not None and profile.cycles == resampled.values.shape[0]
+    assert profile.mean.size == m and profile.band_hz == (1000.0, 10000.0)
+    assert profile.speed_rpm == pytest.approx(600.0, rel=1e-9)
+    taps = impact_band(fs)[0].taps
+    gain = float(np.sum(taps**2))
+    assert gain == pytest.approx(2 * 9500.0 / fs, rel=0.02)
 
     # the definition, evaluated plainly
-    x = signal.astype(np.float64)
-    d = np.zeros(n)
-    d[1:-1] = x[2:] - 2 * x[1:-1] + x[:-2]
-    b = np.zeros(n)
-    b[1:-1] = burst[2:] - 2 * burst[1:-1] + burst[:-2]
+    y = np.convolve(signal, taps, mode="same")
+    b = np.convolve(burst, taps, mode="same")
     samples = fs / (revolution_rate * m)
     assert samples == 16
     total, burst_power, count = np.zeros(m), np.zeros(m), np.zeros(m)
@@ -667,27 +681,37 @@ def test_high_frequency_power_of_white_noise_and_of_bursts(rng: np.random.Genera
             j0 = math.ceil(t0 * fs)
             j1 = math.ceil((t0 + 1 / (revolution_rate * m)) * fs)
             assert j1 - j0 == samples
-            total[i] += np.mean(d[j0:j1] ** 2)
+            total[i] += np.mean(y[j0:j1] ** 2)
             burst_power[i] += np.mean(b[j0:j1] ** 2)
             count[i] += 1
     np.testing.assert_allclose(profile.mean, total / count, rtol=1e-9)
 
-    quiet = np.delete(np.arange(m), burst_bin)
-    spread = sigma**2 * math.sqrt(_second_difference_power_variance(16) / profile.cycles)
-    np.testing.assert_allclose(profile.mean[quiet], 6 * sigma**2, rtol=0, atol=5 * spread)
-    assert profile.mean[quiet].mean() == pytest.approx(6 * sigma**2, abs=5 * spread / math.sqrt(quiet.size))
-    single = sigma**2 * math.sqrt(_second_difference_power_variance(16))
+    loud = np.flatnonzero(burst_power / count > 1e-3 * sigma**2 * gain)
+    assert set(loud) >= {burst_bin, burst_bin + 1, burst_bin + 2}
+    quiet = np.setdiff1d(np.arange(m), loud)
+    single = sigma**2 * math.sqrt(_band_power_variance(taps, 16))
+    # neighbouring bins share the filter's memory: their means are not independent, 2 x the spread
+    spread = single / math.sqrt(profile.cycles * quiet.size)
+    assert profile.mean[quiet].mean() == pytest.approx(sigma**2 * gain, abs=2 * 5 * spread)
     assert profile.std[quiet].mean() == pytest.approx(single, rel=0.03)
-    expected = 6 * sigma**2 + burst_power[burst_bin] / count[burst_bin]
-    assert profile.mean[burst_bin] == pytest.approx(expected, rel=0.02)
-    assert profile.mean[burst_bin] > 10 * profile.mean[quiet].max()
+    expected = profile.mean[quiet].mean() + burst_power[burst_bin] / count[burst_bin]
+    # the cross term 2/16 sum_j n_j b_j of one cycle: variance (2/16)^2 sum_jk b_j b_k sigma^2 r(j - k)
+    t0 = start + (resampled.first_cycle + 1 + burst_bin / m) / revolution_rate
+    own = b[math.ceil(t0 * fs) : math.ceil(t0 * fs) + 16]
+    r = np.correlate(taps, taps, mode="full")[taps.size - 1 :][:16]
+    covariance = sigma**2 * r[np.abs(np.subtract.outer(np.arange(16), np.arange(16)))]
+    cross = (2 / 16) * math.sqrt(own @ covariance @ own / profile.cycles)
+    assert profile.mean[burst_bin] == pytest.approx(expected, abs=5 * cross)
+    assert profile.mean[burst_bin] > 1.5 * profile.mean[quiet].max()
 
 
 def test_high_frequency_power_on_a_grid_finer_than_the_samples(rng: np.random.Generator) -> None:
     """128 bins per cycle at about 97 samples per cycle (1 kHz, 10.3 rev/s): many bins hold no sample in
-    a cycle, the others one or two.  Averaged over the cycles in which a bin has samples, white noise
-    still gives 6 sigma^2: the mean over the bins within 3 % (its spread from 250 000 second
-    differences is under 0.5 %)."""
+    a cycle, the others one or two.  At 1 kHz the band is 125-500 Hz (its lower edge an eighth of the
+    sampling rate), a high-pass whose transition is centred at 93.75 Hz: it passes (500 - 93.75) / 500
+    of white noise's power within 2 %; averaged over the
+    cycles in which a bin has samples, the bins' mean is that power within 3 % (its spread from
+    250 000 squares is under 0.5 %)."""
     fs, revolution_rate, m, seconds = 1000.0, 10.3, 128, 250.0
     signal = rng.standard_normal(int(seconds * fs))
     pulses = 0.01 + np.arange(int((seconds - 0.2) * revolution_rate)) / revolution_rate
@@ -695,4 +719,25 @@ def test_high_frequency_power_on_a_grid_finer_than_the_samples(rng: np.random.Ge
         signal, fs, AngleMap.from_keyphasor(pulses), samples_per_cycle=m, high_frequency=True
     )
     assert resampled.high_frequency is not None
-    assert resampled.high_frequency.mean.mean() == pytest.approx(6.0, rel=0.03)
+    assert resampled.high_frequency.band_hz == (125.0, 500.0)
+    gain = float(np.sum(impact_band(fs)[0].taps ** 2))
+    assert gain == pytest.approx((500 - 93.75) / 500, rel=0.02)
+    assert resampled.high_frequency.mean.mean() == pytest.approx(gain, rel=0.03)
+
+
+def test_a_slow_engines_profile_has_bins_of_half_a_millisecond(rng: np.random.Generator) -> None:
+    """At 1 rev/s (60 rpm) 512 bins per revolution would last 2 ms each, longer than a knock's ring:
+    the profile has 2048 (0.49 ms each, a power of two), and coarsening it by 4 gives the mean of each
+    four bins with their spreads added as independent."""
+    fs, revolution_rate, seconds = 10240.0, 1.0, 12.0
+    signal = rng.standard_normal(int(seconds * fs))
+    pulses = 0.01 + np.arange(int((seconds - 0.2) * revolution_rate)) / revolution_rate
+    profile = to_angle_domain(
+        signal, fs, AngleMap.from_keyphasor(pulses), samples_per_cycle=256, high_frequency=True
+    ).high_frequency
+    assert profile is not None and profile.mean.size == 2048
+    coarse = profile.coarsened(512)
+    np.testing.assert_allclose(coarse.mean, profile.mean.reshape(512, 4).mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(coarse.std, np.sqrt((profile.std.reshape(512, 4) ** 2).sum(axis=1)) / 4)
+    with pytest.raises(SignalError, match="cannot be coarsened to 3"):
+        profile.coarsened(3)

@@ -24,6 +24,16 @@ CASES = [
     (46, 30.0, "misfire", 2),  # 3-cylinder two-stroke
     (21, 10.0, "weak", 1),  # 8-cylinder four-stroke
     (9, 10.0, "sensor_fault", 1),  # 6-cylinder four-stroke
+    (
+        246,
+        10.0,
+        "misfire",
+        2,
+    ),  # 12-cylinder two-stroke at 59 rpm: its firing order leaked from the wheel's gap
+    (123, 10.0, "misfire", 2),  # 2-cylinder four-stroke: only the weaker of the two named
+    (409, 30.0, "weak", 1),  # 4-cylinder four-stroke 5 % slower than its baseline (a propeller)
+    (3, 10.0, "worn_bearing", 1),  # 5-cylinder two-stroke at 56 rpm, 10.24 kHz: knocks in time, not angle
+    (51, 10.0, "worn_bearing", 1),  # 2-cylinder two-stroke, a 3.3 kHz ring at 25.6 kHz: the 1-10 kHz band
 ]
 
 

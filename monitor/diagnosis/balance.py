@@ -72,6 +72,16 @@ CALIBRATED_UNCERTAINTY = 0.05
 # (where healthy cylinders cancel, the baseline's residual is the wheel's, taken by its pitch correction)
 CALIBRATED_FRACTION = 0.1
 SIGNIFICANT = 4.0  # standard errors a baseline's order must stand above nothing to be calibrated [-]
+# the relative uncertainties a calibration shares a firing harmonic's gap by: the inertia torque is exact
+# kinematics with masses known to about 10 %; a gas model's firing harmonics may be off by their own size
+# (baselines of the validation population found them at -7 to 10 times the model's)
+INERTIA_SHARE = 0.10
+# the cylinders' mean strength is 1 (the model's combustion at the stated load) to about this [-]: the
+# orders where the cylinders cancel give each cylinder's difference from the others in the model's units,
+# and a share of the others needs their level, which a firing harmonic dominated by the inertia torque
+# fixes poorly (the model's low-order combustion and the stated load are known to some 10 to 30 %)
+LEVEL_UNCERTAINTY = 0.3
+COMBUSTION_SHARE = 1.0
 # above this condition number of the column-normalised problem two cylinders cannot be told apart
 SEPARABLE_CONDITION = 1e3
 
@@ -81,10 +91,16 @@ class CrankCalibration:
     """The crank-speed model calibrated on a healthy baseline, order by order.
 
     At the orders where the cylinders add up (the firing harmonics) the engine file's model is
-    known only to its masses', inertias' and combustion's accuracy; the baseline measures the gap:
-    ``factor_k = y_k / nominal_k``, the measured left-hand side over the model's at nominal
-    strengths (a complex factor, as a sensor's transfer).  A later recording's prediction at those
-    orders is multiplied by it, so its strengths are against the engine as the baseline found it.
+    known only to its masses', inertias' and combustion's accuracy; the baseline measures the gap
+    ``g_k = y_k - known_k - combustion_k`` between the measured left-hand side and the model's at
+    nominal strengths.  The gap is shared between the model's two parts as their uncertainties
+    are: the inertia and fixed torques (``known``, the masses known to :data:`INERTIA_SHARE`) and
+    the combustion (a gas model's firing harmonics known to :data:`COMBUSTION_SHARE`), each part's
+    share ``sigma_part^2 / (sigma_known^2 + sigma_combustion^2)`` (the least-squares split of one
+    measured sum of two uncertain terms).  A later recording's model at those orders is
+    ``inertia_factor x known + factor x combustion``, each part at its own speed and load: a
+    recording slower than the baseline (a propeller slowed by a weak cylinder) keeps the inertia
+    torque's change with the speed squared whichever part was off.
 
     Attributes
     ----------
@@ -93,15 +109,21 @@ class CrankCalibration:
     orders : ndarray
         The orders calibrated [-].
     factor : ndarray, complex
-        ``y_k / nominal_k`` [-].
+        The combustion's factor ``1 + share_c g_k / combustion_k`` [-].
     factor_error : ndarray
-        Standard error of ``factor`` (the baseline's block spread) [-].
+        Standard error of ``factor`` (its share of the baseline's block spread) [-].
+    inertia_factor : ndarray, complex
+        The inertia and fixed torques' factor ``1 + share_known g_k / known_k`` [-].
+    inertia_factor_error : ndarray
+        Its standard error [-].
     """
 
     transfer: str
     orders: FloatArray
     factor: ComplexArray
     factor_error: FloatArray
+    inertia_factor: ComplexArray
+    inertia_factor_error: FloatArray
 
 
 @dataclass(frozen=True)
@@ -146,6 +168,9 @@ class CylinderBalance:
         The rigid body's inertia, for the rigid transfer [kg m^2].
     calibrated : ndarray of bool
         Which of the orders a baseline's :class:`CrankCalibration` calibrated.
+    known, combustion : ndarray, complex
+        The model's inertia and fixed torques, and its combustion at nominal strengths, at those
+        orders, uncalibrated (the parts a :class:`CrankCalibration` shares a gap between).
     """
 
     strength: FloatArray
@@ -167,9 +192,11 @@ class CylinderBalance:
     inertia: float
     nominal: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     calibrated: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    known: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    combustion: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
 
     def calibration(self) -> CrankCalibration:
-        """This (healthy) balance's calibration of the model at the orders where the cylinders add up.
+        """This (healthy) balance's calibration of the model where the cylinders add up.
 
         Orders whose nominal value is below :data:`CALIBRATED_FRACTION` of the largest, or whose
         measured value is within :data:`SIGNIFICANT` standard errors of nothing, are left out.
@@ -177,12 +204,21 @@ class CylinderBalance:
         size = np.abs(self.nominal)
         keep = (size >= CALIBRATED_FRACTION * float(size.max(initial=0.0))) & (size > 0)
         keep &= np.abs(self.measured) >= SIGNIFICANT * self.standard_error
-        factor = self.measured[keep] / self.nominal[keep]
+        known, burning = self.known[keep], self.combustion[keep]
+        gap = self.measured[keep] - known - burning
+        spread_known = (INERTIA_SHARE * np.abs(known)) ** 2
+        spread_burning = (COMBUSTION_SHARE * np.abs(burning)) ** 2
+        share = spread_known / np.maximum(spread_known + spread_burning, 1e-300)  # the inertia's
+        safe_known = np.where(np.abs(known) > 0, known, 1.0)
+        safe_burning = np.where(np.abs(burning) > 0, burning, 1.0)
+        se = self.standard_error[keep]
         return CrankCalibration(
             self.transfer,
             self.orders[keep].copy(),
-            np.asarray(factor, dtype=np.complex128),
-            np.asarray(self.standard_error[keep] / size[keep], dtype=np.float64),
+            np.asarray(1 + (1 - share) * gap / safe_burning, dtype=np.complex128),
+            np.asarray((1 - share) * se / np.abs(safe_burning), dtype=np.float64),
+            np.asarray(1 + share * gap / safe_known, dtype=np.complex128),
+            np.asarray(share * se / np.abs(safe_known), dtype=np.float64),
         )
 
     @property
@@ -257,6 +293,7 @@ def cylinder_balance(
     calibration: CrankCalibration | None = None,
     timing_uncertainty: float = TIMING_UNCERTAINTY,
     imbalance: float = IMBALANCE,
+    level_uncertainty: float = LEVEL_UNCERTAINTY,
 ) -> CylinderBalance:
     """Estimate each cylinder's strength from the crank-speed orders (see the module docstring).
 
@@ -277,9 +314,13 @@ def cylinder_balance(
         The combustion timing's uncertainty [rad] (:data:`TIMING_UNCERTAINTY`).
     imbalance : float, optional
         Each healthy cylinder's own share of its combustion torque [-] (:data:`IMBALANCE`).
+    level_uncertainty : float, optional
+        Two or more cylinders: the cylinders' mean strength is taken as 1 (the model at the stated
+        load) with this standard error, beside the orders (:data:`LEVEL_UNCERTAINTY`; 0: not) [-].
     calibration : CrankCalibration, optional
         A healthy baseline's calibration of the model (same transfer): at the orders it holds the
-        prediction is multiplied by its factor, and the model's uncertainty there is
+        model's combustion is multiplied by its factor (the inertia and fixed torques are the
+        model's at this recording's speed), and the model's uncertainty there is
         :data:`CALIBRATED_UNCERTAINTY` beside the factor's own error.
 
     Returns
@@ -330,6 +371,8 @@ def cylinder_balance(
     # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
     factor = np.ones(orders.size, dtype=np.complex128)
     factor_error = np.zeros(orders.size)
+    inertia_factor = np.ones(orders.size, dtype=np.complex128)
+    inertia_factor_error = np.zeros(orders.size)
     calibrated = np.zeros(orders.size, dtype=bool)
     if calibration is not None:
         if calibration.transfer != transfer:
@@ -342,16 +385,20 @@ def cylinder_balance(
             if match.size:
                 factor[i] = calibration.factor[match[0]]
                 factor_error[i] = calibration.factor_error[match[0]]
+                inertia_factor[i] = calibration.inertia_factor[match[0]]
+                inertia_factor_error[i] = calibration.inertia_factor_error[match[0]]
                 calibrated[i] = True
-    rhs = y - factor * (H * known).sum(axis=0)
+    plain = (H * known).sum(axis=0)  # the inertia and fixed torques, at the recording's own speed
+    fixed = inertia_factor * plain
+    burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
+    rhs = y - fixed
     design = (factor * H * combustion).T  # (n_orders, n_cyl)
     # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution);
     # se is the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
     # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large
     # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
     # cylinders share cancels there too)
-    uncalibrated = (H * (known + combustion)).sum(axis=0)
-    nominal = factor * uncalibrated
+    nominal = fixed + factor * burning
     uncertainty = np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty)
     # the combustion's timing: on every cylinder's combustion where no baseline calibrated the order
     timing = np.minimum(orders * timing_uncertainty, 1.0)
@@ -369,7 +416,8 @@ def cylinder_balance(
         spread = np.sqrt(
             se**2
             + (uncertainty * np.abs(nominal)) ** 2
-            + (factor_error * np.abs(uncalibrated)) ** 2
+            + (factor_error * np.abs(burning)) ** 2
+            + (inertia_factor_error * np.abs(plain)) ** 2
             + (np.hypot(model_uncertainty, timing) * unlike) ** 2
             + timed**2
             + uneven**2
@@ -377,6 +425,11 @@ def cylinder_balance(
         sigma = np.maximum(spread, floor) / math.sqrt(2.0)
         a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
         b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
+        if n > 1 and level_uncertainty > 0:
+            # the cylinders' common level, as the model gives it at the stated load: weighs only where
+            # the orders leave the level loose (a firing harmonic the inertia torque dominates)
+            a = np.vstack([a, np.full((1, n), 1.0 / (n * level_uncertainty))])
+            b = np.concatenate([b, [1.0 / level_uncertainty]])
         norms = np.linalg.norm(a, axis=0)
         scaled = a / norms
         strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
@@ -394,7 +447,7 @@ def cylinder_balance(
     inverse = np.linalg.pinv(scaled.T @ scaled)
     covariance = inverse / np.outer(norms, norms) * max(chi2, 1.0)
     relative, relative_error, contrast_error = _relative(strength, covariance)
-    predicted = factor * (H * (known + strength[:, None] * combustion)).sum(axis=0)
+    predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
     return CylinderBalance(
         strength=strength,
         strength_covariance=covariance,
@@ -415,6 +468,8 @@ def cylinder_balance(
         inertia=inertia,
         nominal=nominal,
         calibrated=calibrated,
+        known=plain,
+        combustion=burning,
     )
 
 

@@ -137,8 +137,10 @@ class Baseline:
             else {
                 "transfer": self.crank.transfer,
                 "orders": self.crank.orders.tolist(),
-                "factor": [[z.real, z.imag] for z in self.crank.factor.tolist()],
+                "combustion_factor": [[z.real, z.imag] for z in self.crank.factor.tolist()],
                 "factor_error": self.crank.factor_error.tolist(),
+                "inertia_factor": [[z.real, z.imag] for z in self.crank.inertia_factor.tolist()],
+                "inertia_factor_error": self.crank.inertia_factor_error.tolist(),
             },
             "sensors": {
                 name: {
@@ -153,6 +155,7 @@ class Baseline:
                     "high_frequency_mean": s.high_frequency.mean.tolist() if s.high_frequency else None,
                     "high_frequency_std": s.high_frequency.std.tolist() if s.high_frequency else None,
                     "high_frequency_cycles": s.high_frequency.cycles if s.high_frequency else 0,
+                    "high_frequency_band_hz": list(s.high_frequency.band_hz) if s.high_frequency else None,
                     "velocity_rms_mm_s": s.velocity_rms,
                 }
                 for name, s in self.sensors.items()
@@ -257,15 +260,21 @@ class Baseline:
                 if stored
                 else None
             )
-            model = document.get("crank_speed_model")  # absent from baselines written before it
+            # absent from baselines written before it, and one factor on the whole model in those
+            # written before the gap was shared between the model's parts: not used
+            model = document.get("crank_speed_model")
             crank = (
                 CrankCalibration(
                     str(model["transfer"]),
                     np.asarray(model["orders"], dtype=np.float64),
-                    np.asarray(model["factor"], dtype=np.float64).reshape(-1, 2) @ np.array([1.0, 1j]),
+                    np.asarray(model["combustion_factor"], dtype=np.float64).reshape(-1, 2)
+                    @ np.array([1.0, 1j]),
                     np.asarray(model["factor_error"], dtype=np.float64),
+                    np.asarray(model["inertia_factor"], dtype=np.float64).reshape(-1, 2)
+                    @ np.array([1.0, 1j]),
+                    np.asarray(model["inertia_factor_error"], dtype=np.float64),
                 )
-                if model
+                if model and "combustion_factor" in model and "inertia_factor" in model
                 else None
             )
             sensors = {}
@@ -276,6 +285,8 @@ class Baseline:
                         np.asarray(s["high_frequency_std"], dtype=np.float64),
                         int(s["high_frequency_cycles"]),
                         float(s["sample_rate_hz"]),
+                        # absent from baselines written before the profile was band-passed: no reference
+                        tuple(s.get("high_frequency_band_hz") or (math.nan, math.nan)),
                     )
                     if s["high_frequency_mean"] is not None
                     else None

@@ -15,14 +15,16 @@ largest order, carry no evidence and are left out.
 Impacts.  Wear opens the clearance: where the bearing's load turns
 (:func:`monitor.model_orders.load_reversals`) the journal crosses it and
 knocks.  The high-frequency power profile of each sensor
-(:class:`monitor.signal.angle_domain.HighFrequencyPower`) is averaged over
-crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each reversal to
-:data:`WINDOW_AFTER_DEG` after it (the knock rings down after the turn), and
-divided by the baseline's power in the same bins; without a baseline, by the
-median of the recording's own profile (a weaker reference, judged more
-strictly by :mod:`monitor.diagnosis.diagnose`).  A sensor hears its neighbours'
-bearings too, so the windows of the bearing it sits on and of the bearings
-next to it are scored, and the worst is named.
+(:class:`monitor.signal.angle_domain.HighFrequencyPower`, 1-10 kHz) is
+searched in crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each
+reversal to :data:`WINDOW_AFTER_DEG` after it (the knock rings down after the
+turn) for the knock span that stands out most against the baseline's power in
+the same bins: a span lasts :data:`KNOCK_SPAN_S` at the recording's speed (a
+knock rings the structure for a time set by its damping, not by the crank
+angle).  Without a baseline the reference is the median of the recording's
+own profile (weaker, judged more strictly by :mod:`monitor.diagnosis.diagnose`).
+A sensor hears its neighbours' bearings too, so the windows of the bearing it
+sits on and of the bearings next to it are scored, and the worst is named.
 """
 
 from __future__ import annotations
@@ -50,7 +52,8 @@ __all__ = [
 SPEED_TOLERANCE = 0.05  # largest relative speed difference at which a calibrated transfer is used [-]
 WINDOW_BEFORE_DEG = 20.0  # crank angle before a load reversal in its impact window [deg]
 WINDOW_AFTER_DEG = 30.0  # and after it [deg]
-KNOCK_SPAN_DEG = 2.0  # crank angle over which a knock's ringing is summed [deg]
+KNOCK_SPAN_S = 1.5e-3  # time over which a knock's ringing is summed: most of a 1-10 kHz ring's energy [s]
+KNOCK_SPAN_DEG = 2.0  # the span in crank angle for a profile whose speed is not known [deg]
 FAMILY_FALSE_ALARM = 1e-4  # chance that noise alone lifts one span of a bearing's windows to significance [-]
 RELEVANT_FRACTION = 0.02  # orders predicted below this fraction of the channel's largest carry no evidence
 RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
@@ -201,9 +204,10 @@ def _span_sums(values: FloatArray, span: int) -> FloatArray:
     return np.asarray(cumulative[span:] - cumulative[:-span])
 
 
-def _span_bins(bins: int, cycle_revolutions: int) -> int:
-    """Bins of a profile in one knock span (:data:`KNOCK_SPAN_DEG`), at least one."""
-    return max(1, round(KNOCK_SPAN_DEG / (360.0 * cycle_revolutions / bins)))
+def _span_bins(profile: HighFrequencyPower, cycle_revolutions: int) -> int:
+    """Bins of a profile in one knock span (:data:`KNOCK_SPAN_S` at its speed), at least one."""
+    span_deg = 6.0 * profile.speed_rpm * KNOCK_SPAN_S if profile.speed_rpm > 0 else KNOCK_SPAN_DEG
+    return max(1, round(span_deg / (360.0 * cycle_revolutions / profile.mean.size)))
 
 
 def _reference(
@@ -243,7 +247,7 @@ def impact_score(
     bins = profile.mean.size
     mask = window_bins(reversals, bins, cycle_revolutions)
     cycle_deg = 360.0 * cycle_revolutions
-    span = _span_bins(bins, cycle_revolutions)
+    span = _span_bins(profile, cycle_revolutions)
     variance = profile.std**2 / max(profile.cycles, 1)
     reference, reference_variance = _reference(profile, baseline)
     how = "baseline" if baseline is not None else "own median"
@@ -289,7 +293,7 @@ def span_score(
         The span's power over the reference's in the same bins (those of :func:`impact_score`) [-].
     """
     bins = profile.mean.size
-    span = _span_bins(bins, cycle_revolutions)
+    span = _span_bins(profile, cycle_revolutions)
     centre = math.floor(angle_deg / (360.0 * cycle_revolutions / bins)) % bins
     reference, _ = _reference(profile, baseline)
     measured = _span_sums(profile.mean, span)[centre]

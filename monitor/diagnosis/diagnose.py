@@ -13,33 +13,19 @@ Steps (DESIGN.md, "Diagnosis: the sums behind it"):
    bearing sensor's orders (:mod:`monitor.diagnosis.bearings`).
 4. Impact content in each bearing's load-reversal windows; the overall rms
    velocity of each vibration channel against its zones (:mod:`monitor.diagnosis.zones`).
-5. Findings: a deviation beyond its engineering threshold (below) and
-   statistically significant (at least :data:`SIGNIFICANCE` standard errors
-   from the healthy value) is a finding, with the evidence behind it and a
-   confidence, the probability that the true value is beyond the threshold
-   (normal errors).
-
-Thresholds (the product's defaults, for the shipped acceptance set):
-
-- cylinder strength against those that fire alike: a warning outside
-  85 %..115 %, an alarm below 50 % (a misfiring cylinder is near 0 %) or above 130 %;
-- a bearing sensor's order against its calibrated prediction: a warning at a
-  deviation of 50 % of the prediction, an alarm at 100 %;
-- impact power in a bearing's reversal windows against the baseline's: a
-  warning at 3 times, an alarm at 10 times; without a baseline, against the
-  recording's own median: a warning at 10 times, where the bearing's own
-  sensor hears it at least twice as loud as any other;
-- a single cylinder's strength against the model at the stated load: the
-  cylinder thresholds, with an error of at least 15 %;
-- a clipped, dead or implausibly scaled sensor: a warning (it is left out);
-- rms velocity: zone C a warning, zone D an alarm.
+5. Findings (:mod:`monitor.diagnosis.findings`, where the rules and their
+   thresholds are): a deviation beyond its engineering threshold and
+   statistically significant is a finding, with the evidence behind it and a
+   confidence.  A recording without findings is healthy only when the checks
+   could be made (a steady run, the cylinders resolved); otherwise it is
+   inconclusive (:data:`STEADY`, :data:`RESOLVED`, :data:`MISFIT`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Any, Literal, TypeAlias
+from dataclasses import dataclass, field
+from typing import Literal, TypeAlias
 
 import numpy as np
 
@@ -48,13 +34,22 @@ from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfe
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import (
     SPEED_TOLERANCE,
-    ImpactScore,
-    OrderDeviation,
     impact_score,
     order_deviations,
-    span_score,
 )
-from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
+from monitor.diagnosis.findings import (
+    BearingResult,
+    Finding,
+    bearing_findings,
+    confidence_beyond,
+    cylinder_findings,
+    reference_profile,
+    sensor_finding,
+    single_cylinder_findings,
+    with_elsewhere,
+    worse,
+)
+from monitor.diagnosis.sensors import level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
     DEFAULT_BOUNDARIES_MM_S,
@@ -80,7 +75,6 @@ from monitor.pipeline import (
     spectra,
 )
 from monitor.recording import Channel, Recording
-from monitor.signal.angle_domain import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
 from monitor.signal.pulses import SignalError
 from monitor.types import ComplexArray, FloatArray
@@ -97,61 +91,13 @@ __all__ = [
 ]
 
 ANALYSIS_VERSION = "1"
-SIGNIFICANCE = 4.0  # standard errors between a finding's estimate and the healthy value [-]
-CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
-CYLINDER_ALARM = (0.5, 1.3)
-MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
-BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
-# a knock span's high-frequency power against the baseline's, where it stands out of the noise by more
-# than chance over the windows allows (bearings.FAMILY_FALSE_ALARM) [-]
-IMPACT_WARNING, IMPACT_ALARM = 1.25, 10.0
-# with a cylinder finding: its changed combustion changes the structure's own high-frequency noise near
-# it (heard loudest on the nearest sensor), so only a clearer knock is a bearing's [-]
-IMPACT_WITH_CYLINDER_FINDING = 2.0
-# without a baseline: against the recording's own median, a warning at most [-]
-IMPACT_WITHOUT_BASELINE = 10.0
-# and always: the span's excess over its reference on the bearing's own sensor at least this many times
-# its excess on any other bearing sensor (a knock is heard loudest where it is; the engine's own noise,
-# moved by a misfire or a load change, alike on all) [-]
-LOCALISED = 2.0
 # the model's uncertainty of the change in a bearing force that the cylinders' estimated strengths make
 # against the baseline's (a changed gas force's high orders are known to tens of per cent) [-]
 CHANGE_UNCERTAINTY = 0.5
-SEVERITIES = ("healthy", "warning", "alarm")
 STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
-ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
-BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which no cylinder is named (inconclusive)
 POOR_FIT = 4.0  # and above which the notes say it fits poorly (the strengths' errors are widened by it)
-
-
-@dataclass(frozen=True)
-class Finding:
-    """A deviation the product reports.
-
-    Attributes
-    ----------
-    kind : str
-        "cylinder", "main bearing" or "vibration zone".
-    subject : str
-        What it names: "cylinder 4", "main bearing 5", or the channel for a zone.
-    severity : str
-        "warning" or "alarm".
-    summary : str
-        One line for people.
-    confidence : float
-        Probability that the true value lies beyond the threshold crossed [-].
-    evidence : list of dict
-        What was measured, against what prediction and threshold, in which unit.
-    """
-
-    kind: str
-    subject: str
-    severity: str
-    summary: str
-    confidence: float
-    evidence: list[dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -183,30 +129,6 @@ class ChannelComparison:
         """``|measured - predicted|`` over the channel's largest predicted order [-]."""
         largest = float(np.abs(self.predicted).max()) if self.predicted.size else 0.0
         return np.asarray(np.abs(self.measured - self.predicted) / (largest if largest > 0 else 1.0))
-
-
-@dataclass(frozen=True)
-class BearingResult:
-    """One bearing sensor's results.
-
-    Attributes
-    ----------
-    channel : str
-    bearing : int
-    orders : OrderDeviation or None
-        None without a usable calibration (the reason is in the diagnosis' notes).
-    impacts : list of ImpactScore
-        The sensor's own bearing's windows and its neighbours'.
-    elsewhere : float
-        The highest score of its own bearing's windows on the other bearing sensors (NaN without
-        others): an impact that is the bearing's own is heard loudest on the sensor on it [-].
-    """
-
-    channel: str
-    bearing: int
-    orders: OrderDeviation | None
-    impacts: list[ImpactScore]
-    elsewhere: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -636,7 +558,7 @@ def calibrate(
         pitch=pitch,
     )
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
-        faults = _cylinder_findings(analysis.balance)
+        faults = cylinder_findings(analysis.balance)
         if faults:
             raise DiagnosisError(
                 "the recording is not healthy enough to calibrate on: "
@@ -760,314 +682,6 @@ def _unresolved(analysis: _Analysis, engine: Engine) -> list[str]:
     elif analysis.balance is None and engine.combustion is not None:
         reasons.append("the cylinder was not judged (see the notes)")
     return reasons
-
-
-def _phi(z: float) -> float:
-    return 0.5 * math.erfc(-z / math.sqrt(2))
-
-
-def _worse(a: str, b: str) -> str:
-    return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b
-
-
-def _cylinder_findings(balance: CylinderBalance, partners: list[int | None] | None = None) -> list[Finding]:
-    findings = []
-    for c in range(balance.strength.size):
-        partner = partners[c] if partners is not None else None
-        named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
-        r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
-        contrast = max(float(balance.contrast_error[c]), 1e-12)
-        severity, threshold = "healthy", None
-        if r < CYLINDER_WARNING[0]:
-            severity, threshold = "warning", CYLINDER_WARNING[0]
-            if r < CYLINDER_ALARM[0]:
-                severity, threshold = "alarm", CYLINDER_ALARM[0]
-        elif r > CYLINDER_WARNING[1]:
-            severity, threshold = "warning", CYLINDER_WARNING[1]
-            if r > CYLINDER_ALARM[1]:
-                severity, threshold = "alarm", CYLINDER_ALARM[1]
-        # different from the others beyond what the data leave open: the contrast, whose error does not
-        # carry the uncertainty of the cylinders' common level
-        if threshold is None or abs(r - 1.0) < SIGNIFICANCE * contrast:
-            continue
-        low = r < 1.0
-        if r < MISFIRE_BELOW:
-            what = "misfiring"
-        elif severity == "alarm" and low and r < 1.96 * e:
-            what = "misfiring, or nearly: no firing is within its 95 % interval"
-        else:
-            what = "weak, leaking or misfiring" if low else "stronger than the others"
-        confidence = _phi((threshold - r) / e) if low else _phi((r - threshold) / e)
-        findings.append(
-            Finding(
-                kind="cylinder",
-                subject=named,
-                severity=severity,
-                summary=(
-                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
-                    f"fire alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
-                    + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
-                ),
-                confidence=confidence,
-                evidence=[
-                    {
-                        "quantity": "relative strength",
-                        "measured": r,
-                        "standard_error": e,
-                        "predicted": 1.0,
-                        "threshold": threshold,
-                        "unit": "-",
-                        "contrast_standard_error": contrast,
-                        "orders": balance.orders.tolist(),
-                        "strength": float(balance.strength[c]),
-                        "condition_number": balance.condition,
-                    }
-                ],
-            )
-        )
-    return findings
-
-
-def _single_cylinder_findings(
-    balance: CylinderBalance, load: float, calibrated: float | None
-) -> list[Finding]:
-    """A single cylinder has no others to be compared with: its strength against the baseline's (which
-    calibrates the model's level on this engine; an error of at least :data:`BASELINE_UNCERTAINTY`, the
-    stated loads), or without one against the model's at the stated load (at least
-    :data:`ABSOLUTE_UNCERTAINTY`, the model and the stated load)."""
-    reference = calibrated if calibrated is not None and calibrated > MISFIRE_BELOW else 1.0
-    s = float(balance.strength[0]) / reference
-    floor = BASELINE_UNCERTAINTY if reference != 1.0 or calibrated is not None else ABSOLUTE_UNCERTAINTY
-    e = max(float(balance.strength_error[0]) / reference, floor)
-    against = "the baseline's" if calibrated is not None else f"the model's {balance.strength_meaning}"
-    severity, threshold = "healthy", None
-    if s < CYLINDER_WARNING[0]:
-        severity, threshold = "warning", CYLINDER_WARNING[0]
-        if s < CYLINDER_ALARM[0]:
-            severity, threshold = "alarm", CYLINDER_ALARM[0]
-    elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding
-        severity, threshold = "warning", CYLINDER_ALARM[1]
-    if threshold is None or abs(s - 1.0) < SIGNIFICANCE * e:
-        return []
-    low = s < 1.0
-    what = (
-        "misfiring"
-        if s < MISFIRE_BELOW
-        else ("weak, leaking or misfiring" if low else "stronger than the model")
-    )
-    return [
-        Finding(
-            kind="cylinder",
-            subject="cylinder 1",
-            severity=severity,
-            summary=(
-                f"cylinder 1 at {round(100 * s)} % +- {round(196 * e)} % of {against} at load {load:.2f} "
-                f"({what}; from the crank-speed orders; a single cylinder is judged against "
-                f"{'its baseline' if calibrated is not None else 'the model'}, not against others)"
-            ),
-            confidence=_phi((threshold - s) / e) if low else _phi((s - threshold) / e),
-            evidence=[
-                {
-                    "quantity": "strength against the model",
-                    "measured": s,
-                    "standard_error": e,
-                    "predicted": 1.0,
-                    "threshold": threshold,
-                    "unit": "-",
-                    "orders": balance.orders.tolist(),
-                    "load": load,
-                }
-            ],
-        )
-    ]
-
-
-def _sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
-    channel = recording.channel(fault.channel)
-    where = channel.location or "location not given"
-    return Finding(
-        kind="sensor",
-        subject=f"sensor {fault.channel}",
-        severity="warning",
-        summary=(
-            f"sensor {fault.channel} ({where}): {fault.fault}: {fault.detail}; left out of the diagnosis "
-            "(check the sensor, or leave it out with --exclude-channel)"
-        ),
-        confidence=1.0,
-        evidence=[{"quantity": fault.fault, "channel": fault.channel, "detail": fault.detail}],
-    )
-
-
-def _reference_profile(
-    calibration: SensorBaseline | None, profile: HighFrequencyPower
-) -> HighFrequencyPower | None:
-    """A sensor's baseline high-frequency profile, if it was taken on the same bins and sampling rate."""
-    reference = calibration.high_frequency if calibration is not None else None
-    if (
-        reference is None
-        or reference.sample_rate != profile.sample_rate
-        or reference.mean.size != profile.mean.size
-    ):
-        return None
-    return reference
-
-
-def _with_elsewhere(
-    bearings: list[BearingResult],
-    profiles: dict[str, HighFrequencyPower],
-    engine: Engine,
-    baseline: Baseline | None,
-) -> list[BearingResult]:
-    """Each impact score with the same knock span's score on the other bearing sensors (the highest)."""
-    R = engine.cycle_revolutions
-    out = []
-    for result in bearings:
-        scored = []
-        for score in result.impacts:
-            heard = []
-            for other in bearings:
-                profile = profiles.get(other.channel)
-                if other.channel == result.channel or profile is None:
-                    continue
-                known = baseline.sensors.get(other.channel) if baseline is not None else None
-                heard.append(span_score(profile, score.angle_deg, R, _reference_profile(known, profile)))
-            scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
-        own = next((s for s in scored if s.bearing == result.bearing), None)
-        out.append(replace(result, impacts=scored, elsewhere=own.elsewhere if own is not None else math.nan))
-    return out
-
-
-def _bearing_findings(
-    results: list[BearingResult], *, with_baseline: bool, cylinders_changed: bool = False
-) -> list[Finding]:
-    by_subject: dict[str, Finding] = {}
-
-    def add(finding: Finding) -> None:
-        old = by_subject.get(finding.subject)
-        if old is None:
-            by_subject[finding.subject] = finding
-            return
-        keep = finding if SEVERITIES.index(finding.severity) > SEVERITIES.index(old.severity) else old
-        by_subject[finding.subject] = Finding(
-            keep.kind,
-            keep.subject,
-            keep.severity,
-            keep.summary,
-            max(old.confidence, finding.confidence),
-            old.evidence + finding.evidence,
-        )
-
-    sensed = {result.bearing for result in results}
-    for result in results:
-        dev = result.orders
-        if dev is not None and dev.orders.size:
-            error = np.maximum(dev.deviation_error, 1e-12)
-            beyond = (dev.deviation >= BEARING_WARNING) & (dev.deviation >= SIGNIFICANCE * error)
-            if beyond.any():
-                worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))
-                d = float(dev.deviation[worst])
-                severity = "alarm" if d >= BEARING_ALARM else "warning"
-                threshold = BEARING_ALARM if severity == "alarm" else BEARING_WARNING
-                orders = ", ".join(f"{k:g}" for k in dev.orders[beyond])
-                add(
-                    Finding(
-                        kind="main bearing",
-                        subject=f"main bearing {result.bearing}",
-                        severity=severity,
-                        summary=(
-                            f"main bearing {result.bearing}: orders {orders} of {result.channel} deviate "
-                            f"from the calibrated model, up to {100 * d:.0f} % (order {dev.orders[worst]:g})"
-                        ),
-                        confidence=_phi((d - threshold) / float(error[worst])),
-                        evidence=[
-                            {
-                                "quantity": "order deviation",
-                                "channel": result.channel,
-                                "order": float(k),
-                                "measured": abs(complex(m)),
-                                "predicted": abs(complex(p)),
-                                "deviation": float(v),
-                                "standard_error": float(s),
-                                "threshold": BEARING_WARNING,
-                                "unit": "-",
-                            }
-                            for k, m, p, v, s in zip(
-                                dev.orders[beyond],
-                                dev.measured[beyond],
-                                dev.predicted[beyond],
-                                dev.deviation[beyond],
-                                error[beyond],
-                                strict=True,
-                            )
-                        ],
-                    )
-                )
-        if not result.impacts:
-            continue
-        own = next(s for s in result.impacts if s.bearing == result.bearing)
-
-        def heard(score: ImpactScore) -> bool:
-            least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
-            if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
-                least = max(least, IMPACT_WITH_CYLINDER_FINDING)
-            localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
-                score.elsewhere - 1.0, 0.0
-            )
-            return (
-                score.score >= least
-                and score.significance >= max(SIGNIFICANCE, score.significance_needed)
-                and localised
-            )
-
-        # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
-        # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
-        best = own
-        if not heard(own):
-            others = [
-                s
-                for s in result.impacts
-                if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
-            ]
-            best = max(others, key=lambda s: s.score) if others else own
-        if best is own and not with_baseline and math.isnan(own.elsewhere):
-            continue  # against its own median only, a knock must be shown to be this sensor's alone
-        e = max(best.score_error, 1e-12)
-        if heard(best):
-            severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
-            threshold = (
-                (IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING)
-                if with_baseline
-                else IMPACT_WITHOUT_BASELINE
-            )
-            add(
-                Finding(
-                    kind="main bearing",
-                    subject=f"main bearing {best.bearing}",
-                    severity=severity,
-                    summary=(
-                        f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
-                        f"the {best.reference}'s high-frequency power at {best.angle_deg:.0f} deg "
-                        f"({result.channel}; clearance or wear)"
-                    ),
-                    confidence=_phi((best.score - threshold) / e),
-                    evidence=[
-                        {
-                            "quantity": "impact power in load-reversal windows",
-                            "channel": result.channel,
-                            "measured": best.score,
-                            "standard_error": best.score_error,
-                            "predicted": 1.0,
-                            "threshold": threshold,
-                            "unit": f"x {best.reference}",
-                            "reversal_angles_deg": best.reversal_angles_deg,
-                            "angle_deg": best.angle_deg,
-                            "significance": best.significance,
-                            "significance_needed": best.significance_needed,
-                        }
-                    ],
-                )
-            )
-    return list(by_subject.values())
 
 
 def diagnose(
@@ -1241,16 +855,16 @@ def diagnose(
                 reversals = load_reversals(
                     analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
                 )
-                reference = _reference_profile(calibration, profile)
-                impacts.append(impact_score(profile, reversals, neighbour, R, reference))
+                own, reference = reference_profile(calibration, profile)
+                impacts.append(impact_score(own, reversals, neighbour, R, reference))
         bearings.append(BearingResult(channel.name, b, deviation, impacts))
-    bearings = _with_elsewhere(bearings, result.high_frequency, engine, baseline)
+    bearings = with_elsewhere(bearings, result.high_frequency, engine, baseline)
     velocity = {}
-    findings: list[Finding] = [_sensor_finding(f, recording_before) for f in sensor_faults]
+    findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
     fits = analysis.balance is not None and analysis.balance.chi2_reduced <= MISFIT
     if analysis.balance is not None and fits and analysis.balance.separable and engine.cylinders > 1:
-        findings += _cylinder_findings(analysis.balance, analysis.partners)
+        findings += cylinder_findings(analysis.balance, analysis.partners)
     elif analysis.balance is not None and fits and engine.cylinders == 1:
         single = (
             # a calibrated model gives the strength against the baseline's directly
@@ -1262,13 +876,13 @@ def diagnose(
             if baseline is not None and len(baseline.strengths) == 1
             else None
         )
-        findings += _single_cylinder_findings(analysis.balance, load, single)
+        findings += single_cylinder_findings(analysis.balance, load, single)
         notes.append(
             f"a single cylinder is judged against the load stated ({load:.2f}): state the load set "
             "(the fuel or the governor's setting), not the power delivered, or a weak cylinder reads as "
             "a lower load"
         )
-    findings += _bearing_findings(
+    findings += bearing_findings(
         bearings,
         with_baseline=baseline is not None,
         cylinders_changed=any(f.kind == "cylinder" for f in findings),
@@ -1290,7 +904,7 @@ def diagnose(
                         f"mm/s rms over {v.band_hz[0]:g}-{v.band_hz[1]:g} Hz, zone {zone} "
                         f"(boundary {limit:g} mm/s)"
                     ),
-                    confidence=_phi((v.value - limit) / max(v.error, 1e-12)),
+                    confidence=confidence_beyond((v.value - limit) / max(v.error, 1e-12)),
                     evidence=[
                         {
                             "quantity": "rms velocity",
@@ -1305,7 +919,7 @@ def diagnose(
             )
     status = "healthy"
     for f in findings:
-        status = _worse(f.severity, status)
+        status = worse(f.severity, status)
     # no finding is "healthy" only if the checks were made: the cylinders resolved (where an engine has
     # several and a gas model) and the speed steady; otherwise the recording is inconclusive
     if status == "healthy":

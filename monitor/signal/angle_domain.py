@@ -36,7 +36,7 @@ blocks is reported beside it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any, Literal, Protocol
 
@@ -60,6 +60,7 @@ __all__ = [
     "OrderSpeedMap",
     "Samples",
     "angle_grid",
+    "impact_band",
     "order_spectrum",
     "order_speed_map",
     "to_angle_domain",
@@ -108,14 +109,17 @@ class HighFrequencyPower:
     """Where in the cycle a channel's high-frequency content lies: impacts, knocks, rattles.
 
     For each bin of the cycle (the grid's intervals, split evenly into at least
-    :data:`HIGH_FREQUENCY_BINS_PER_REVOLUTION` per revolution) the mean
-    square of the time-domain samples' second difference ``x[j+1] - 2 x[j] +
-    x[j-1]``, a high-pass whose power gain is ``(2 sin(pi f / fs))^4``: it
-    weighs content near the sampling rate's Nyquist frequency most (a 2 kHz ring
-    sampled at 10.24 kHz by 1.8, a 60 Hz frame mode by 2e-6), so impacts stand
-    out of the smooth, low-order response of the structure.  Averaged over the
-    cycles in the channel's unit squared (not divided by the sampling interval:
-    compare profiles of one sensor at one sampling rate only).
+    :data:`HIGH_FREQUENCY_BINS_PER_REVOLUTION` per revolution, and into bins no
+    longer than :data:`HIGH_FREQUENCY_BIN_SECONDS` at the slowest speed) the mean square
+    of the time-domain samples band-passed to :attr:`band_hz` (linear-phase FIR,
+    Kaiser window, applied centred so that an impact stays at its crank angle):
+    from :data:`IMPACT_BAND_HZ` ``[0]`` (1 kHz, or an eighth of the sampling
+    rate if that is lower), above the smooth, low-order response of the
+    structure, up to :data:`IMPACT_BAND_HZ` ``[1]`` (10 kHz) or the Nyquist
+    frequency, where bearing knocks ring the structure's resonances.  Every
+    frequency in the band weighs the same, so a 2 kHz ring counts as much as
+    an 8 kHz one.  Averaged over the cycles in the channel's unit squared:
+    compare profiles of one sensor at one sampling rate and band only.
 
     Attributes
     ----------
@@ -126,17 +130,40 @@ class HighFrequencyPower:
         Cycles averaged.
     sample_rate : float
         Of the channel [Hz].
+    band_hz : tuple of float
+        The pass band's edges [Hz] (NaN for a profile whose band is not known).
+    speed_rpm : float
+        Mean speed over the cycles averaged [rpm] (NaN where not known): turns a bin's angle to time.
     """
 
     mean: FloatArray
     std: FloatArray
     cycles: int
     sample_rate: float
+    band_hz: tuple[float, float] = (math.nan, math.nan)
+    speed_rpm: float = math.nan
 
     @property
     def bin_angle(self) -> FloatArray:
         """Cycle angle at the start of each bin, as a fraction of the cycle [-]."""
         return np.arange(self.mean.size) / self.mean.size
+
+    def coarsened(self, bins: int) -> HighFrequencyPower:
+        """The profile on ``bins`` bins, each the mean of consecutive ones (their spreads independent).
+
+        Raises
+        ------
+        SignalError
+            Where ``bins`` does not divide the profile's.
+        """
+        k, rest = divmod(self.mean.size, bins)
+        if rest or k < 1:
+            raise SignalError(f"a profile of {self.mean.size} bins cannot be coarsened to {bins}")
+        if k == 1:
+            return self
+        mean = self.mean.reshape(bins, k).mean(axis=1)
+        std = np.sqrt((self.std.reshape(bins, k) ** 2).sum(axis=1)) / k
+        return replace(self, mean=mean, std=std)
 
 
 class Samples(Protocol):
@@ -239,6 +266,14 @@ _BLOCK_SAMPLES = 1 << 18  # input samples per processed block
 # bins of the high-frequency profile per revolution, at least: 0.7 deg, so that a knock's ring (about a
 # millisecond, 4 deg at 600 rpm) fills its bins instead of being averaged with a grid interval's noise
 HIGH_FREQUENCY_BINS_PER_REVOLUTION = 512
+# and no bin longer than this at the slowest speed (a power of two per revolution, at most the cap), so
+# that a slow engine's knock (a millisecond or two) is not averaged with several milliseconds of noise
+HIGH_FREQUENCY_BIN_SECONDS = 0.5e-3
+HIGH_FREQUENCY_MAX_BINS_PER_REVOLUTION = 8192
+# the high-frequency profile's pass band: above the structure's low-order response (a 1500 rpm engine's
+# 40th order is at 1 kHz), up to where knocks ring a machine frame's resonances [Hz]
+IMPACT_BAND_HZ = (1000.0, 10000.0)
+_IMPACT_BAND_DB = 80.0  # its stopband attenuation; the transition is half the lower edge wide
 
 
 @dataclass(frozen=True)
@@ -297,6 +332,39 @@ def _anti_alias(passband_hz: float, stopband_hz: float, sample_rate: float) -> _
     taps = firwin(numtaps | 1, 0.5 * (passband_hz + stopband_hz), window=("kaiser", beta), fs=sample_rate)
     decimation = max(1, int(sample_rate // (OVERSAMPLING * passband_hz)))
     return _AntiAlias(np.asarray(taps), decimation, passband_hz)
+
+
+def impact_band(sample_rate: float) -> tuple[_AntiAlias, tuple[float, float]]:
+    """The high-frequency profile's band-pass (not decimated) and its pass band's edges [Hz].
+
+    The lower edge is :data:`IMPACT_BAND_HZ` ``[0]``, or an eighth of the sampling rate if that is lower;
+    the upper :data:`IMPACT_BAND_HZ` ``[1]`` where the transition above it stays below the Nyquist
+    frequency, else the Nyquist frequency itself (a high-pass).
+
+    Parameters
+    ----------
+    sample_rate : float
+        Of the channel [Hz].
+
+    Returns
+    -------
+    band : _AntiAlias
+        The FIR (its ``taps``; applied centred by its ``apply``).
+    edges : tuple of float
+        The pass band's edges [Hz].
+    """
+    low = min(IMPACT_BAND_HZ[0], sample_rate / 8)
+    width = 0.5 * low
+    numtaps, beta = kaiserord(_IMPACT_BAND_DB, width / (0.5 * sample_rate))
+    window = ("kaiser", beta)
+    if IMPACT_BAND_HZ[1] + width < 0.5 * sample_rate:
+        edges = [low - 0.5 * width, IMPACT_BAND_HZ[1] + 0.5 * width]
+        band = (low, IMPACT_BAND_HZ[1])
+    else:
+        edges = [low - 0.5 * width]
+        band = (low, 0.5 * sample_rate)
+    taps = firwin(numtaps | 1, edges, window=window, pass_zero=False, fs=sample_rate)
+    return _AntiAlias(np.asarray(taps), 1, band[1]), band
 
 
 def to_angle_domain(
@@ -382,13 +450,20 @@ def to_angle_domain(
     decimation = fir.decimation if fir is not None else 1
     lead = fir.lead if fir is not None else 0  # input sample of the first filtered sample
     margin = lead + _SPLINE_MARGIN * decimation
+    band, band_hz = impact_band(sample_rate) if high_frequency else (None, (math.nan, math.nan))
+    if band is not None:
+        margin = max(margin, band.lead + 2)
     values = np.empty(grid.times.size)
     cycle_seconds = (grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1) * grid.samples_per_cycle
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
     m = grid.samples_per_cycle
     # the profile's bins: the grid's, split evenly until they are no wider than a knock's ring at speed
-    split = max(1, (HIGH_FREQUENCY_BINS_PER_REVOLUTION * cycle_revolutions) // m)
+    per_revolution = 2 ** math.ceil(math.log2(max(1.0, 1.0 / (slowest * HIGH_FREQUENCY_BIN_SECONDS))))
+    per_revolution = min(
+        max(per_revolution, HIGH_FREQUENCY_BINS_PER_REVOLUTION), HIGH_FREQUENCY_MAX_BINS_PER_REVOLUTION
+    )
+    split = max(1, (per_revolution * cycle_revolutions) // m)
     bins = m * split
     power_sum, power_squares, power_counts = np.zeros(bins), np.zeros(bins), np.zeros(bins)
     for g0 in range(0, grid.times.size, step):
@@ -399,11 +474,11 @@ def to_angle_domain(
         b = math.ceil(edges[-1]) + margin + 2
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
         x = _read(source, a, b, start_time, sample_rate)
-        if high_frequency:
-            fine = edges - a
+        if band is not None:
+            fine = edges - a - band.lead  # in samples of the band-passed block
             if split > 1:
                 fine = np.interp(np.arange((fine.size - 1) * split + 1) / split, np.arange(fine.size), fine)
-            _bin_power(x, fine, bins, power_sum, power_squares, power_counts)
+            _bin_power(band.apply(x), fine, bins, power_sum, power_squares, power_counts)
         y = fir.apply(x) if fir is not None else x
         _interpolate(
             _spline_coefficients(y, interpolation_order),
@@ -418,7 +493,12 @@ def to_angle_domain(
         counts = np.maximum(power_counts, 1.0)
         mean = power_sum / counts
         variance = np.maximum(power_squares / counts - mean**2, 0.0) * counts / np.maximum(counts - 1, 1)
-        profile = HighFrequencyPower(mean, np.sqrt(variance), grid.cycles, float(sample_rate))
+        seconds = float(grid.times[-1] - grid.times[0])
+        revolutions = (grid.times.size - 1) / grid.samples_per_cycle * cycle_revolutions
+        speed_rpm = 60.0 * revolutions / seconds if seconds > 0 else math.nan
+        profile = HighFrequencyPower(
+            mean, np.sqrt(variance), grid.cycles, float(sample_rate), band_hz, speed_rpm
+        )
     return AngleDomainSignal(
         values.reshape(grid.cycles, grid.samples_per_cycle),
         grid.first_cycle,
@@ -434,7 +514,7 @@ def to_angle_domain(
 def _bin_power(
     x: FloatArray, edges: FloatArray, m: int, total: FloatArray, squares: FloatArray, counts: FloatArray
 ) -> None:
-    """Add each bin's mean square second difference of ``x`` to ``total[bin % m]`` (its square to
+    """Add each bin's mean square of ``x`` to ``total[bin % m]`` (its square to
     ``squares``, and 1 to ``counts``) when the bin holds a sample.
 
     Bin ``i`` holds the samples from ``edges[i]`` up to ``edges[i + 1]`` (positions in ``x``); the
@@ -442,12 +522,11 @@ def _bin_power(
     """  # pragma: no cover - compiled
     n = x.size
     for i in range(edges.size - 1):
-        j0 = max(math.ceil(edges[i]), 1)
-        j1 = min(math.ceil(edges[i + 1]), n - 1)
+        j0 = max(math.ceil(edges[i]), 0)
+        j1 = min(math.ceil(edges[i + 1]), n)
         acc = 0.0
         for j in range(j0, j1):
-            d = float(x[j + 1]) - 2.0 * float(x[j]) + float(x[j - 1])
-            acc += d * d
+            acc += float(x[j]) * float(x[j])
         if j1 > j0:
             acc /= j1 - j0
             total[i % m] += acc

@@ -1,0 +1,547 @@
+"""Findings: the decision rules that turn the diagnosis' estimates into findings with a severity.
+
+Each rule (docs/diagnosis.md, "Findings") compares an estimate with an engineering threshold and
+asks that it be at least :data:`SIGNIFICANCE` standard errors from the healthy value; a finding's
+confidence is the probability, with normal errors, that the true value lies beyond the threshold it
+crossed.  The estimates come from :mod:`monitor.diagnosis.diagnose` (cylinder balance, bearing
+orders and impacts, sensor screening); the rules and their thresholds are here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from monitor.diagnosis.balance import CylinderBalance
+from monitor.diagnosis.baseline import Baseline, SensorBaseline
+from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
+from monitor.diagnosis.sensors import SensorFault
+from monitor.engine import Engine
+from monitor.recording import Recording
+from monitor.signal.angle_domain import HighFrequencyPower
+
+__all__ = [
+    "BearingResult",
+    "Finding",
+    "bearing_findings",
+    "confidence_beyond",
+    "cylinder_findings",
+    "reference_profile",
+    "sensor_finding",
+    "single_cylinder_findings",
+    "with_elsewhere",
+    "worse",
+]
+
+SIGNIFICANCE = 4.0  # standard errors between a finding's estimate and the healthy value [-]
+CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
+CYLINDER_ALARM = (0.5, 1.3)
+MISFIRE_BELOW = 0.2  # below this a cylinder is called misfiring [-]
+BEARING_WARNING, BEARING_ALARM = 0.5, 1.0  # order deviation from the calibrated prediction [-]
+# a knock span's high-frequency power against the baseline's, where it stands out of the noise by more
+# than chance over the windows allows (bearings.FAMILY_FALSE_ALARM) [-]
+IMPACT_WARNING, IMPACT_ALARM = 1.25, 10.0
+# with a cylinder finding: its changed combustion changes the structure's own high-frequency noise near
+# it (heard loudest on the nearest sensor), so only a clearer knock is a bearing's [-]
+IMPACT_WITH_CYLINDER_FINDING = 2.0
+# without a baseline: against the recording's own median, a warning at most [-]
+IMPACT_WITHOUT_BASELINE = 10.0
+# and always: the span's excess over its reference on the bearing's own sensor at least this many times
+# its excess on any other bearing sensor (a knock is heard loudest where it is; the engine's own noise,
+# moved by a misfire or a load change, alike on all) [-]
+LOCALISED = 2.0
+SEVERITIES = ("healthy", "warning", "alarm")
+ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
+BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A deviation the product reports.
+
+    Attributes
+    ----------
+    kind : str
+        "cylinder", "main bearing" or "vibration zone".
+    subject : str
+        What it names: "cylinder 4", "main bearing 5", or the channel for a zone.
+    severity : str
+        "warning" or "alarm".
+    summary : str
+        One line for people.
+    confidence : float
+        Probability that the true value lies beyond the threshold crossed [-].
+    evidence : list of dict
+        What was measured, against what prediction and threshold, in which unit.
+    """
+
+    kind: str
+    subject: str
+    severity: str
+    summary: str
+    confidence: float
+    evidence: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class BearingResult:
+    """One bearing sensor's results.
+
+    Attributes
+    ----------
+    channel : str
+    bearing : int
+    orders : OrderDeviation or None
+        None without a usable calibration (the reason is in the diagnosis' notes).
+    impacts : list of ImpactScore
+        The sensor's own bearing's windows and its neighbours'.
+    elsewhere : float
+        The highest score of its own bearing's windows on the other bearing sensors (NaN without
+        others): an impact that is the bearing's own is heard loudest on the sensor on it [-].
+    """
+
+    channel: str
+    bearing: int
+    orders: OrderDeviation | None
+    impacts: list[ImpactScore]
+    elsewhere: float = math.nan
+
+
+def confidence_beyond(z: float) -> float:
+    """A finding's confidence: the probability that a normal estimate lies beyond its threshold.
+
+    Parameters
+    ----------
+    z : float
+        How far the estimate lies beyond the threshold, in its standard errors [-].
+
+    Returns
+    -------
+    float
+        The standard normal distribution function at ``z`` [-].
+    """
+    return 0.5 * math.erfc(-z / math.sqrt(2))
+
+
+def worse(a: str, b: str) -> str:
+    """The more severe of two severities.
+
+    Parameters
+    ----------
+    a, b : str
+        Each one of :data:`SEVERITIES`.
+
+    Returns
+    -------
+    str
+    """
+    return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b
+
+
+def cylinder_findings(balance: CylinderBalance, partners: list[int | None] | None = None) -> list[Finding]:
+    """Each cylinder whose share of those that fire alike crosses a threshold, significantly.
+
+    Two cylinders are each other's only reference, and the crank speed measures their difference
+    well but their common level poorly (a 2-cylinder engine's low orders through a gas model off by
+    a factor): a weak one makes the other read strong, or a share of a negative reference.  Of two
+    findings only the weaker cylinder's is kept: a cylinder that fires less than its partner is the
+    fault a crank speed shows (misfire, weak, leaking), one stronger than the model's is not.
+
+    Parameters
+    ----------
+    balance : CylinderBalance
+    partners : list of int or None, optional
+        A four-stroke whose cycle phase is unknown: each cylinder's partner (index) that fires
+        360 deg from it, named beside it.
+
+    Returns
+    -------
+    list of Finding
+    """
+    findings = _each_cylinder(balance, partners)
+    if balance.strength.size == 2 and len(findings) == 2:
+        weaker = int(np.argmin(balance.strength))
+        findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker + 1]
+    return findings
+
+
+def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) -> list[Finding]:
+    findings = []
+    for c in range(balance.strength.size):
+        partner = partners[c] if partners is not None else None
+        named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
+        r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
+        contrast = max(float(balance.contrast_error[c]), 1e-12)
+        severity, threshold = "healthy", None
+        if r < CYLINDER_WARNING[0]:
+            severity, threshold = "warning", CYLINDER_WARNING[0]
+            if r < CYLINDER_ALARM[0]:
+                severity, threshold = "alarm", CYLINDER_ALARM[0]
+        elif r > CYLINDER_WARNING[1]:
+            severity, threshold = "warning", CYLINDER_WARNING[1]
+            if r > CYLINDER_ALARM[1]:
+                severity, threshold = "alarm", CYLINDER_ALARM[1]
+        # different from the others beyond what the data leave open: the contrast, whose error does not
+        # carry the uncertainty of the cylinders' common level
+        if threshold is None or abs(r - 1.0) < SIGNIFICANCE * contrast:
+            continue
+        low = r < 1.0
+        if r < MISFIRE_BELOW:
+            what = "misfiring"
+        elif severity == "alarm" and low and r < 1.96 * e:
+            what = "misfiring, or nearly: no firing is within its 95 % interval"
+        else:
+            what = "weak, leaking or misfiring" if low else "stronger than the others"
+        confidence = confidence_beyond((threshold - r) / e) if low else confidence_beyond((r - threshold) / e)
+        findings.append(
+            Finding(
+                kind="cylinder",
+                subject=named,
+                severity=severity,
+                summary=(
+                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
+                    f"fire alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
+                    + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
+                ),
+                confidence=confidence,
+                evidence=[
+                    {
+                        "quantity": "relative strength",
+                        "measured": r,
+                        "standard_error": e,
+                        "predicted": 1.0,
+                        "threshold": threshold,
+                        "unit": "-",
+                        "contrast_standard_error": contrast,
+                        "orders": balance.orders.tolist(),
+                        "strength": float(balance.strength[c]),
+                        "cylinder": c + 1,
+                        "condition_number": balance.condition,
+                    }
+                ],
+            )
+        )
+    return findings
+
+
+def single_cylinder_findings(
+    balance: CylinderBalance, load: float, calibrated: float | None
+) -> list[Finding]:
+    """A single cylinder has no others to be compared with: its strength against the baseline's (which
+    calibrates the model's level on this engine; an error of at least :data:`BASELINE_UNCERTAINTY`, the
+    stated loads), or without one against the model's at the stated load (at least
+    :data:`ABSOLUTE_UNCERTAINTY`, the model and the stated load).
+
+    Parameters
+    ----------
+    balance : CylinderBalance
+    load : float
+        The load stated [-].
+    calibrated : float or None
+        The baseline's strength of the cylinder (its reference), or None without a baseline [-].
+
+    Returns
+    -------
+    list of Finding
+    """
+    reference = calibrated if calibrated is not None and calibrated > MISFIRE_BELOW else 1.0
+    s = float(balance.strength[0]) / reference
+    floor = BASELINE_UNCERTAINTY if reference != 1.0 or calibrated is not None else ABSOLUTE_UNCERTAINTY
+    e = max(float(balance.strength_error[0]) / reference, floor)
+    against = "the baseline's" if calibrated is not None else f"the model's {balance.strength_meaning}"
+    severity, threshold = "healthy", None
+    if s < CYLINDER_WARNING[0]:
+        severity, threshold = "warning", CYLINDER_WARNING[0]
+        if s < CYLINDER_ALARM[0]:
+            severity, threshold = "alarm", CYLINDER_ALARM[0]
+    elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding
+        severity, threshold = "warning", CYLINDER_ALARM[1]
+    if threshold is None or abs(s - 1.0) < SIGNIFICANCE * e:
+        return []
+    low = s < 1.0
+    what = (
+        "misfiring"
+        if s < MISFIRE_BELOW
+        else ("weak, leaking or misfiring" if low else "stronger than the model")
+    )
+    return [
+        Finding(
+            kind="cylinder",
+            subject="cylinder 1",
+            severity=severity,
+            summary=(
+                f"cylinder 1 at {round(100 * s)} % +- {round(196 * e)} % of {against} at load {load:.2f} "
+                f"({what}; from the crank-speed orders; a single cylinder is judged against "
+                f"{'its baseline' if calibrated is not None else 'the model'}, not against others)"
+            ),
+            confidence=confidence_beyond((threshold - s) / e)
+            if low
+            else confidence_beyond((s - threshold) / e),
+            evidence=[
+                {
+                    "quantity": "strength against the model",
+                    "measured": s,
+                    "standard_error": e,
+                    "predicted": 1.0,
+                    "threshold": threshold,
+                    "unit": "-",
+                    "orders": balance.orders.tolist(),
+                    "load": load,
+                }
+            ],
+        )
+    ]
+
+
+def sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
+    """A faulty sensor (clipped, dead, implausibly scaled): a warning, the channel left out.
+
+    Parameters
+    ----------
+    fault : SensorFault
+    recording : Recording
+        The recording the channel is in (its location is named).
+
+    Returns
+    -------
+    Finding
+    """
+    channel = recording.channel(fault.channel)
+    where = channel.location or "location not given"
+    return Finding(
+        kind="sensor",
+        subject=f"sensor {fault.channel}",
+        severity="warning",
+        summary=(
+            f"sensor {fault.channel} ({where}): {fault.fault}: {fault.detail}; left out of the diagnosis "
+            "(check the sensor, or leave it out with --exclude-channel)"
+        ),
+        confidence=1.0,
+        evidence=[{"quantity": fault.fault, "channel": fault.channel, "detail": fault.detail}],
+    )
+
+
+def reference_profile(
+    calibration: SensorBaseline | None, profile: HighFrequencyPower
+) -> tuple[HighFrequencyPower, HighFrequencyPower | None]:
+    """A sensor's profile and its baseline profile on common bins, or the profile and None.
+
+    The baseline serves if it was taken at the same sampling rate and band; the finer of the two is
+    coarsened to the other's bins when one's count divides the other's (a baseline at another speed
+    may have been binned finer or coarser).
+
+    Parameters
+    ----------
+    calibration : SensorBaseline or None
+        The sensor's baseline.
+    profile : HighFrequencyPower
+        The sensor's profile in the recording.
+
+    Returns
+    -------
+    profile, reference : HighFrequencyPower, HighFrequencyPower or None
+    """
+    reference = calibration.high_frequency if calibration is not None else None
+    if (
+        reference is None
+        or reference.sample_rate != profile.sample_rate
+        or reference.band_hz != profile.band_hz
+    ):
+        return profile, None
+    fine, coarse = sorted((reference.mean.size, profile.mean.size), reverse=True)
+    if fine % coarse:
+        return profile, None
+    return profile.coarsened(coarse), reference.coarsened(coarse)
+
+
+def with_elsewhere(
+    bearings: list[BearingResult],
+    profiles: dict[str, HighFrequencyPower],
+    engine: Engine,
+    baseline: Baseline | None,
+) -> list[BearingResult]:
+    """Each impact score with the same knock span's score on the other bearing sensors (the highest).
+
+    Parameters
+    ----------
+    bearings : list of BearingResult
+    profiles : dict of str to HighFrequencyPower
+        Each bearing sensor's profile in the recording.
+    engine : Engine
+    baseline : Baseline or None
+
+    Returns
+    -------
+    list of BearingResult
+        With :attr:`ImpactScore.elsewhere` and :attr:`BearingResult.elsewhere` set.
+    """
+    R = engine.cycle_revolutions
+    out = []
+    for result in bearings:
+        scored = []
+        for score in result.impacts:
+            heard = []
+            for other in bearings:
+                profile = profiles.get(other.channel)
+                if other.channel == result.channel or profile is None:
+                    continue
+                known = baseline.sensors.get(other.channel) if baseline is not None else None
+                theirs, reference = reference_profile(known, profile)
+                heard.append(span_score(theirs, score.angle_deg, R, reference))
+            scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
+        own = next((s for s in scored if s.bearing == result.bearing), None)
+        out.append(replace(result, impacts=scored, elsewhere=own.elsewhere if own is not None else math.nan))
+    return out
+
+
+def bearing_findings(
+    results: list[BearingResult], *, with_baseline: bool, cylinders_changed: bool = False
+) -> list[Finding]:
+    """Bearing findings from each sensor's orders and impacts, its own bearing's evidence first.
+
+    Parameters
+    ----------
+    results : list of BearingResult
+    with_baseline : bool
+        Whether the impacts were scored against a baseline (else the recording's own median: a
+        warning at most, at :data:`IMPACT_WITHOUT_BASELINE`).
+    cylinders_changed : bool, optional
+        Whether a cylinder is a finding (a knock must then reach
+        :data:`IMPACT_WITH_CYLINDER_FINDING`).
+
+    Returns
+    -------
+    list of Finding
+        One per bearing, the most severe.
+    """
+    by_subject: dict[str, Finding] = {}
+
+    def add(finding: Finding) -> None:
+        old = by_subject.get(finding.subject)
+        if old is None:
+            by_subject[finding.subject] = finding
+            return
+        keep = finding if SEVERITIES.index(finding.severity) > SEVERITIES.index(old.severity) else old
+        by_subject[finding.subject] = Finding(
+            keep.kind,
+            keep.subject,
+            keep.severity,
+            keep.summary,
+            max(old.confidence, finding.confidence),
+            old.evidence + finding.evidence,
+        )
+
+    sensed = {result.bearing for result in results}
+    for result in results:
+        dev = result.orders
+        if dev is not None and dev.orders.size:
+            error = np.maximum(dev.deviation_error, 1e-12)
+            beyond = (dev.deviation >= BEARING_WARNING) & (dev.deviation >= SIGNIFICANCE * error)
+            if beyond.any():
+                worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))
+                d = float(dev.deviation[worst])
+                severity = "alarm" if d >= BEARING_ALARM else "warning"
+                threshold = BEARING_ALARM if severity == "alarm" else BEARING_WARNING
+                orders = ", ".join(f"{k:g}" for k in dev.orders[beyond])
+                add(
+                    Finding(
+                        kind="main bearing",
+                        subject=f"main bearing {result.bearing}",
+                        severity=severity,
+                        summary=(
+                            f"main bearing {result.bearing}: orders {orders} of {result.channel} deviate "
+                            f"from the calibrated model, up to {100 * d:.0f} % (order {dev.orders[worst]:g})"
+                        ),
+                        confidence=confidence_beyond((d - threshold) / float(error[worst])),
+                        evidence=[
+                            {
+                                "quantity": "order deviation",
+                                "channel": result.channel,
+                                "order": float(k),
+                                "measured": abs(complex(m)),
+                                "predicted": abs(complex(p)),
+                                "deviation": float(v),
+                                "standard_error": float(s),
+                                "threshold": BEARING_WARNING,
+                                "unit": "-",
+                            }
+                            for k, m, p, v, s in zip(
+                                dev.orders[beyond],
+                                dev.measured[beyond],
+                                dev.predicted[beyond],
+                                dev.deviation[beyond],
+                                error[beyond],
+                                strict=True,
+                            )
+                        ],
+                    )
+                )
+        if not result.impacts:
+            continue
+        own = next(s for s in result.impacts if s.bearing == result.bearing)
+
+        def heard(score: ImpactScore) -> bool:
+            least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
+            if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
+                least = max(least, IMPACT_WITH_CYLINDER_FINDING)
+            localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
+                score.elsewhere - 1.0, 0.0
+            )
+            return (
+                score.score >= least
+                and score.significance >= max(SIGNIFICANCE, score.significance_needed)
+                and localised
+            )
+
+        # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
+        # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
+        best = own
+        if not heard(own):
+            others = [
+                s
+                for s in result.impacts
+                if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
+            ]
+            best = max(others, key=lambda s: s.score) if others else own
+        if best is own and not with_baseline and math.isnan(own.elsewhere):
+            continue  # against its own median only, a knock must be shown to be this sensor's alone
+        e = max(best.score_error, 1e-12)
+        if heard(best):
+            severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
+            threshold = (
+                (IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING)
+                if with_baseline
+                else IMPACT_WITHOUT_BASELINE
+            )
+            add(
+                Finding(
+                    kind="main bearing",
+                    subject=f"main bearing {best.bearing}",
+                    severity=severity,
+                    summary=(
+                        f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
+                        f"the {best.reference}'s high-frequency power at {best.angle_deg:.0f} deg "
+                        f"({result.channel}; clearance or wear)"
+                    ),
+                    confidence=confidence_beyond((best.score - threshold) / e),
+                    evidence=[
+                        {
+                            "quantity": "impact power in load-reversal windows",
+                            "channel": result.channel,
+                            "measured": best.score,
+                            "standard_error": best.score_error,
+                            "predicted": 1.0,
+                            "threshold": threshold,
+                            "unit": f"x {best.reference}",
+                            "reversal_angles_deg": best.reversal_angles_deg,
+                            "angle_deg": best.angle_deg,
+                            "significance": best.significance,
+                            "significance_needed": best.significance_needed,
+                        }
+                    ],
+                )
+            )
+    return list(by_subject.values())
