@@ -229,7 +229,7 @@ class AngleMap:
         gap_place = np.round(np.mod(self.angles[inside], cycle) / (1e-3 * pitch)).astype(np.int64)
         for where in np.unique(gap_place):
             chosen = np.flatnonzero(gap_place == where)
-            g = int(inside[chosen[0]])
+            g = int(inside[chosen[chosen.size // 2]])  # one amid the pulses, away from the spline's ends
             alike = chosen[inside[chosen] == g]
             lo, hi = max(0, g - _FILL_NEIGHBOURS), min(self.angles.size, g + _FILL_NEIGHBOURS + 2)
             shape_times = elapsed(self.angles[lo:hi])
@@ -244,9 +244,11 @@ class AngleMap:
             error = elapsed(target) - 0.5 * (low + high)
             correction[np.flatnonzero(gap_place == where)] = np.resize(error, chosen.size)
         filled = crossing + local[inside] * correction
-        # each gap's points in order inside it, or the gap left as it is
+        # each gap's points in order inside it, and not where the spline ends (there it is not the one
+        # the correction was taken on), or the gap left as it is
         bounds = np.concatenate([self.times[inside][:, None], self.times[inside + 1][:, None]], axis=1)
         ok = (filled > bounds[:, 0]) & (filled < bounds[:, 1])
+        ok &= (inside >= _FILL_NEIGHBOURS) & (inside < self.times.size - 1 - _FILL_NEIGHBOURS)
         ordered = np.ones(filled.size, dtype=bool)
         ordered[1:] = (inside[1:] != inside[:-1]) | (np.diff(filled) > 0)
         bad = np.unique(inside[~(ok & ordered)])
