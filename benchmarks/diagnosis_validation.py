@@ -16,6 +16,7 @@ as JSON (docs/diagnosis-validation.json, not kept in the repository).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import tempfile
 import time
@@ -43,7 +44,7 @@ class Outcome:
     cycle: str
     speed_rpm: float
     truth: str
-    subject: str  # the true cylinder, bearing or channel ("" for a healthy run)
+    subject: str  # the true cylinder, bearing or sensor channel ("" for a healthy run)
     strength: float  # a weak cylinder's heat release over a healthy one's (NaN otherwise)
     status: str  # healthy, warning, alarm, inconclusive, or error
     exit_code: int
@@ -53,6 +54,9 @@ class Outcome:
     findings: str  # the findings' subjects and severities, for the record
     seconds: float
     error: str = ""
+    rules: str = ""  # each finding as rule|subject|severity, "; "-separated (:func:`rule_of`)
+    share: float = math.nan  # a misfiring or weak cylinder's strength over the others', as read [-]
+    inconclusive: str = ""  # why a run without findings was not called healthy
 
 
 def classify(finding: Any) -> tuple[str, str]:
@@ -60,11 +64,46 @@ def classify(finding: Any) -> tuple[str, str]:
     if finding.kind == "sensor":
         return "sensor_fault", finding.subject.removeprefix("sensor ")
     if finding.kind == "cylinder":
-        what = "misfire" if "misfiring" in finding.summary else "weak"
+        # "(misfiring" or "(misfiring, or nearly", not "(weak, leaking or misfiring"
+        what = "misfire" if "(misfiring" in finding.summary else "weak"
         return what, finding.subject.split(" or ")[0].removeprefix("cylinder ")
     if finding.kind == "main bearing":
         return "worn_bearing", finding.subject.removeprefix("main bearing ")
     return "vibration_zone", finding.subject
+
+
+RULES = (
+    "cylinder against the others",
+    "single cylinder against its reference",
+    "bearing impacts",
+    "bearing orders",
+    "sensor fault",
+    "vibration zone",
+)
+TRUE_CLASS = {  # the simulated fault each rule's finding names rightly
+    "cylinder against the others": ("misfire", "weak"),
+    "single cylinder against its reference": ("misfire", "weak"),
+    "bearing impacts": ("worn_bearing",),
+    "bearing orders": ("worn_bearing",),
+    "sensor fault": ("sensor_fault",),
+    "vibration zone": (),
+}
+
+
+def rule_of(finding: Any, cylinders: int) -> str:
+    """The decision rule (docs/diagnosis.md) that made a finding."""
+    if finding.kind == "cylinder":
+        return "cylinder against the others" if cylinders > 1 else "single cylinder against its reference"
+    if finding.kind == "main bearing":
+        return "bearing impacts" if "impacts" in finding.summary else "bearing orders"
+    if finding.kind == "sensor":
+        return "sensor fault"
+    return "vibration zone"
+
+
+def _false(o: Outcome, rule: str, subject: str) -> bool:
+    """Whether a finding of ``rule`` on ``subject`` names something the simulator did not put in."""
+    return o.truth not in TRUE_CLASS[rule] or subject != o.subject
 
 
 def _named(truth: dict[str, Any], findings: list[tuple[str, str, str]]) -> bool:
@@ -106,7 +145,15 @@ def run_case(seed: int, duration_s: float) -> Outcome:
     start = time.perf_counter()
     case = random_case(seed, duration_s=duration_s)
     truth = case.truth
-    subject = str(truth.get("cylinder") or truth.get("bearing") or truth.get("channel") or "")
+    # the true cylinder, bearing or channel, as the findings name it
+    subject = str(
+        {
+            "misfire": truth.get("cylinder"),
+            "weak": truth.get("cylinder"),
+            "worn_bearing": truth.get("bearing"),
+        }.get(truth["class"], truth.get("channel"))
+        or ""
+    )
     # a weak cylinder's heat release as a share of the healthy one's (the simulator's "weak_factor")
     strength = float(truth["weak_factor"]) if truth["class"] == "weak" else math.nan
     engine_text = case.engine_toml
@@ -140,6 +187,14 @@ def run_case(seed: int, duration_s: float) -> Outcome:
             _said(error),
         )
     findings = [(*classify(f), f.severity) for f in diagnosis.findings]
+    rules = "; ".join(
+        f"{rule_of(f, engine.cylinders)}|{s}|{f.severity}"
+        for f, (_, s, _) in zip(diagnosis.findings, findings, strict=True)
+    )
+    why = [n.removeprefix("inconclusive: ") for n in diagnosis.notes if n.startswith("inconclusive: ")]
+    share = math.nan
+    if truth["class"] in ("misfire", "weak") and diagnosis.balance is not None:
+        share = float(diagnosis.balance.relative[int(truth["cylinder"]) - 1])
     top = findings[0][0] if findings else diagnosis.status
     return Outcome(
         seed,
@@ -157,6 +212,26 @@ def run_case(seed: int, duration_s: float) -> Outcome:
         any(f.severity == "alarm" for f in diagnosis.findings),
         "; ".join(f"{c} {s} ({v})" for c, s, v in findings),
         time.perf_counter() - start,
+        rules=rules,
+        inconclusive="; ".join(why),
+        share=share,
+    )
+
+
+def _shares(outcomes: list[Outcome]) -> str:
+    """What a misfiring and a weak cylinder read (their share of the others), 2 or more cylinders."""
+    from monitor.diagnosis.findings import MISFIRE_BELOW
+
+    def span(group: list[float]) -> str:
+        return f"{min(group):.2f} to {max(group):.2f} ({len(group)} cases)" if group else "none"
+
+    read = [o for o in outcomes if o.cylinders > 1 and math.isfinite(o.share)]
+    misfire = [o.share for o in read if o.truth == "misfire"]
+    weak = [o.share for o in read if o.truth == "weak"]
+    return (
+        "The faulty cylinder's share of the others as read (2 or more cylinders): misfiring "
+        f"{span(misfire)}; weak, heat release 50 to 80 % of a healthy one's, {span(weak)}. A share below "
+        f"{MISFIRE_BELOW:g} is called misfiring (`MISFIRE_BELOW`)."
     )
 
 
@@ -166,6 +241,79 @@ def _rate(hits: int, total: int) -> str:
 
 def _named_rate(group: list[Outcome]) -> str:
     return _rate(sum(o.named for o in group), len(group))
+
+
+def _short_reason(reason: str) -> str:
+    """An inconclusive run's reason, without its numbers."""
+    for key, short in (
+        ("not steady", "the speed not steady"),
+        ("do not resolve", "the cylinders not resolved (model misfit, or orders that do not separate them)"),
+        ("uncertain by", "the cylinders' differences too uncertain"),
+        ("not compared", "the cylinders not compared"),
+        ("not judged", "the cylinder not judged"),
+    ):
+        if key in reason:
+            return short
+    return reason
+
+
+def rule_table(outcomes: list[Outcome]) -> list[str]:
+    """Each rule's false findings over every case, and why healthy runs were inconclusive (Markdown)."""
+    done = [o for o in outcomes if o.status != "error"]
+    lines = [
+        f"False findings per rule over the {len(done)} cases diagnosed: a finding that names a fault "
+        "the simulator did not put in, or puts it on the wrong subject (a healthy run's every finding; a "
+        "misfire run's bearing finding; a worn bearing named on its neighbour).",
+        "",
+        "| rule | cases with a false warning or alarm | of them an alarm | rate |",
+        "|---|---|---|---|",
+    ]
+    for rule in RULES:
+        false = alarms = 0
+        for o in done:
+            hits = [part.split("|") for part in o.rules.split("; ") if part.startswith(rule + "|")]
+            wrong = [h for h in hits if _false(o, rule, h[1])]
+            false += bool(wrong)
+            alarms += any(h[2] == "alarm" for h in wrong)
+        lines.append(f"| {rule} | {false} | {alarms} | {100 * false / max(len(done), 1):.1f} % |")
+    healthy = [o for o in done if o.truth == "healthy"]
+    reasons = Counter(
+        _short_reason(r) for o in healthy if o.status == "inconclusive" for r in o.inconclusive.split("; ")
+    )
+    lines += [
+        "",
+        f"Healthy runs not called healthy for want of evidence (inconclusive), of {len(healthy)}:",
+        "",
+        "| reason | runs |",
+        "|---|---|",
+    ]
+    lines += [f"| {reason} | {count} |" for reason, count in reasons.most_common()] or ["| none | 0 |"]
+    return lines
+
+
+RULES_BEGIN = "<!-- false-alarm table: written by make bench-diagnosis -->"
+RULES_END = "<!-- end of false-alarm table -->"
+
+
+def update_rules_doc(path: Path, outcomes: list[Outcome], *, when: str) -> None:
+    """Replace the marked block of ``path`` (docs/diagnosis.md) with this run's rule table."""
+    text = path.read_text()
+    if RULES_BEGIN not in text or RULES_END not in text:
+        raise SystemExit(
+            f"{path}: no block between {RULES_BEGIN!r} and {RULES_END!r} to write the table into"
+        )
+    head, rest = text.split(RULES_BEGIN, 1)
+    _, tail = rest.split(RULES_END, 1)
+    block = [
+        RULES_BEGIN,
+        "",
+        f"Measured by `make bench-diagnosis` on {when}:",
+        "",
+        *rule_table(outcomes),
+        "",
+        RULES_END,
+    ]
+    path.write_text(head + "\n".join(block) + tail)
 
 
 def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int) -> str:
@@ -223,6 +371,8 @@ def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int)
         "cannot be seen in the crank speed (a generator's governor even restores its IMEP with more "
         "fuel). docs/diagnosis.md says what a single cylinder is judged against.",
         "",
+        _shares(outcomes),
+        "",
         "## Per class and length",
         "",
         "`named`: the fault found on the right subject (a healthy run: no finding at all). Exit codes as "
@@ -242,6 +392,7 @@ def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int)
                 + " | ".join(str(exits.get(code, 0)) for code in range(4))
                 + " |"
             )
+    lines += ["", "## False findings per rule", "", *rule_table(outcomes)]
     predicted_classes = sorted({o.predicted for o in outcomes}, key=lambda c: (c not in CLASSES, c))
     lines += [
         "",
@@ -282,7 +433,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=DOCS / "diagnosis-validation.md")
+    parser.add_argument(
+        "--rules-doc",
+        type=Path,
+        default=None,
+        help="a document whose marked false-alarm block gets this run's table (default: docs/diagnosis.md "
+        "when --out is the default)",
+    )
     args = parser.parse_args(argv)
+    if args.rules_doc is None and args.out == DOCS / "diagnosis-validation.md":
+        args.rules_doc = DOCS / "diagnosis.md"
     jobs = [(args.first_seed + i, DURATIONS[i % len(DURATIONS)]) for i in range(args.cases)]
     outcomes: list[Outcome] = []
     start = time.perf_counter()
@@ -302,6 +462,10 @@ def main(argv: list[str] | None = None) -> int:
     outcomes.sort(key=lambda o: o.seed)
     seconds = time.perf_counter() - start
     args.out.write_text(report(outcomes, cases=args.cases, seconds=seconds, workers=args.workers))
+    if args.rules_doc is not None:
+        update_rules_doc(
+            args.rules_doc, outcomes, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(outcomes)} cases"
+        )
     rows = args.out.with_suffix(".json")
     import json
 

@@ -74,7 +74,7 @@ CALIBRATED_FRACTION = 0.1
 SIGNIFICANT = 4.0  # standard errors a baseline's order must stand above nothing to be calibrated [-]
 # the relative uncertainties a calibration shares a firing harmonic's gap by: the inertia torque is exact
 # kinematics with masses known to about 10 %; a gas model's firing harmonics may be off by their own size
-# (baselines of the validation population found them at -7 to 10 times the model's)
+# (on the validation population's engines they were off by several times the model's, of either sign)
 INERTIA_SHARE = 0.10
 # the cylinders' mean strength is 1 (the model's combustion at the stated load) to about this [-]: the
 # orders where the cylinders cancel give each cylinder's difference from the others in the model's units,
