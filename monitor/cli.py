@@ -51,6 +51,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"{value}: expected a TCP port, 1 to 65535")
+    return value
+
+
 def _build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="engine-monitor",
@@ -274,7 +284,7 @@ def _build_parser() -> argparse.ArgumentParser:
         "store. OpenAPI at /openapi.json, pages at /docs.",
     )
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
-    serve.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    serve.add_argument("--port", type=_port, default=8000, help="port, 1 to 65535 (default 8000)")
     serve.add_argument(
         "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)"
     )
@@ -541,8 +551,34 @@ def _run_serve(args: argparse.Namespace) -> int:
         workers=max(0, args.workers),
         lease_s=args.lease,
     )
-    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
+    _check_listening(args.host, args.port)
+    try:
+        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
+    except SystemExit as stop:  # uvicorn's own exit (it could not start): the documented status
+        if stop.code not in (0, None):
+            raise MonitorError(
+                f"the service on {args.host}:{args.port} stopped (uvicorn status {stop.code})"
+            ) from None
     return 0
+
+
+def _check_listening(host: str, port: int) -> None:
+    """Refuse at once, in one line, an address the service cannot listen on (in use, not this host's)."""
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except OSError as error:
+        raise MonitorError(f"--host {host}: not an address of this machine ({error})") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as error:
+            raise MonitorError(
+                f"cannot listen on {host}:{port}: {error.strerror or error} (choose another --port)"
+            ) from None
 
 
 def _run_worker(args: argparse.Namespace) -> int:
@@ -1012,6 +1048,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = _build_parser()
     args = parser.parse_args(argv)
+    for option in ("plot", "map_plot"):  # a figure that cannot be written is refused before any work
+        if getattr(args, option, None):
+            from monitor.plots import PlotError, check_figure_path
+
+            formats = ("png", "html", "htm") if args.command == "compare" else None
+            try:
+                check_figure_path(getattr(args, option), formats=formats)
+            except PlotError as error:
+                print(f"engine-monitor: error: --{option.replace('_', '-')} {error}", file=sys.stderr)
+                return 3 if args.command == "compare" else 2
     handlers = {
         "orders": _run_orders,
         "engines": _run_engines,

@@ -12,9 +12,17 @@ from typing import Any
 import numpy as np
 
 from monitor.crankshaft import EngineModel
+from monitor.errors import MonitorError
 from monitor.model_orders import ModelOrders
 
-__all__ = ["plot_diagnosis", "plot_model_orders", "plot_spectra", "plot_speed_maps"]
+__all__ = [
+    "PlotError",
+    "check_figure_path",
+    "plot_diagnosis",
+    "plot_model_orders",
+    "plot_spectra",
+    "plot_speed_maps",
+]
 
 
 def new_figure(
@@ -39,6 +47,51 @@ def new_figure(
     out.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(rows, cols, figsize=size, constrained_layout=True, squeeze=squeeze)
     return fig, axes, out
+
+
+class PlotError(MonitorError, ValueError):
+    """A figure's path that cannot be written: an unknown format, a folder that does not exist."""
+
+
+def check_figure_path(path: str | Path, *, formats: tuple[str, ...] | None = None) -> Path:
+    """A figure's path, checked before any work: a format matplotlib writes, in a folder that exists.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file asked for.
+    formats : tuple of str, optional
+        The suffixes the command writes (``compare``: png and html); default every format
+        matplotlib writes.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    PlotError
+        For a suffix no writer takes, or a folder that does not exist (it is not created).
+    """
+    out = Path(path)
+    suffix = out.suffix.lower().lstrip(".")
+    if formats is None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from matplotlib.figure import Figure
+
+        formats = tuple(Figure().canvas.get_supported_filetypes())
+    known = sorted(formats)
+    if suffix not in known:
+        raise PlotError(
+            f"{path}: a figure cannot be written as {suffix or 'a file without a suffix'!r}: expected one of "
+            + ", ".join(f".{k}" for k in known)
+        )
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise PlotError(f"{path}: the folder {folder} does not exist (create it first)")
+    return out
 
 
 def save_figure(fig: Any, out: Path, *, dpi: int = 110) -> Path:
@@ -228,8 +281,6 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
 
     out = Path(path)
     if out.suffix.lower() not in (".png", ".html", ".htm"):
-        from monitor.errors import MonitorError
-
         raise MonitorError(f"--plot {out}: expected a .png or .html file")
     comparisons = [c for c in diagnosis.comparisons if c.orders.size]
     balance = diagnosis.balance

@@ -38,7 +38,7 @@ def test_orders_json_matches_the_library(capsys: pytest.CaptureFixture[str]) -> 
 
 
 def test_orders_table_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    plot = tmp_path / "sub" / "orders.png"
+    plot = tmp_path / "orders.png"
     assert (
         main(
             [
@@ -105,3 +105,52 @@ def test_module_entry_point_and_engine_list() -> None:
         [sys.executable, "-m", "monitor", "--version"], capture_output=True, text=True, check=True
     )
     assert version.stdout.startswith("engine-monitor ")
+
+
+SAMPLE = Path(__file__).resolve().parents[1] / "recordings" / "samples" / "7k98mc-baseline.h5"
+BAD_FIGURES = [
+    # arguments, exit status, what the one-line message must name
+    (["orders", "man-b-w-7k98mc", "--rpm", "100", "--plot", "x.jpgx"], 2, "'jpgx'"),
+    (["orders", "man-b-w-7k98mc", "--rpm", "100", "--plot", "{missing}/x.png"], 2, "does not exist"),
+    (["torsion", "modes", "man-b-w-7k98mc", "--plot", "{missing}/x.png"], 2, "does not exist"),
+    (["spectrum", str(SAMPLE), "--speed-map", "4", "--map-plot", "{missing}/m.png"], 2, "does not exist"),
+    (["compare", str(SAMPLE), "--plot", "x.pdf"], 3, ".html, .png"),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "status", "named"), BAD_FIGURES, ids=[" ".join(c[0][:2]) for c in BAD_FIGURES]
+)
+def test_a_figure_that_cannot_be_written_is_refused_in_one_line_before_any_work(
+    argv: list[str], status: int, named: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An unknown figure format or a folder that does not exist: one error line naming it, the
+    documented status (2; 3 for compare), nothing on stdout (refused before any work), and the
+    folder not created."""
+    missing = tmp_path / "no" / "such"
+    assert main([a.format(missing=missing) for a in argv]) == status
+    said = capsys.readouterr()
+    lines = said.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("engine-monitor: error: --") and named in lines[0]
+    assert said.out == ""
+    assert not (tmp_path / "no").exists()
+
+
+def test_serve_refuses_a_port_out_of_range_and_one_in_use(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--port 99999 is a usage error (argparse, status 2); a port another socket holds on loopback is
+    refused in one line with status 2, as the README says, before the service starts."""
+    import socket
+
+    with pytest.raises(SystemExit) as stop:
+        main(["serve", "--port", "99999", "--data", str(tmp_path)])
+    assert stop.value.code == 2
+    assert "expected a TCP port, 1 to 65535" in capsys.readouterr().err
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        assert main(["serve", "--host", "127.0.0.1", "--port", str(port), "--data", str(tmp_path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"cannot listen on 127.0.0.1:{port}" in lines[0]
