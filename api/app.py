@@ -134,7 +134,9 @@ class Health(BaseModel):
     analysis_version: str
 
 
-_NAME = re.compile(r"^[^/\\\x00-\x1f\x7f]{1,255}$")
+# a plain file name: no folder separators, no C0 or C1 controls, no line or paragraph separators and no
+# bidirectional overrides (a name that displays as another), matched whole (``$`` would allow a final "\n")
+_NAME = re.compile("[^/\\\\\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]{1,255}")
 ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422)
 }
@@ -147,7 +149,7 @@ def _sync(out: Any) -> None:
 
 def _filename(name: str) -> str:
     """A plain file name, or a clear 400: no folders, no control characters, at most 255 bytes."""
-    if not _NAME.match(name) or name in (".", "..") or len(name.encode("utf-8")) > 255:
+    if not _NAME.fullmatch(name) or name in (".", "..") or len(name.encode("utf-8")) > 255:
         raise ApiError(
             400,
             "bad_filename",
@@ -171,7 +173,11 @@ def _fleet(request: Request) -> int:
 
 Fleet = Annotated[int, Depends(_fleet)]
 RecordingId = Annotated[int, FastPath(ge=1, le=2**31 - 1, description="the recording's id")]
-EngineId = Annotated[str, FastPath(min_length=1, max_length=200, description="the engine's id")]
+# printable text: a NUL or a control character in an id is refused (422) before it reaches a store
+PRINTABLE = r"^[^\x00-\x1f\x7f]+$"
+EngineId = Annotated[
+    str, FastPath(min_length=1, max_length=200, pattern=PRINTABLE, description="the engine's id")
+]
 
 
 def _moment(name: str, text: str | None) -> datetime | None:
@@ -392,7 +398,7 @@ def create_app(settings: Settings) -> FastAPI:
     @app.get("/recordings", response_model=RecordingPage, responses=ERRORS, tags=["recordings"])
     def list_recordings(
         fleet_id: Fleet,
-        engine_id: Annotated[str | None, Query(min_length=1, max_length=200)] = None,
+        engine_id: Annotated[str | None, Query(min_length=1, max_length=200, pattern=PRINTABLE)] = None,
         since: Annotated[
             str | None,
             Query(description="uploaded at or after (ISO 8601)", json_schema_extra={"format": "date-time"}),

@@ -173,6 +173,12 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
         (SAMPLES / "7k98mc-baseline.h5", "/absolute/path.h5", 400, "bad_filename"),
         (SAMPLES / "7k98mc-baseline.h5", "nul\x00byte.h5", 400, "bad_filename"),
         (SAMPLES / "7k98mc-baseline.h5", "x" * 300 + ".h5", 400, "bad_filename"),
+        # a final newline (which a pattern's '$' lets through), a C1 control, a line separator, and a
+        # right-to-left override that makes 'a\u202egnp.h5' display as another name
+        (SAMPLES / "7k98mc-baseline.h5", "a.h5\n", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "a\x85b.h5", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "a\u2028b.h5", 400, "bad_filename"),
+        (SAMPLES / "7k98mc-baseline.h5", "a\u202egnp.h5", 400, "bad_filename"),
     ]
     with server.client() as client:
         for path, name, status, code in cases:
@@ -189,6 +195,10 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
     wrong = httpx.get(f"{server.url}/recordings", headers={"X-API-Key": "not-a-key"})
     assert wrong.status_code == 401 and wrong.json()["error"]["code"] == "unknown_key"
     assert httpx.get(f"{server.url}/health").status_code == 200  # the one route without a key
+    with server.client() as client:  # a NUL or control character in an engine id: 422, not a store error
+        for route in ("/engines/a%00b", "/engines/a%0Ab"):
+            assert client.get(route).status_code == 422, route
+        assert client.get("/recordings", params={"engine_id": "a\x00b"}).status_code == 422
 
 
 def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Server, tmp_path: Path) -> None:

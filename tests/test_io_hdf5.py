@@ -298,3 +298,22 @@ def test_bad_channels_are_refused(kwargs: dict, message: str) -> None:  # type: 
     base = {"name": "c", "data": np.zeros(10), "sample_rate": 100.0}
     with pytest.raises(FormatError, match=message):
         Channel(**{**base, **kwargs})
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Generator, umask: int) -> None:
+    """A recording is written through a temporary file (made 0600) and renamed: the file that appears
+    has the mode a newly created file gets, 0666 less the umask, in HDF5 and in MCAP alike."""
+    import os
+    import stat
+
+    from monitor.io.mcap_io import write_mcap
+
+    recording = _recording(rng)
+    before = os.umask(umask)
+    try:
+        written = [write_hdf5(recording, tmp_path / "r.h5"), write_mcap(recording, tmp_path / "r.mcap")]
+    finally:
+        os.umask(before)
+    for path in written:
+        assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask, path

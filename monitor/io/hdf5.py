@@ -30,6 +30,7 @@ import h5py
 import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
+from monitor.io.files import publish
 from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader, field_value
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
@@ -99,7 +100,7 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
                     ds.attrs["range_min"], ds.attrs["range_max"] = c.range
         with open(temporary, "rb") as fh:
             os.fsync(fh.fileno())
-        os.replace(temporary, target)
+        publish(temporary, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)

@@ -55,6 +55,7 @@ from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
+from monitor.io.files import publish
 from monitor.recording import (
     INTEGER_FIELDS,
     KIND_FIELDS,
@@ -387,7 +388,7 @@ def write_mcap(
             writer.finish()
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(temporary, target)
+        publish(temporary, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
