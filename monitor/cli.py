@@ -1078,8 +1078,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MonitorError as error:
         print(f"engine-monitor: error: {error}", file=sys.stderr)
         return 3 if args.command == "compare" else 2
+    except KeyboardInterrupt:
+        print("engine-monitor: stopped (Ctrl-C)", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # the reader went away (e.g. piped into head): stop quietly
         import os
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except Exception as error:  # a fault of the product's, not of the input: one line, unless asked
+        import os
+
+        if os.environ.get("ENGINE_MONITOR_TRACEBACK"):
+            raise
+        said = str(error).splitlines()[0][:300] if str(error) else ""
+        print(
+            f"engine-monitor: error: unexpected {type(error).__name__}{': ' + said if said else ''} "
+            "(a fault of engine-monitor: please report it with the command; ENGINE_MONITOR_TRACEBACK=1 "
+            "shows where)",
+            file=sys.stderr,
+        )
+        return 3 if args.command == "compare" else 2

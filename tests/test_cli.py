@@ -154,3 +154,44 @@ def test_serve_refuses_a_port_out_of_range_and_one_in_use(
         assert main(["serve", "--host", "127.0.0.1", "--port", str(port), "--data", str(tmp_path)]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"cannot listen on 127.0.0.1:{port}" in lines[0]
+
+
+def _hostile_copies(folder: Path) -> dict[str, Path]:
+    """Copies of a sample, each damaged as a hostile or broken file is."""
+    import shutil
+
+    import h5py
+
+    out = {}
+    zero = folder / "zero-rate.h5"
+    shutil.copy(SAMPLE, zero)
+    with h5py.File(zero, "r+") as f:
+        name = next(n for n, ds in f["channels"].items() if ds.attrs["representation"] == "waveform")
+        f["channels"][name].attrs["sample_rate_hz"] = 0.0
+    out["a waveform at 0 Hz"] = zero
+    loop = folder / "link-loop.h5"
+    with h5py.File(loop, "w") as f:
+        f.attrs["format"] = "engine-monitor recording"
+        group = f.create_group("channels")
+        group["a"] = h5py.SoftLink("/channels/b")
+        group["b"] = h5py.SoftLink("/channels/a")
+    out["a soft-link loop"] = loop
+    missing = folder / "no-channels.h5"
+    shutil.copy(SAMPLE, missing)
+    with h5py.File(missing, "r+") as f:
+        del f["channels"]
+    out["no channels group"] = missing
+    return out
+
+
+@pytest.mark.parametrize("command", ["spectrum", "compare"])
+def test_a_damaged_or_hostile_file_is_one_error_line_not_a_traceback(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A sample with a waveform at 0 Hz (it divided by zero), a file whose channels are a soft-link loop,
+    one without its channels: each is one line on stderr naming the file, status 2 (3 for compare)."""
+    for what, path in _hostile_copies(tmp_path).items():
+        assert main([command, str(path)]) == (3 if command == "compare" else 2), what
+        said = capsys.readouterr().err
+        assert "Traceback" not in said and len(said.strip().splitlines()) == 1, (what, said)
+        assert said.startswith("engine-monitor: error: ") and path.name in said, (what, said)

@@ -6,6 +6,7 @@ import contextlib
 from collections.abc import Iterator
 from pathlib import Path
 
+from monitor.errors import MonitorError
 from monitor.recording import FormatError, Recording
 
 __all__ = ["HDF5_SIGNATURE", "MCAP_MAGIC", "file_signature", "open_recording", "read_recording"]
@@ -60,11 +61,13 @@ def read_recording(path: str | Path) -> Recording:
     if head == HDF5_SIGNATURE:
         from monitor.io.hdf5 import read_hdf5
 
-        return read_hdf5(source)
+        with _reader_failures(source, "HDF5"):
+            return read_hdf5(source)
     if head == MCAP_MAGIC:
         from monitor.io.mcap_io import read_mcap
 
-        return read_mcap(source)
+        with _reader_failures(source, "MCAP"):
+            return read_mcap(source)
     if not head:
         raise FormatError(f"{source}: the file is empty; expected a recording (HDF5 or MCAP)")
     signatures = {"HDF5": HDF5_SIGNATURE, "MCAP": MCAP_MAGIC}
@@ -93,15 +96,38 @@ def open_recording(path: str | Path) -> Iterator[Recording]:
     """
     source = Path(path)
     head = file_signature(source)
-    if head == HDF5_SIGNATURE:
-        from monitor.io.hdf5 import open_hdf5
+    with contextlib.ExitStack() as stack:
+        if head == HDF5_SIGNATURE:
+            from monitor.io.hdf5 import open_hdf5
 
-        with open_hdf5(source) as recording:
-            yield recording
-    elif head == MCAP_MAGIC:
-        from monitor.io.mcap_io import open_mcap
+            with _reader_failures(source, "HDF5"):  # the opening only: the caller's errors are its own
+                recording = stack.enter_context(open_hdf5(source))
+        elif head == MCAP_MAGIC:
+            from monitor.io.mcap_io import open_mcap
 
-        with open_mcap(source) as recording:
-            yield recording
-    else:
-        yield read_recording(source)  # refuses it with the reason
+            with _reader_failures(source, "MCAP"):
+                recording = stack.enter_context(open_mcap(source))
+        else:
+            recording = read_recording(source)  # refuses it with the reason
+        yield recording
+
+
+@contextlib.contextmanager
+def _reader_failures(source: Path, kind: str) -> Iterator[None]:
+    """A reader's own failure on a damaged or hostile file (h5py's KeyError or RuntimeError, a link
+    loop's RecursionError, a zero rate's ZeroDivisionError, struct.error...) as a FormatError that
+    names the file, in one line."""
+    try:
+        yield
+    except MonitorError:
+        raise
+    except MemoryError:
+        raise FormatError(f"{source}: the {kind} file needs more memory than there is to read") from None
+    except (FileNotFoundError, PermissionError, IsADirectoryError) as error:
+        raise FormatError(f"{source}: {error.strerror or error}") from None
+    except Exception as error:
+        said = str(error).splitlines()[0][:200] if str(error) else ""
+        raise FormatError(
+            f"{source}: the {kind} reader failed ({type(error).__name__}{': ' + said if said else ''}); "
+            "the file is damaged or not a recording the product writes"
+        ) from None
