@@ -439,6 +439,10 @@ def create_app(settings: Settings) -> FastAPI:
             job = store().job(row.id, ANALYSIS_VERSION)
             state_now = job.state if job is not None else "none"
             detail = f" ({job.error})" if job is not None and job.error else ""
+            if state_now == "set_aside":  # no result will come: not something to wait for
+                raise ApiError(
+                    422, "analysis_failed", f"recording {recording_id}: its analysis was set aside{detail}"
+                )
             raise ApiError(409, "not_ready", f"recording {recording_id}: its analysis is {state_now}{detail}")
         return document
 

@@ -8,7 +8,12 @@ lease). Only the job's taker may complete or fail it (its token). The
 analysis runs in a separate process: its crash fails the job and a fresh
 process takes the next, never stopping the worker. The result is written
 with the job's completion in one transaction, once. A job that fails records
-why and is retried, then set aside (:data:`monitor.store.MAX_ATTEMPTS`).
+why. A failure of the input itself (a :class:`~monitor.errors.MonitorError`:
+a file the reader refuses, an engine nobody described, a recording the
+diagnosis cannot use) is permanent and set aside at once, the reason in its
+status; any other (a process killed, a disk full) is retried, then set aside
+(:data:`monitor.store.MAX_ATTEMPTS`). Every change of a job's state is one
+log line of ``key=value`` fields.
 """
 
 from __future__ import annotations
@@ -23,7 +28,8 @@ from pathlib import Path
 
 from monitor.batch import diagnose_file, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
-from monitor.store import Job, Store
+from monitor.errors import MonitorError
+from monitor.store import Job, Store, StoreError
 
 __all__ = ["HEARTBEAT", "LEASE", "Worker", "plot_path"]
 
@@ -95,6 +101,7 @@ class Worker:
                     self._wake.wait(IDLE)
                     self._wake.clear()
                     continue
+                _log_state(job, "running")
                 self._run(job)
             except Exception:  # the store unreachable a moment, ...: log, wait, go on; never stop the loop
                 log.exception("analysis worker: an error outside an analysis; going on")
@@ -126,12 +133,31 @@ class Worker:
                     return  # the lease hands the job to the next worker
                 self.store.touch(job)
                 continue
-            except BrokenProcessPool:  # the analysis process died (killed, out of memory): a failure
-                self.store.fail(job, "the analysis process died (killed, or out of memory)")
+            except BrokenProcessPool:  # the analysis process died (killed, out of memory): transient
+                self._failed(job, "the analysis process died (killed, or out of memory)", permanent=False)
                 self._fresh_pool()
                 return
-            except Exception as error:  # the analysis failed: recorded, retried, then set aside
-                self.store.fail(job, f"{type(error).__name__}: {error}")
+            except Exception as error:  # the input's fault is permanent, any other transient
+                permanent = isinstance(error, MonitorError) and not isinstance(error, StoreError)
+                self._failed(job, f"{type(error).__name__}: {error}", permanent=permanent)
                 return
-            self.store.complete(job, documents)
+            stored = self.store.complete(job, documents)
+            _log_state(job, "done" if stored else "taken back")
             return
+
+    def _failed(self, job: Job, reason: str, *, permanent: bool) -> None:
+        state = self.store.fail(job, reason, permanent=permanent)
+        _log_state(job, state, reason=reason, kind="permanent" if permanent else "transient")
+
+
+def _log_state(job: Job, state: str, **fields: str) -> None:
+    """One log line per change of a job's state, as ``key=value`` fields (values quoted)."""
+    extra = " ".join(f"{key}={value!r}" for key, value in fields.items())
+    log.info(
+        "job=%d recording=%d attempt=%d state=%s%s",
+        job.id,
+        job.recording_id,
+        job.attempts,
+        state,
+        f" {extra}" if extra else "",
+    )

@@ -202,8 +202,10 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
 
 
 def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Server, tmp_path: Path) -> None:
-    """A readable recording of an engine nobody described: each attempt fails with the reason, and
-    after three the job is set aside; the diagnosis answers 409 and says why."""
+    """A readable recording of an engine nobody described: the input's own fault, so the first attempt
+    sets the job aside with the reason (trying again would give the same answer); the diagnosis
+    answers 422 'analysis_failed' and says why, not 409 'not_ready', which would ask the client to
+    wait for a result that will never come."""
     from dataclasses import replace
 
     from monitor.io.hdf5 import read_hdf5
@@ -213,10 +215,11 @@ def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Ser
     with server.client() as client:
         recording = _upload(client, unknown).json()["id"]
         done = _wait_done(client, recording)
-        assert (done["status"], done["attempts"]) == ("set_aside", 3)
+        assert (done["status"], done["attempts"]) == ("set_aside", 1)
         assert "engine 'ship-x-main-engine' is neither in the fleet's engines nor bundled" in done["error"]
         answer = client.get(f"/recordings/{recording}/diagnosis")
-        assert answer.status_code == 409 and "set_aside" in answer.json()["error"]["message"]
+        assert answer.status_code == 422 and answer.json()["error"]["code"] == "analysis_failed"
+        assert "set aside" in answer.json()["error"]["message"]
 
 
 def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(

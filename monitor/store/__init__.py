@@ -445,13 +445,15 @@ class Store:
                 )
             return mine == 1
 
-    def fail(self, job: Job, error: str) -> str:
+    def fail(self, job: Job, error: str, *, permanent: bool = False) -> str:
         """Record why a job failed; queue it again, or set it aside after :data:`MAX_ATTEMPTS`.
 
-        Returns the job's new state (its current one, unchanged, if it was taken back meanwhile).
+        A ``permanent`` failure (the input itself is wrong: trying again gives the same answer) is
+        set aside at once. Returns the job's new state (its current one, unchanged, if it was taken
+        back meanwhile).
         """
         with self.transaction() as c:
-            state = "set_aside" if job.attempts >= MAX_ATTEMPTS else "queued"
+            state = "set_aside" if permanent or job.attempts >= MAX_ATTEMPTS else "queued"
             changed = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))
