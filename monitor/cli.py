@@ -323,14 +323,22 @@ def _build_parser() -> argparse.ArgumentParser:
         "--lease", type=_positive_float, default=30.0, metavar="S", help="as for serve (default 30)"
     )
 
-    keys = sub.add_parser("keys", help="create a fleet's API key for the HTTP service")
-    keys.add_argument("--fleet", required=True, help="the fleet (created if new)")
-    keys.add_argument("--label", default="", help="what the key is for")
-    keys.add_argument(
-        "--store",
-        metavar="URL",
-        help="the store (default: $ENGINE_MONITOR_DB, else ./data/engine-monitor.db)",
-    )
+    keys = sub.add_parser("keys", help="the HTTP service's API keys: create, list, revoke")
+    key_actions = keys.add_subparsers(dest="action", required=True, metavar="ACTION")
+    create = key_actions.add_parser("create", help="a new key for a fleet (shown once)")
+    create.add_argument("--fleet", required=True, help="the fleet (created if new)")
+    create.add_argument("--label", default="", help="what the key is for")
+    listing = key_actions.add_parser("list", help="the keys: id, fleet, label, created (never the key)")
+    listing.add_argument("--fleet", help="only this fleet's")
+    revoke = key_actions.add_parser("revoke", help="revoke a key by its id (refused at once)")
+    revoke.add_argument("id", type=int, help="the key's id, as list shows it")
+    for action in (create, listing, revoke):  # the store chosen as serve chooses it
+        action.add_argument(
+            "--store",
+            metavar="URL",
+            help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)",
+        )
+        action.add_argument("--data", default="data", metavar="DIR", help="as for serve (default ./data)")
 
     tdc = sub.add_parser(
         "tdc",
@@ -615,19 +623,33 @@ def _run_keys(args: argparse.Namespace) -> int:
 
     from monitor.store import DEFAULT_URL_ENV, StoreError, open_store
 
-    if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in ./data
-        Path("data").mkdir(exist_ok=True)
-    store = open_store(_service_store_url(args.store, "data"))
+    if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in DATA
+        if args.action != "create" and not Path(args.data).is_dir():
+            raise MonitorError(
+                f"--data {args.data}: no such folder (the service's data folder, as for serve)"
+            )
+        Path(args.data).mkdir(exist_ok=True)
+    store = open_store(_service_store_url(args.store, args.data))
     try:
-        try:
-            fleet_id = store.fleet_id(args.fleet)
-        except StoreError:
-            fleet_id = store.create_fleet(args.fleet)
-        key = store.create_key(fleet_id, args.label)
+        if args.action == "create":
+            try:
+                fleet_id = store.fleet_id(args.fleet)
+            except StoreError:
+                fleet_id = store.create_fleet(args.fleet)
+            key = store.create_key(fleet_id, args.label)
+            print(key)
+            print(f"API key of fleet {args.fleet!r}: shown once, stored only as its digest", file=sys.stderr)
+        elif args.action == "list":
+            rows = store.list_keys(args.fleet)
+            print(f"{'id':>5}  {'fleet':20}  {'created (UTC)':20}  label")
+            for row in rows:
+                print(f"{row.id:>5}  {row.fleet:20}  {row.created_at:%Y-%m-%d %H:%M:%S}  {row.label}")
+        elif not store.revoke_key(args.id):
+            raise MonitorError(f"no API key with id {args.id} (see 'engine-monitor keys list')")
+        else:
+            print(f"API key {args.id} revoked: refused from now on", file=sys.stderr)
     finally:
         store.close()
-    print(key)
-    print(f"API key of fleet {args.fleet!r}: shown once, stored only as its digest", file=sys.stderr)
     return 0
 
 

@@ -195,3 +195,32 @@ def test_a_damaged_or_hostile_file_is_one_error_line_not_a_traceback(
         said = capsys.readouterr().err
         assert "Traceback" not in said and len(said.strip().splitlines()) == 1, (what, said)
         assert said.startswith("engine-monitor: error: ") and path.name in said, (what, said)
+
+
+def test_keys_are_created_listed_and_revoked_in_the_store_serve_uses(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`keys create|list|revoke --data DIR` use the store `serve --data DIR` uses: a created key is
+    listed by id, fleet and label (never the key), and once revoked the store knows it no more, so the
+    service refuses it from the next request on; revoking an unknown id is one error line, status 2."""
+    from monitor.store import default_url, open_store
+
+    monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
+    data = tmp_path / "data"
+    assert main(["keys", "create", "--fleet", "north", "--label", "bridge pc", "--data", str(data)]) == 0
+    key = capsys.readouterr().out.strip()
+    store = open_store(default_url(data))
+    try:
+        assert store.fleet_of_key(key) is not None
+        assert main(["keys", "list", "--data", str(data)]) == 0
+        listed = capsys.readouterr().out
+        assert "north" in listed and "bridge pc" in listed and key not in listed
+        key_id = store.list_keys("north")[0].id
+        assert main(["keys", "revoke", str(key_id), "--data", str(data)]) == 0
+        assert store.fleet_of_key(key) is None
+        assert main(["keys", "revoke", str(key_id), "--data", str(data)]) == 2
+        assert f"no API key with id {key_id}" in capsys.readouterr().err
+    finally:
+        store.close()
+    assert main(["keys", "list", "--data", str(tmp_path / "nowhere")]) == 2
+    assert not (tmp_path / "nowhere").exists()

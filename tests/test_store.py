@@ -89,6 +89,20 @@ def test_keys_are_stored_hashed_and_name_their_fleet(store: Store) -> None:
         store.create_fleet("a")
 
 
+def test_keys_are_listed_without_themselves_and_revoked_at_once(store: Store) -> None:
+    """Listed by id, fleet, label and time, filtered by fleet; a revoked key names no fleet from then
+    on, and revoking it again (or an unknown id) reports False."""
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    first, second = store.create_key(a, "bridge"), store.create_key(b, "office")
+    listed = store.list_keys()
+    assert [(k.fleet, k.label) for k in listed] == [("a", "bridge"), ("b", "office")]
+    assert [k.fleet for k in store.list_keys("b")] == ["b"]
+    assert listed[0].created_at.tzinfo is not None
+    assert store.revoke_key(listed[0].id)
+    assert store.fleet_of_key(first) is None and store.fleet_of_key(second) == b
+    assert not store.revoke_key(listed[0].id) and not store.revoke_key(10**6)
+
+
 def test_the_same_content_is_stored_once_per_fleet(store: Store) -> None:
     a, b = store.create_fleet("a"), store.create_fleet("b")
     first = _recording(store, a)

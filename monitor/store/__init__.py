@@ -41,6 +41,7 @@ __all__ = [
     "DEFAULT_URL_ENV",
     "MAX_ATTEMPTS",
     "Job",
+    "KeyRow",
     "RecordingRow",
     "Store",
     "StoreError",
@@ -97,6 +98,16 @@ class RecordingRow:
     size_bytes: int
     recorded_at: str
     uploaded_at: datetime
+
+
+@dataclass(frozen=True)
+class KeyRow:
+    """An API key as listed: its id, fleet, label and creation time (the key itself is never kept)."""
+
+    id: int
+    fleet: str
+    label: str
+    created_at: datetime
 
 
 @dataclass(frozen=True)
@@ -202,6 +213,41 @@ class Store:
                 )
             )
         return key
+
+    def list_keys(self, fleet: str | None = None) -> list[KeyRow]:
+        """The API keys (never the keys themselves, only their ids, fleets, labels and times).
+
+        Parameters
+        ----------
+        fleet : str, optional
+            Only this fleet's (by name).
+
+        Returns
+        -------
+        list of KeyRow
+            By id.
+        """
+        query = (
+            sa.select(api_keys.c.id, fleets.c.name, api_keys.c.label, api_keys.c.created_at)
+            .join(fleets, fleets.c.id == api_keys.c.fleet_id)
+            .order_by(api_keys.c.id)
+        )
+        if fleet is not None:
+            query = query.where(fleets.c.name == fleet)
+        with self.db.connect() as c:
+            return [
+                KeyRow(int(r.id), str(r.name), str(r.label), _utc(r.created_at)) for r in c.execute(query)
+            ]
+
+    def revoke_key(self, key_id: int) -> bool:
+        """Delete an API key: refused from the next request on. False if there is no such key.
+
+        Parameters
+        ----------
+        key_id : int
+        """
+        with self.transaction() as c:
+            return c.execute(sa.delete(api_keys).where(api_keys.c.id == key_id)).rowcount == 1
 
     def fleet_of_key(self, key: str) -> int | None:
         """The fleet a key belongs to, or None for an unknown key."""
