@@ -358,6 +358,14 @@ def create_app(settings: Settings) -> FastAPI:
     ) -> JSONResponse:
         """Upload a recording (HDF5 or MCAP) as the request body; its analysis is queued."""
         name = _filename(filename)
+        kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
+        if kind.startswith("multipart/") or kind == "application/x-www-form-urlencoded":
+            raise ApiError(
+                400,
+                "form_upload",
+                f"the file came as a form ({kind}): send it as the request body itself, e.g. "
+                "curl --data-binary @FILE -H 'Content-Type: application/octet-stream', not curl -F",
+            )
         declared = request.headers.get("content-length")
         if declared is not None and declared.isdigit() and int(declared) > settings.max_upload_bytes:
             raise ApiError(

@@ -195,6 +195,13 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
     wrong = httpx.get(f"{server.url}/recordings", headers={"X-API-Key": "not-a-key"})
     assert wrong.status_code == 401 and wrong.json()["error"]["code"] == "unknown_key"
     assert httpx.get(f"{server.url}/health").status_code == 200  # the one route without a key
+    with server.client() as client:  # a form upload (curl -F) is told how to send the file instead
+        form = client.post(
+            "/recordings", params={"filename": "a.h5"}, files={"file": ("a.h5", b"\x89HDF\r\n\x1a\n")}
+        )
+        assert form.status_code == 400 and form.json()["error"]["code"] == "form_upload"
+        assert "--data-binary" in form.json()["error"]["message"]
+        assert list((server.data / "incoming").iterdir()) == []
     with server.client() as client:  # a NUL or control character in an engine id: 422, not a store error
         for route in ("/engines/a%00b", "/engines/a%0Ab"):
             assert client.get(route).status_code == 422, route
