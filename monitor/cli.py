@@ -508,6 +508,8 @@ def _run_batch(args: argparse.Namespace) -> int:
     for path in args.baseline:
         baseline = Baseline.read(path)
         baselines[baseline.engine_id] = baseline.to_document()
+    if args.path and not Path(args.path).exists():  # refused before a store or a fleet is made for it
+        raise ModelError(f"{args.path}: no such file or folder")
     data = Path(args.data)
     if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in DATA
         data.mkdir(parents=True, exist_ok=True)

@@ -224,3 +224,38 @@ def test_keys_are_created_listed_and_revoked_in_the_store_serve_uses(
         store.close()
     assert main(["keys", "list", "--data", str(tmp_path / "nowhere")]) == 2
     assert not (tmp_path / "nowhere").exists()
+
+
+BAD_INPUTS = [
+    # a command with a bad input, the status, what the one line must say
+    (["orders", "no-such-engine", "--rpm", "100"], 2, "no such engine file"),
+    (["spectrum", "{tmp}/missing.h5"], 2, "missing.h5"),
+    (["simulate", "{tmp}/missing.toml", "-o", "{tmp}/x.h5"], 2, "missing.toml"),
+    (["compare", "{tmp}/missing.h5"], 3, "missing.h5"),
+    (["calibrate", "{tmp}/missing.h5", "-o", "{tmp}/b.json"], 2, "missing.h5"),
+    (["batch", "{tmp}/no-such-folder", "--data", "{tmp}/data"], 2, "no such file or folder"),
+    (["tdc", "{tmp}/missing.h5"], 2, "missing.h5"),
+    (["torsion", "modes", "no-such-engine"], 2, "no such engine file"),
+    (["keys", "revoke", "5", "--data", "{tmp}/no-data"], 2, "no such folder"),
+    (["worker", "--store", "sqlite:///{tmp}/no/such/dir/x.db", "--data", "{tmp}"], 2, "cannot be reached"),
+]
+
+
+@pytest.mark.parametrize(("argv", "status", "said"), BAD_INPUTS, ids=[" ".join(c[0][:2]) for c in BAD_INPUTS])
+def test_every_subcommand_answers_a_bad_input_in_one_line(
+    argv: list[str],
+    status: int,
+    said: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each subcommand given a file, engine, folder or store that is not there: one line on stderr
+    naming it, the README's status (2; 3 for compare), no traceback, and nothing made for it (no
+    data folder, no store)."""
+    monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
+    monkeypatch.chdir(tmp_path)
+    assert main([a.format(tmp=tmp_path) for a in argv]) == status
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("engine-monitor: error: ") and said in err[0], err
+    assert not (tmp_path / "data").exists() and not (tmp_path / "no-data").exists()
