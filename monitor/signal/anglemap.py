@@ -22,6 +22,7 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numba
 import numpy as np
@@ -153,22 +154,15 @@ class AngleMap:
         relative = dt / span / local
         # the intervals at one place in the cycle are averaged: one row per place
         place = np.round(np.mod(self.angles[:-1], cycle) / (1e-3 * pitch)).astype(np.int64)
-        places, which = np.unique(place, return_inverse=True)
+        _, which = np.unique(place, return_inverse=True)
         count = np.bincount(which)
         mean = np.bincount(which, relative) / count
         start = np.bincount(which, np.mod(self.angles[:-1], cycle)) / count
         width = np.bincount(which, span) / count
-        best: tuple[float, FloatArray, FloatArray] = (math.inf, np.zeros(0), np.zeros(0))
+        best: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
         for h_count in candidates:
-            w = 2 * math.pi / cycle * np.arange(1, h_count + 1)
-            a, b = start[:, None], (start + width)[:, None]
-            design = np.hstack(
-                [
-                    np.ones((places.size, 1)),
-                    (np.sin(w * b) - np.sin(w * a)) / (w * (b - a)),
-                    (np.cos(w * a) - np.cos(w * b)) / (w * (b - a)),
-                ]
-            )
+            w = np.asarray(2 * math.pi / cycle * np.arange(1, h_count + 1), dtype=np.float64)
+            design = _interval_means(start, start + width, w)
             root = np.sqrt(count)
             q, r = np.linalg.qr(design * root[:, None])
             fitted = np.linalg.solve(r, q.T @ (mean * root)) if np.all(np.abs(np.diag(r)) > 1e-12) else None
@@ -177,25 +171,14 @@ class AngleMap:
             leverage = np.minimum((q**2).sum(axis=1), 1 - 1e-9)
             residual = (design @ fitted - mean) * root / (1 - leverage)
             score = float(residual @ residual)
-            if score < best[0]:
-                best = (score, np.asarray(fitted, dtype=np.float64), np.asarray(w, dtype=np.float64))
-        _, coefficients, w = best
+            if best is None or score < best[0]:
+                best = (score, np.asarray(fitted, dtype=np.float64), w, design)
+        if best is None:
+            return self
+        _, coefficients, w, design = best
         # the shape that repeats every cycle must be most of the speed's fluctuation: where it is not (a
         # free vibration at an order that is not whole, a run-up), the spline across the gap is left
-        a, b = start[:, None], (start + width)[:, None]
-        shape = (
-            np.hstack(
-                [
-                    np.ones((places.size, 1)),
-                    (np.sin(w * b) - np.sin(w * a)) / (w * (b - a)),
-                    (np.cos(w * a) - np.cos(w * b)) / (w * (b - a)),
-                ]
-            )
-            @ coefficients
-        )
-        if np.var(relative - shape[which]) > (1 - REPEATING) * np.var(relative):
-            return self
-        if coefficients.size == 0:
+        if np.var(relative - (design @ coefficients)[which]) > (1 - REPEATING) * np.var(relative):
             return self
         h_count = w.size
 
@@ -237,11 +220,7 @@ class AngleMap:
             target = missing[alike]
             low = np.full(target.size, shape_times[g - lo])
             high = np.full(target.size, shape_times[g + 1 - lo])
-            for _ in range(60):  # bisection: the spline is monotone across a gap
-                middle = 0.5 * (low + high)
-                ahead = spline(middle) >= target
-                high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
-            error = elapsed(target) - 0.5 * (low + high)
+            error = elapsed(target) - _crossing(spline, target, low, high)
             correction[np.flatnonzero(gap_place == where)] = np.resize(error, chosen.size)
         filled = crossing + local[inside] * correction
         # each gap's points in order inside it, and not where the spline ends (there it is not the one
@@ -273,12 +252,7 @@ class AngleMap:
             hi = min(n, (int(w) + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
             spline = make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
             g = np.asarray(gaps, dtype=np.int64)[chosen]
-            low, high, target = self.times[g], self.times[g + 1], targets[chosen]
-            for _ in range(60):
-                middle = 0.5 * (low + high)
-                ahead = spline(middle) >= target
-                high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
-            out[chosen] = 0.5 * (low + high)
+            out[chosen] = _crossing(spline, targets[chosen], self.times[g], self.times[g + 1])
         return out
 
     def shifted(self, angle: float) -> AngleMap:
@@ -455,6 +429,28 @@ def cycle_phase_from_pressure(
         "cycle phase: the pressure around TDC does not separate the firing revolution from the other "
         "(no firing, or a misfiring cylinder 1); give the phase explicitly or use a cam channel"
     )
+
+
+def _interval_means(start: FloatArray, end: FloatArray, w: FloatArray) -> FloatArray:
+    """Each interval ``[start, end]``'s mean of 1, cos(w x) and sin(w x), shape (intervals, 1 + 2 w.size)."""
+    a, b = start[:, None], end[:, None]
+    return np.hstack(
+        [
+            np.ones((start.size, 1)),
+            (np.sin(w * b) - np.sin(w * a)) / (w * (b - a)),
+            (np.cos(w * a) - np.cos(w * b)) / (w * (b - a)),
+        ]
+    )
+
+
+def _crossing(spline: Any, target: FloatArray, low: FloatArray, high: FloatArray) -> FloatArray:
+    """Where a spline increasing over ``[low, high]`` reaches ``target``, by bisection to round-off."""
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        ahead = spline(middle) >= target
+        high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
+    return np.asarray(0.5 * (low + high))
 
 
 def cycle_phase_from_cam(angle_map: AngleMap, cam_times: npt.ArrayLike, *, cam_angle: float) -> float:
