@@ -166,7 +166,8 @@ def _hostile_copies(folder: Path) -> dict[str, Path]:
     zero = folder / "zero-rate.h5"
     shutil.copy(SAMPLE, zero)
     with h5py.File(zero, "r+") as f:
-        name = next(n for n, ds in f["channels"].items() if ds.attrs["representation"] == "waveform")
+        # text attributes are fixed-length strings (kept in the checksummed header): bytes to h5py
+        name = next(n for n, ds in f["channels"].items() if ds.attrs["representation"] == b"waveform")
         f["channels"][name].attrs["sample_rate_hz"] = 0.0
     out["a waveform at 0 Hz"] = zero
     loop = folder / "link-loop.h5"

@@ -39,6 +39,32 @@ FORMAT_NAME = "engine-monitor recording"
 FORMAT_VERSION = 1
 
 
+#: The root attributes of the format (recordings/FORMAT.md).
+ROOT_ATTRIBUTES = frozenset(
+    {"format", "format_version", "engine_id", "start_time", "notes", "cycle_phase_deg", "truth"}
+)
+#: The attributes every channel may have, whatever its kind (NI's export names included).
+CHANNEL_ATTRIBUTES = frozenset(
+    {
+        "kind", "unit", "representation", "sample_rate_hz", "start_offset_s", "duration_s",
+        "location", "direction", "range_min", "range_max", "unit_string", "wf_increment", "wf_start_offset",
+    }
+)  # fmt: skip
+#: Attribute names left to others: the user's own (``x_``) and the rest of NI's exports (``wf_``, ``NI_``).
+FREE_PREFIXES = ("x_", "wf_", "NI_")
+
+
+def _unknown_attributes(where: str, names: Any, allowed: frozenset[str] | set[str]) -> None:
+    """Refuse an attribute the format does not have: a misspelt (or damaged) name would otherwise
+    be ignored and its value silently lost, e.g. a channel's location."""
+    for name in names:
+        if name not in allowed and not name.startswith(FREE_PREFIXES):
+            raise FormatError(
+                f"{where}: unknown attribute {name!r}; expected one of {', '.join(sorted(allowed))} "
+                f"(or a name starting with {', '.join(FREE_PREFIXES)})"
+            )
+
+
 def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
@@ -63,14 +89,15 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(handle)
     try:
-        with h5py.File(temporary, "w") as f:
-            f.attrs["format"] = FORMAT_NAME
+        # HDF5 1.10 object headers carry checksums: a damaged attribute is refused, not misread
+        with h5py.File(temporary, "w", libver=("v110", "latest")) as f:
+            _put_text(f, "format", FORMAT_NAME)
             f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["engine_id"] = recording.engine_id
-            f.attrs["start_time"] = recording.start_time
-            f.attrs["notes"] = recording.notes
+            _put_text(f, "engine_id", recording.engine_id)
+            _put_text(f, "start_time", recording.start_time)
+            _put_text(f, "notes", recording.notes)
             if recording.truth:
-                f.attrs["truth"] = recording.truth
+                _put_text(f, "truth", recording.truth)
             if recording.cycle_phase_deg is not None:
                 f.attrs["cycle_phase_deg"] = float(recording.cycle_phase_deg)
             group = f.create_group("channels", track_order=True)
@@ -85,17 +112,20 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
                     chunks=(chunk,) if c.data.size else None,
                     fletcher32=bool(c.data.size),
                 )
-                ds.attrs["kind"] = c.kind
-                ds.attrs["unit"] = c.unit
-                ds.attrs["representation"] = "events" if c.is_events else "waveform"
+                _put_text(ds, "kind", c.kind)
+                _put_text(ds, "unit", c.unit)
+                _put_text(ds, "representation", "events" if c.is_events else "waveform")
                 if not c.is_events:
                     ds.attrs["sample_rate_hz"] = float(c.sample_rate)  # type: ignore[arg-type]
                     ds.attrs["duration_s"] = c.duration
                 ds.attrs["start_offset_s"] = c.start_offset
-                ds.attrs["location"] = c.location
-                ds.attrs["direction"] = c.direction
+                _put_text(ds, "location", c.location)
+                _put_text(ds, "direction", c.direction)
                 for key, value in c.fields.items():
-                    ds.attrs[key] = value
+                    if isinstance(value, str):
+                        _put_text(ds, key, value)
+                    else:
+                        ds.attrs[key] = value
                 if c.range is not None:
                     ds.attrs["range_min"], ds.attrs["range_max"] = c.range
         with open(temporary, "rb") as fh:
@@ -106,6 +136,13 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
             os.unlink(temporary)
         raise
     return target
+
+
+def _put_text(owner: h5py.HLObject, name: str, value: str) -> None:
+    """A text attribute as a fixed-length UTF-8 string, kept in the object's checksummed header
+    (h5py's default, a variable-length string, lives in the global heap, which has no checksum)."""
+    encoded = value.encode("utf-8")
+    owner.attrs.create(name, np.bytes_(encoded), dtype=h5py.string_dtype("utf-8", max(1, len(encoded))))
 
 
 def read_hdf5(path: str | Path) -> Recording:
@@ -199,6 +236,7 @@ def _recording(f: h5py.File, source: Path, *, lazy: bool) -> Recording:
     for name in ("engine_id", "start_time"):
         if name not in f.attrs:
             raise FormatError(f"{source}: missing root attribute {name!r}")
+    _unknown_attributes(f"{source}: root", f.attrs.keys(), ROOT_ATTRIBUTES)
     _refuse_links(f, source)
     if "channels" not in f or not isinstance(f["channels"], h5py.Group):
         raise FormatError(f"{source}: missing the group 'channels'")
@@ -294,6 +332,7 @@ def _read_channel(group: h5py.Group, name: str, source: Path, *, lazy: bool) -> 
     kind = _text(a.get("kind", ""))
     if not kind:
         raise FormatError(f"{where}: missing attribute 'kind'")
+    _unknown_attributes(where, a.keys(), CHANNEL_ATTRIBUTES | set(KIND_FIELDS.get(kind, {})))
     unit = _text(a["unit"]) if "unit" in a else _text(a.get("unit_string", ""))
     if not unit:
         raise FormatError(f"{where}: missing attribute 'unit' (or NI 'unit_string')")

@@ -32,11 +32,13 @@ from __future__ import annotations
 
 import calendar
 import contextlib
+import json
 import math
 import os
 import struct
 import tempfile
 import threading
+import zlib
 from collections import defaultdict
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -73,6 +75,7 @@ __all__ = [
     "encode_event_block",
     "encode_sample_block",
     "list_mcap",
+    "metadata_crc32",
     "open_mcap",
     "read_mcap",
     "schema_descriptor_set",
@@ -337,9 +340,8 @@ def write_mcap(
                 name: writer.register_schema(name=name, encoding="protobuf", data=descriptor)
                 for name in (SAMPLE_SCHEMA, EVENT_SCHEMA)
             }
-            writer.add_metadata(
-                "recording",
-                {
+            metadata = {
+                "recording": {
                     "format": FORMAT_NAME,
                     "format_version": str(FORMAT_VERSION),
                     "engine_id": recording.engine_id,
@@ -352,16 +354,18 @@ def write_mcap(
                         else {}
                     ),
                 },
-            )
-            if recording.truth:
-                writer.add_metadata("truth", {"json": recording.truth})
+                **({"truth": {"json": recording.truth}} if recording.truth else {}),
+            }
+            for name, entries in metadata.items():
+                writer.add_metadata(name, entries)
+            checksum = {METADATA_CRC: str(metadata_crc32(metadata))}
             blocks = []
             for order, c in enumerate(recording.channels):
                 channel_id = writer.register_channel(
                     topic=f"/{c.name}",
                     message_encoding="protobuf",
                     schema_id=schemas[EVENT_SCHEMA if c.is_events else SAMPLE_SCHEMA],
-                    metadata=_channel_metadata(c),
+                    metadata={**_channel_metadata(c), **checksum},
                 )
                 blocks.extend(_blocks(c, channel_id, order, block_seconds, start_ns))
             # one channel per chunk, a window of about chunk_size bytes of it: a reader of one topic
@@ -394,6 +398,90 @@ def write_mcap(
             os.unlink(temporary)
         raise
     return target
+
+
+#: The channel metadata entry holding :func:`metadata_crc32` of the file's metadata records.
+METADATA_CRC = "metadata_crc32"
+#: The metadata records :data:`METADATA_CRC` covers.
+CHECKED_METADATA = ("recording", "truth")
+
+
+def metadata_crc32(metadata: dict[str, dict[str, str]]) -> int:
+    """CRC-32 of the file's ``recording`` and ``truth`` metadata records, as each channel states it.
+
+    MCAP's metadata records lie outside the chunks, covered only by the data
+    section's CRC, which a file cut short loses and most writers leave at
+    zero; the channel records lie inside the checksummed chunks and in the
+    checksummed summary. So every channel carries this CRC of the metadata
+    (their entries as JSON, keys sorted, compact, UTF-8), and a reader refuses
+    a file whose metadata does not match it.
+
+    Parameters
+    ----------
+    metadata : dict of str to dict of str to str
+        Metadata records by name; those other than :data:`CHECKED_METADATA` are left out.
+
+    Returns
+    -------
+    int
+    """
+    covered = {name: dict(entries) for name, entries in metadata.items() if name in CHECKED_METADATA}
+    text = json.dumps(covered, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return zlib.crc32(text.encode("utf-8"))
+
+
+def _check_metadata_crc(
+    source: Path, channels: list[McapChannel], metadata: dict[str, dict[str, str]]
+) -> None:
+    """Refuse a file whose metadata records do not match the CRC its (checksummed) channels state."""
+    actual = metadata_crc32(metadata)
+    for channel in channels:
+        where = f"{source}: channel {channel.topic.lstrip('/')!r}"
+        stated = channel.metadata.get(METADATA_CRC)
+        if stated is None:
+            raise FormatError(
+                f"{where}: no {METADATA_CRC!r} in its channel metadata, so the recording's metadata "
+                "cannot be checked (a file written before the format required it: write it again)"
+            )
+        if stated != str(actual):
+            raise FormatError(
+                f"{source}: checksum failure: the metadata records' CRC is {actual}, but the channels "
+                f"state {stated}; the 'recording' or 'truth' metadata is damaged"
+            )
+
+
+_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
+
+
+def _summary_checked(fh: IO[bytes], source: Path) -> bool:
+    """Whether the file's summary is there and its CRC matches; a mismatch is refused.
+
+    False for a file without a summary or whose writer left the summary CRC at
+    zero: its metadata cannot be trusted from the summary, and it is read by streaming.
+    """
+    size = os.fstat(fh.fileno()).st_size
+    end = size - len(MCAP_MAGIC)
+    if end - _FOOTER.size < len(MCAP_MAGIC):
+        return False
+    fh.seek(end - _FOOTER.size)
+    opcode, length, start, _, stated = _FOOTER.unpack(fh.read(_FOOTER.size))
+    fh.seek(0)
+    if opcode != Opcode.FOOTER or length != _FOOTER.size - 9 or start == 0 or stated == 0:
+        return False
+    if not len(MCAP_MAGIC) <= start < end - _FOOTER.size:
+        raise FormatError(
+            f"{source}: damaged MCAP file: the footer puts the summary at byte {start}, "
+            f"outside the file's {size} bytes"
+        )
+    fh.seek(start)
+    actual = zlib.crc32(fh.read(end - 4 - start))
+    fh.seek(0)
+    if actual != stated:
+        raise FormatError(
+            f"{source}: checksum failure: the summary's CRC is {actual:#010x}, the footer states "
+            f"{stated:#010x}; the summary (channel metadata, index) is damaged"
+        )
+    return True
 
 
 def _start_ns(start_time: str) -> int:
@@ -520,9 +608,17 @@ def _bounded(fh: IO[bytes]) -> IO[bytes]:
     return cast(IO[bytes], _WholeReads(fh, os.fstat(fh.fileno()).st_size))
 
 
-def _records(path: Path) -> Iterator[Any]:
+@dataclass(frozen=True)
+class _Chunked:
+    """A channel record read from inside a chunk (so covered by the chunk's CRC)."""
+
+    channel: McapChannel
+
+
+def _records(path: Path, *, mark_chunked: bool = False) -> Iterator[Any]:
     """Records of an MCAP file, CRCs checked; a file cut short stops at its last whole record (that is,
-    after its last whole chunk) and then yields None."""
+    after its last whole chunk) and then yields None. With ``mark_chunked``, a channel record from
+    inside a chunk comes as a :class:`_Chunked`."""
     if file_signature(path) != MCAP_MAGIC:
         raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
     try:
@@ -531,7 +627,10 @@ def _records(path: Path) -> Iterator[Any]:
             try:
                 for record in reader.records:
                     if isinstance(record, Chunk):
-                        yield from _chunk_records(record)
+                        for inner in _chunk_records(record):
+                            yield (
+                                _Chunked(inner) if mark_chunked and isinstance(inner, McapChannel) else inner
+                            )
                     else:
                         yield record
             except _CutShort:
@@ -622,26 +721,32 @@ def read_mcap(path: str | Path) -> Recording:
     recording_meta: dict[str, str] | None = None
     truth = ""
     truncated = False
-    for record in _records(source):
+    metadata: dict[str, dict[str, str]] = {}
+    unchunked: dict[int, McapChannel] = {}
+    for record in _records(source, mark_chunked=True):
         if record is None:
             truncated = True
         elif isinstance(record, Schema):
             schemas[record.id] = record.name
-        elif isinstance(record, McapChannel):
-            if schemas.get(record.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):  # refused at once
+        elif isinstance(record, _Chunked) or isinstance(record, McapChannel):
+            channel = record.channel if isinstance(record, _Chunked) else record
+            if schemas.get(channel.schema_id) not in (SAMPLE_SCHEMA, EVENT_SCHEMA):  # refused at once
                 raise FormatError(
-                    f"{source}: {'' if recording_meta else f'not an {FORMAT_NAME}: '}topic {record.topic!r} "
-                    f"has schema {schemas.get(record.schema_id)!r}, not one of this format's"
+                    f"{source}: {'' if recording_meta else f'not an {FORMAT_NAME}: '}topic {channel.topic!r} "
+                    f"has schema {schemas.get(channel.schema_id)!r}, not one of this format's"
                 )
-            channels[record.id] = record
-        elif isinstance(record, Metadata) and record.name == "recording":
-            recording_meta = dict(record.metadata)
-        elif isinstance(record, Metadata) and record.name == "truth":
-            truth = dict(record.metadata).get("json", "")
+            # the copy inside a chunk is checksummed; one outside (the summary's) is not used
+            (channels if isinstance(record, _Chunked) else unchunked)[channel.id] = channel
+        elif isinstance(record, Metadata):
+            metadata[record.name] = dict(record.metadata)
+            if record.name == "recording":
+                recording_meta = metadata["recording"]
+            elif record.name == "truth":
+                truth = metadata["truth"].get("json", "")
         elif isinstance(record, Message):
-            channel = channels.get(record.channel_id)
-            if channel is not None:
-                start, _, values = _decoded(f"{source}: channel {channel.topic.lstrip('/')!r}", record.data)
+            owner = channels.get(record.channel_id)
+            if owner is not None:
+                start, _, values = _decoded(f"{source}: channel {owner.topic.lstrip('/')!r}", record.data)
                 blocks[record.channel_id].append((start, values))
     if recording_meta is None and truncated:
         raise FormatError(
@@ -650,6 +755,13 @@ def read_mcap(path: str | Path) -> Recording:
         )
     _check_recording_metadata(source, recording_meta)
     assert recording_meta is not None
+    for channel_id, channel in unchunked.items():
+        if channel_id not in channels:
+            raise FormatError(
+                f"{source}: channel {channel.topic.lstrip('/')!r} has its record outside any chunk, where "
+                "no CRC covers its metadata; this format keeps channel records in the chunks"
+            )
+    _check_metadata_crc(source, list(channels.values()), metadata)
     result = []
     for channel_id, channel in channels.items():
         result.append((channel, _assemble(source, channel, blocks.get(channel_id, []), truncated)))
@@ -852,19 +964,22 @@ def open_mcap(path: str | Path) -> Iterator[Recording]:
     source = Path(path)
     if file_signature(source) != MCAP_MAGIC:
         raise FormatError(f"{source}: not an MCAP file (no MCAP magic at its start)")
-    with open(source, "rb") as fh:
-        try:
-            reader = make_reader(_bounded(fh), validate_crcs=True)
-            summary = reader.get_summary()
-            metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
-            recording_meta = metadata.get("recording")
-        except Exception:  # no usable summary (unindexed, cut short): stream the whole file instead
-            summary = None
+    summary = None
+    with open(source, "rb") as fh, _damage_named(str(source)):
+        if _summary_checked(fh, source):
+            try:
+                reader = make_reader(_bounded(fh), validate_crcs=True)
+                summary = reader.get_summary()
+                metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+                recording_meta = metadata.get("recording")
+            except Exception:  # no usable summary (unindexed, cut short): stream the whole file instead
+                summary = None
     if summary is None or not summary.chunk_indexes:
         yield read_mcap(source)
         return
     _check_recording_metadata(source, recording_meta)
     assert recording_meta is not None
+    _check_metadata_crc(source, list(summary.channels.values()), metadata)
     opened: list[McapSamples] = []
     try:
         channels = []
