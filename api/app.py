@@ -64,6 +64,9 @@ class Settings:
         Analysis processes in this server (0: none; a separate worker runs them).
     lease_s : float
         A running analysis whose worker has been silent this long is taken back [s].
+    retry_backoff_s : float
+        Wait before an analysis that failed for a passing reason is tried again, doubled after each
+        attempt [s].
     """
 
     store_url: str
@@ -73,6 +76,7 @@ class Settings:
     validation_timeout_s: float = 120.0
     workers: int = 1
     lease_s: float = 30.0
+    retry_backoff_s: float = 10.0
 
 
 class ApiError(Exception):
@@ -109,6 +113,9 @@ class RecordingOut(BaseModel):
     status: str = Field(description="the analysis: queued, running, done, failed (retried), set_aside")
     attempts: int
     error: str
+    retry_after: datetime | None = Field(
+        default=None, description="queued again after a passing failure: not tried before this time"
+    )
     diagnosis_status: str = Field(description="healthy, warning or alarm once done; empty before")
 
 
@@ -213,7 +220,13 @@ def create_app(settings: Settings) -> FastAPI:
         state["store"] = store
         app.state.store = store
         worker = (
-            Worker(store, settings.data_dir, settings.workers, lease=timedelta(seconds=settings.lease_s))
+            Worker(
+                store,
+                settings.data_dir,
+                settings.workers,
+                lease=timedelta(seconds=settings.lease_s),
+                backoff=timedelta(seconds=settings.retry_backoff_s),
+            )
             if settings.workers > 0
             else None
         )
@@ -287,6 +300,7 @@ def create_app(settings: Settings) -> FastAPI:
             "status": job.state if job is not None else "none",
             "attempts": job.attempts if job is not None else 0,
             "error": job.error if job is not None else "",
+            "retry_after": job.not_before if job is not None and job.state == "queued" else None,
             "diagnosis_status": status,
         }
 

@@ -11,7 +11,8 @@ with the job's completion in one transaction, once. A job that fails records
 why. A failure of the input itself (a :class:`~monitor.errors.MonitorError`:
 a file the reader refuses, an engine nobody described, a recording the
 diagnosis cannot use) is permanent and set aside at once, the reason in its
-status; any other (a process killed, a disk full) is retried, then set aside
+status; any other (a process killed, a disk full) is retried after a backoff
+that doubles with each attempt, then set aside
 (:data:`monitor.store.MAX_ATTEMPTS`). Every change of a job's state is one
 log line of ``key=value`` fields.
 """
@@ -29,7 +30,8 @@ from pathlib import Path
 from monitor.batch import diagnose_file, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
-from monitor.store import Job, Store, StoreError
+from monitor.processes import analysis_pool
+from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
 
 __all__ = ["HEARTBEAT", "LEASE", "Worker", "plot_path"]
 
@@ -51,11 +53,22 @@ class Worker:
     processes : int, optional
     lease : timedelta, optional
         A running job untouched this long has lost its worker (touched three times as often).
+    backoff : timedelta, optional
+        Wait before a job that failed for a passing reason is tried again, doubled after each attempt.
     """
 
-    def __init__(self, store: Store, data_dir: Path, processes: int = 1, *, lease: timedelta = LEASE) -> None:
+    def __init__(
+        self,
+        store: Store,
+        data_dir: Path,
+        processes: int = 1,
+        *,
+        lease: timedelta = LEASE,
+        backoff: timedelta = RETRY_BACKOFF,
+    ) -> None:
         self.store = store
         self.lease = lease
+        self.backoff = backoff
         self.heartbeat = min(HEARTBEAT, lease.total_seconds() / 3)
         self.data_dir = data_dir
         self.processes = max(1, processes)
@@ -112,7 +125,7 @@ class Worker:
             if self._pool is None or getattr(self._pool, "_broken", False):
                 if self._pool is not None:
                     self._pool.shutdown(wait=False, cancel_futures=True)
-                self._pool = ProcessPoolExecutor(max_workers=self.processes)
+                self._pool = analysis_pool(self.processes)
             return self._pool
 
     def _run(self, job: Job) -> None:
@@ -146,7 +159,7 @@ class Worker:
             return
 
     def _failed(self, job: Job, reason: str, *, permanent: bool) -> None:
-        state = self.store.fail(job, reason, permanent=permanent)
+        state = self.store.fail(job, reason, permanent=permanent, backoff=self.backoff)
         _log_state(job, state, reason=reason, kind="permanent" if permanent else "transient")
 
 

@@ -30,9 +30,10 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
@@ -40,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from monitor.errors import MonitorError
+from monitor.processes import analysis_pool
 from monitor.store import Job, Store
 
 __all__ = [
@@ -223,7 +225,14 @@ class BatchSummary:
     failed : list of (str, str, str)
         Jobs that failed: file, reason, new state ("queued" to retry, "set_aside").
     requeued : int
-        Jobs an earlier, interrupted run had left running.
+        Jobs an earlier, interrupted run had left running, taken back and run by this one.
+    held : int
+        Jobs another run (a batch, a worker) was running when this one started; this run waited for
+        them: they finished there (``finished_elsewhere``), or that run died and they were taken back.
+    finished_elsewhere : int
+        Of the held jobs, those the other run finished (done, or set aside).
+    waited_s : float
+        How long this run waited for held jobs after its own [s].
     by_engine : dict of str to Counter
         Per engine, the statuses of the diagnoses of this run.
     findings : dict of str to list of str
@@ -237,6 +246,9 @@ class BatchSummary:
     diagnosed: int = 0
     failed: list[tuple[str, str, str]] = field(default_factory=list)
     requeued: int = 0
+    held: int = 0
+    finished_elsewhere: int = 0
+    waited_s: float = 0.0
     by_engine: dict[str, Counter[str]] = field(default_factory=lambda: defaultdict(Counter))
     findings: dict[str, list[str]] = field(default_factory=lambda: defaultdict(list))
 
@@ -248,6 +260,12 @@ class BatchSummary:
             + (f", {len(self.unreadable)} unreadable" if self.unreadable else "")
             + (f", {self.requeued} resumed from an interrupted run" if self.requeued else "")
         ]
+        if self.held:
+            lines.append(
+                f"  {self.held} job(s) were running in another process when this run started: "
+                f"{self.finished_elsewhere} finished there, {self.held - self.finished_elsewhere} taken "
+                f"back and run here (waited {self.waited_s:.0f} s)"
+            )
         for engine_id in sorted(self.by_engine):
             counts = self.by_engine[engine_id]
             kinds = ("healthy", "warning", "alarm", "inconclusive")
@@ -344,26 +362,86 @@ def run_batch(
         while page := store.recordings(fleet_id, since=since, offset=offset, limit=500):
             scope += [r.id for r in page]
             offset += len(page)
-    # jobs of a batch or worker that died (silent for the lease) are taken back; live ones are left
+    # jobs of a batch or worker that died (a process of this host that is gone, or silent for the
+    # lease) are taken back at once; those of a live one are waited for, after this run's own
     summary.requeued = store.requeue_stale(ANALYSIS_VERSION, lease, recording_ids=scope)
     pending: list[Job] = []
+    held: list[int] = []
     for recording_id in scope:
         job = store.enqueue(recording_id, ANALYSIS_VERSION)
         if job.state == "queued":
             pending.append(job)
-    total = len(pending)
+        elif job.state == "running":
+            held.append(recording_id)
+    summary.held = len(held)
+    context = _Run(store, fleet_id, baselines or {}, data_dir, lease, summary, progress)
+    total = len(pending) + len(held)
     if total == 0:
         return summary
-    engines: dict[str, dict[str, Any] | None] = {}
     with _executor(scheduler, workers, total) as (pool, count):
+        held += context.run(pool, count, pending, total)
+        started = time.monotonic()
+        while held:  # another run holds them: it finishes them, or they are taken back after its lease
+            time.sleep(context.beat)
+            summary.requeued += store.requeue_stale(ANALYSIS_VERSION, lease, recording_ids=held)
+            again: list[Job] = []
+            still: list[int] = []
+            for recording_id in held:
+                now = store.job(recording_id, ANALYSIS_VERSION)
+                if now is not None and now.state == "queued":
+                    again.append(now)
+                elif now is not None and now.state == "running":
+                    still.append(recording_id)
+                else:  # done or set aside by the run that held it
+                    summary.finished_elsewhere += 1
+                    context.count_done(total)
+            held = still + context.run(pool, count, again, total)
+            summary.waited_s = time.monotonic() - started
+    return summary
+
+
+@dataclass
+class _Run:
+    """What one batch run's jobs share: where they come from, where they go, how they are counted."""
+
+    store: Store
+    fleet_id: int
+    baselines: dict[str, dict[str, Any]]
+    data_dir: Path | None
+    lease: timedelta
+    summary: BatchSummary
+    progress: Callable[[int, int], None] | None
+    engines: dict[str, dict[str, Any] | None] = field(default_factory=dict)
+    done: int = 0
+
+    def count_done(self, total: int) -> None:
+        """One more job of this run's is over; tell the progress display."""
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, total)
+
+    @property
+    def beat(self) -> float:
+        """Seconds between the touches of this run's jobs (three per lease)."""
+        return self.lease.total_seconds() / 3
+
+    def run(self, pool: Executor, count: int, pending: list[Job], total: int) -> list[int]:
+        """Run the jobs, ``2 * count`` in flight at a time, touching them, recording each outcome.
+
+        Returns the recordings whose job another run took first (to be waited for).
+        """
+        store, summary, fleet_id, engines = self.store, self.summary, self.fleet_id, self.engines
+        data_dir = self.data_dir
         running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
         queue = list(pending)
+        taken: list[int] = []
 
         def submit() -> None:
             while queue and len(running) < 2 * count:
                 job = queue.pop(0)
                 claimed = store.claim_job(job.id)
                 if claimed is None:  # another worker took it, or it is no longer queued
+                    taken.append(job.recording_id)
                     continue
                 row = store.recording(fleet_id, claimed.recording_id)
                 assert row is not None
@@ -374,7 +452,7 @@ def run_batch(
                     diagnose_file,
                     row.path,
                     engines[row.engine_id],
-                    (baselines or {}).get(row.engine_id),
+                    self.baselines.get(row.engine_id),
                     plot,
                     row.filename,
                 )
@@ -383,10 +461,8 @@ def run_batch(
         if data_dir is not None:
             (data_dir / "plots").mkdir(parents=True, exist_ok=True)
         submit()
-        done_count = 0
-        beat = lease.total_seconds() / 3
         while running:
-            finished, _ = wait(list(running), timeout=beat, return_when=FIRST_COMPLETED)
+            finished, _ = wait(list(running), timeout=self.beat, return_when=FIRST_COMPLETED)
             for job, _, _ in running.values():  # the heartbeat of the jobs this batch runs
                 store.touch(job)
             for future in finished:
@@ -402,11 +478,9 @@ def run_batch(
                     summary.diagnosed += 1
                     summary.by_engine[engine_id][status] += 1
                     summary.findings[engine_id] += [f"{name}: {f['summary']}" for f in document["findings"]]
-                done_count += 1
-                if progress is not None:
-                    progress(done_count, total)
+                self.count_done(total)
             submit()
-    return summary
+        return taken
 
 
 @contextmanager
@@ -414,7 +488,7 @@ def _executor(scheduler: str | None, workers: int | None, total: int) -> Iterato
     """A local process pool, or a Dask cluster's executor; with how many jobs to keep in flight each."""
     if scheduler is None:
         count = workers or os.cpu_count() or 1
-        with ProcessPoolExecutor(max_workers=max(1, min(count, total))) as pool:
+        with analysis_pool(min(count, total)) as pool:
             yield pool, count
         return
     try:

@@ -305,6 +305,14 @@ def _build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="seconds after which a running analysis whose worker went silent is taken back (default 30)",
     )
+    serve.add_argument(
+        "--retry-backoff",
+        type=_positive_float,
+        default=10.0,
+        metavar="S",
+        help="seconds before an analysis that failed for a passing reason is tried again, "
+        "doubled after each attempt (default 10)",
+    )
 
     work = sub.add_parser(
         "worker",
@@ -321,6 +329,9 @@ def _build_parser() -> argparse.ArgumentParser:
     work.add_argument("--processes", type=int, default=1, help="analyses at a time (default 1)")
     work.add_argument(
         "--lease", type=_positive_float, default=30.0, metavar="S", help="as for serve (default 30)"
+    )
+    work.add_argument(
+        "--retry-backoff", type=_positive_float, default=10.0, metavar="S", help="as for serve (default 10)"
     )
 
     keys = sub.add_parser("keys", help="the HTTP service's API keys: create, list, revoke")
@@ -560,6 +571,7 @@ def _run_serve(args: argparse.Namespace) -> int:
         max_upload_bytes=int(args.max_upload_mb * 1e6),
         workers=max(0, args.workers),
         lease_s=args.lease,
+        retry_backoff_s=args.retry_backoff,
     )
     _check_listening(args.host, args.port)
     try:
@@ -602,7 +614,13 @@ def _run_worker(args: argparse.Namespace) -> int:
     data = Path(args.data)
     data.mkdir(parents=True, exist_ok=True)
     store = open_store(_service_store_url(args.store, args.data))
-    worker = Worker(store, data.resolve(), max(1, args.processes), lease=timedelta(seconds=args.lease))
+    worker = Worker(
+        store,
+        data.resolve(),
+        max(1, args.processes),
+        lease=timedelta(seconds=args.lease),
+        backoff=timedelta(seconds=args.retry_backoff),
+    )
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     worker.start()

@@ -13,8 +13,9 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
+import sqlalchemy as sa
 
-from monitor.batch import content_hash, run_batch
+from monitor.batch import content_hash, register, run_batch
 from monitor.cli import main
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.io.hdf5 import read_hdf5, write_hdf5
@@ -108,8 +109,9 @@ def test_a_batch_over_the_stores_recordings_since_a_date(tmp_path: Path) -> None
 
 def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> None:
     """Six recordings, one worker: the batch process (and its worker) is killed once the first
-    results are stored. The next run takes back the killed batch's job once it has been silent for
-    the lease (1 s here), finishes the others, and each recording has its two results once."""
+    results are stored. The next run, started at once, takes back the killed batch's jobs at once
+    (their holder, a process of this host, is gone: no waiting for the lease, an hour here),
+    finishes the others, and each recording has its two results once."""
     folder = tmp_path / "recordings"
     folder.mkdir()
     scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 3.0})
@@ -150,14 +152,43 @@ def test_a_batch_killed_midway_resumes_without_duplicates(tmp_path: Path) -> Non
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     assert 2 <= results < 12, "the batch should have been killed part way"
-    time.sleep(1.5)
     store = open_store(url)
     try:
         fleet = store.fleet_id("local")
-        summary = run_batch(store, fleet, path=folder, workers=2, lease=timedelta(seconds=1))
-        assert 1 <= summary.requeued <= 2  # it keeps two jobs per worker claimed
+        started = time.monotonic()
+        summary = run_batch(store, fleet, path=folder, workers=2, lease=timedelta(hours=1))
+        assert time.monotonic() - started < 120  # it did not wait for the lease (an hour)
+        assert 1 <= summary.requeued <= 2 and summary.held == 0  # it keeps two jobs per worker claimed
         assert summary.diagnosed == 6 - results // 2
         assert store.count("results") == 12 and store.count("jobs") == 6
+    finally:
+        store.close()
+
+
+def test_a_batch_waits_for_the_jobs_another_run_holds_and_reports_them(tmp_path: Path) -> None:
+    """Issue 14: a batch rerun while another run's jobs were running reported them as nothing, exit 0.
+    Now it runs its own jobs, then waits: a held job whose holder (another host here) goes silent
+    is taken back after the lease (1 s) and run; the summary says so."""
+    from monitor.store.schema import jobs
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    for name in ("7k98mc-baseline.h5", "6l32-misfire-cyl3.h5"):
+        shutil.copy(SAMPLES / name, folder / name)
+    store = open_store(f"sqlite:///{tmp_path / 's.db'}")
+    try:
+        fleet = store.create_fleet("ships")
+        held_id, _ = register(store, fleet, folder / "6l32-misfire-cyl3.h5")
+        job = store.claim_job(store.enqueue(held_id, ANALYSIS_VERSION).id)
+        assert job is not None
+        with store.transaction() as c:  # a live run on another host holds it, then falls silent
+            c.execute(sa.update(jobs).where(jobs.c.id == job.id).values(holder="another-host:7:1"))
+        summary = run_batch(store, fleet, path=folder, workers=1, lease=timedelta(seconds=1))
+        assert (summary.diagnosed, summary.held, summary.finished_elsewhere, summary.requeued) == (2, 1, 0, 1)
+        assert summary.waited_s >= 0.3
+        assert "1 job(s) were running in another process when this run started" in summary.text()
+        assert store.job(held_id, ANALYSIS_VERSION).state == "done"  # type: ignore[union-attr]
+        assert store.count("results") == 4
     finally:
         store.close()
 

@@ -50,7 +50,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     again = open_store(url)
     try:
         with again.db.connect() as c:
-            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0002"
+            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0003"
     finally:
         again.close()
 
@@ -154,11 +154,75 @@ def test_a_failing_job_is_retried_then_set_aside(store: Store) -> None:
     for _ in range(MAX_ATTEMPTS):
         job = store.claim("1")
         assert job is not None
-        states.append(store.fail(job, "RuntimeError: boom"))
+        states.append(store.fail(job, "RuntimeError: boom", backoff=timedelta(0)))
     assert states == ["queued"] * (MAX_ATTEMPTS - 1) + ["set_aside"]
     final = store.job(recording, "1")
     assert final is not None and final.error == "RuntimeError: boom" and final.attempts == MAX_ATTEMPTS
     assert store.claim("1") is None
+
+
+def test_a_passing_failure_waits_a_backoff_that_doubles(store: Store) -> None:
+    """A transient failure queues the job again, not to be claimed before its backoff (doubled for
+    each attempt after the first); a batch that names the job takes it all the same."""
+    fleet = store.create_fleet("a")
+    recording = _recording(store, fleet)
+    store.enqueue(recording, "1")
+    backoff = timedelta(seconds=0.5)
+    waits = []
+    for attempt in (1, 2):
+        job = store.claim("1")
+        assert job is not None and job.attempts == attempt
+        before = datetime.now(UTC)
+        assert store.fail(job, "OSError: disk full", backoff=backoff) == "queued"
+        queued = store.job(recording, "1")
+        assert queued is not None and queued.not_before is not None
+        waits.append((queued.not_before - before).total_seconds())
+        assert store.claim("1") is None  # not due yet
+        time.sleep(max(0.0, (queued.not_before - datetime.now(UTC)).total_seconds()) + 0.05)
+    # the clock between the fail and the reading above is all that separates them from 0.5 s and 1 s
+    assert waits[0] == pytest.approx(0.5, abs=0.2) and waits[1] == pytest.approx(1.0, abs=0.2)
+    job = store.claim("1")
+    assert job is not None and job.not_before is None and job.attempts == 3
+    store.fail(job, "OSError: disk full", backoff=timedelta(hours=1))  # the last attempt: set aside
+    assert store.job(recording, "1").state == "set_aside"  # type: ignore[union-attr]
+    other = _recording(store, fleet, "c" * 64)
+    waiting = store.enqueue(other, "1")
+    taken = store.claim_job(waiting.id)
+    assert taken is not None
+    store.fail(taken, "OSError: disk full", backoff=timedelta(hours=1))
+    assert store.claim("1") is None and store.claim_job(waiting.id) is not None
+
+
+def test_the_jobs_of_a_process_of_this_host_that_is_gone_are_taken_back_at_once(store: Store) -> None:
+    """A taker names its process (host, id, start time): a restarted worker or batch takes back the jobs
+    of a process that no longer runs without waiting for the lease; a live taker's are left alone,
+    as are another host's until their lease runs out."""
+    import subprocess
+    import sys
+
+    from monitor.store import process_identity
+    from monitor.store.schema import jobs
+
+    fleet = store.create_fleet("a")
+    ids = [_recording(store, fleet, letter * 64) for letter in "abc"]
+    for recording in ids:
+        store.enqueue(recording, "1")
+    taken = [store.claim("1") for _ in ids]
+    assert all(job is not None for job in taken)
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True
+    )
+    holders = {
+        ids[0]: process_identity(int(dead.stdout)),  # a process that ran here and ended
+        ids[1]: process_identity(),  # this process: alive
+        ids[2]: "another-host:1:12345",
+    }
+    with store.transaction() as c:
+        for recording, holder in holders.items():
+            c.execute(sa.update(jobs).where(jobs.c.recording_id == recording).values(holder=holder))
+    assert store.requeue_stale("1", timedelta(hours=1)) == 1
+    states = {recording: store.job(recording, "1").state for recording in ids}  # type: ignore[union-attr]
+    assert states == {ids[0]: "queued", ids[1]: "running", ids[2]: "running"}
 
 
 def test_jobs_whose_taker_went_silent_are_taken_back(store: Store) -> None:

@@ -15,8 +15,11 @@ kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
 
 Jobs move ``queued -> running -> done``; a failure records why and puts the
 job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
-A job whose taker stopped touching it (a crash) is taken back by :meth:`Store.requeue_stale`; only
-its taker, by the token it got, may complete or fail a running job.
+A job whose taker stopped touching it (a crash), or whose taker was a process
+of this host that is gone, is taken back by :meth:`Store.requeue_stale`; only
+its taker, by the token it got, may complete or fail a running job. A job
+that failed for a passing reason waits before it is tried again, twice as
+long after each attempt (:data:`RETRY_BACKOFF`).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import os
 import secrets
+import socket
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -40,6 +44,7 @@ from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, reco
 __all__ = [
     "DEFAULT_URL_ENV",
     "MAX_ATTEMPTS",
+    "RETRY_BACKOFF",
     "Job",
     "KeyRow",
     "RecordingRow",
@@ -52,6 +57,8 @@ __all__ = [
 
 DEFAULT_URL_ENV = "ENGINE_MONITOR_DB"  # environment variable with the store's URL
 MAX_ATTEMPTS = 3  # a job that failed this many times is set aside
+#: The wait before the first retry of a job that failed for a passing reason; doubled after each attempt.
+RETRY_BACKOFF = timedelta(seconds=10)
 
 
 class StoreError(MonitorError):
@@ -112,7 +119,7 @@ class KeyRow:
 
 @dataclass(frozen=True)
 class Job:
-    """One analysis of one recording at one analysis version."""
+    """One analysis of one recording at one analysis version (``not_before``: a retry waits until then)."""
 
     id: int
     recording_id: int
@@ -121,6 +128,38 @@ class Job:
     attempts: int
     error: str
     token: str = ""
+    not_before: datetime | None = None
+
+
+def _process_start(pid: int) -> str:
+    """When a process started, in clock ticks since boot (Linux), so a reused process id is told
+    apart; "" where the system does not say."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return ""
+
+
+def process_identity(pid: int | None = None) -> str:
+    """``host:pid:start`` of a process (default: this one), as a job's ``holder``."""
+    pid = os.getpid() if pid is None else pid
+    return f"{socket.gethostname()}:{pid}:{_process_start(pid)}"
+
+
+def _gone(holder: str) -> bool:
+    """Whether a job's holder was a process of this host that no longer runs."""
+    host, _, rest = holder.partition(":")
+    pid_text, _, start = rest.partition(":")
+    if not holder or host != socket.gethostname() or not pid_text.isdigit():
+        return False  # another host's (or an older taker's): only its lease tells
+    pid = int(pid_text)
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        pass  # it exists, under another user
+    return bool(start) and _process_start(pid) not in ("", start)
 
 
 def _utc(moment: datetime) -> datetime:
@@ -144,7 +183,14 @@ def _recording(row: Any) -> RecordingRow:
 
 def _job(row: Any) -> Job:
     return Job(
-        row.id, row.recording_id, row.analysis_version, row.state, int(row.attempts), row.error, row.token
+        row.id,
+        row.recording_id,
+        row.analysis_version,
+        row.state,
+        int(row.attempts),
+        row.error,
+        row.token,
+        _utc(row.not_before) if row.not_before is not None else None,
     )
 
 
@@ -420,23 +466,33 @@ class Store:
         taken = c.execute(
             sa.update(jobs)
             .where((jobs.c.id == job_id) & (jobs.c.state == "queued"))
-            .values(state="running", attempts=jobs.c.attempts + 1, token=token, updated_at=_now())
+            .values(
+                state="running",
+                attempts=jobs.c.attempts + 1,
+                token=token,
+                holder=process_identity(),
+                not_before=None,
+                updated_at=_now(),
+            )
         ).rowcount
         if taken != 1:
             return None
         return _job(c.execute(sa.select(jobs).where(jobs.c.id == job_id)).one())
 
     def claim(self, analysis_version: str) -> Job | None:
-        """Take the oldest queued job of this version (marking it running), or None if there is none.
+        """Take the oldest queued job of this version that is due (marking it running), or None.
+
+        A job waiting out its retry backoff is not due yet.
 
         Two workers never take the same job: the state changes only where it is still "queued", and
         the taker's token (in the returned job) is what later updates of the job must show.
         """
         while True:
             with self.transaction() as c:
+                due = jobs.c.not_before.is_(None) | (jobs.c.not_before <= _now())
                 row = c.execute(
                     sa.select(jobs.c.id)
-                    .where((jobs.c.state == "queued") & (jobs.c.analysis_version == analysis_version))
+                    .where((jobs.c.state == "queued") & (jobs.c.analysis_version == analysis_version) & due)
                     .order_by(jobs.c.id)
                     .limit(1)
                 ).first()
@@ -447,7 +503,8 @@ class Store:
                     return job
 
     def claim_job(self, job_id: int) -> Job | None:
-        """Take one job if it is still queued (marking it running), else None."""
+        """Take one job if it is still queued (marking it running), else None; a batch asks for it
+        by name, so a retry backoff does not hold it."""
         with self.transaction() as c:
             return self._take(c, job_id)
 
@@ -481,7 +538,7 @@ class Store:
             mine = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))
-                .values(state="done", error="", token="", updated_at=_now())
+                .values(state="done", error="", token="", holder="", updated_at=_now())
             ).rowcount
             if mine != 1:  # taken back and maybe queued again: with its results stored, it is done
                 c.execute(
@@ -491,19 +548,28 @@ class Store:
                 )
             return mine == 1
 
-    def fail(self, job: Job, error: str, *, permanent: bool = False) -> str:
+    def fail(self, job: Job, error: str, *, permanent: bool = False, backoff: timedelta | None = None) -> str:
         """Record why a job failed; queue it again, or set it aside after :data:`MAX_ATTEMPTS`.
 
         A ``permanent`` failure (the input itself is wrong: trying again gives the same answer) is
-        set aside at once. Returns the job's new state (its current one, unchanged, if it was taken
-        back meanwhile).
+        set aside at once; another is queued again, not before ``backoff`` (default
+        :data:`RETRY_BACKOFF`) doubled for each attempt after the first. Returns the job's new state
+        (its current one, unchanged, if it was taken back meanwhile).
         """
+        wait = (RETRY_BACKOFF if backoff is None else backoff) * 2 ** max(0, job.attempts - 1)
         with self.transaction() as c:
             state = "set_aside" if permanent or job.attempts >= MAX_ATTEMPTS else "queued"
             changed = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))
-                .values(state=state, error=error[:4000], token="", updated_at=_now())
+                .values(
+                    state=state,
+                    error=error[:4000],
+                    token="",
+                    holder="",
+                    not_before=_now() + wait if state == "queued" else None,
+                    updated_at=_now(),
+                )
             ).rowcount
             if changed != 1:
                 return str(c.execute(sa.select(jobs.c.state).where(jobs.c.id == job.id)).scalar_one())
@@ -517,29 +583,35 @@ class Store:
     def requeue_stale(
         self, analysis_version: str, older_than: timedelta, *, recording_ids: list[int] | None = None
     ) -> int:
-        """Take back running jobs whose taker has not been heard of for ``older_than``; how many.
+        """Take back the running jobs whose taker died; how many.
 
-        Takers touch their running jobs (:meth:`touch`) more often than that, so only the jobs of a
-        taker that died (a killed server, worker or batch) are taken back: queued again, or set aside
-        once they have been tried :data:`MAX_ATTEMPTS` times (a recording that kills its worker).
+        A taker is dead when it has not touched its job for ``older_than`` (takers touch their
+        running jobs, :meth:`touch`, more often than that), or at once when it was a process of
+        this host that no longer runs (a killed server, worker or batch restarted). Its jobs are
+        queued again, or set aside once they have been tried :data:`MAX_ATTEMPTS` times (a
+        recording that kills its worker).
         """
         cutoff = _now() - older_than
-        where = (
-            (jobs.c.state == "running")
-            & (jobs.c.analysis_version == analysis_version)
-            & (jobs.c.updated_at < cutoff)
-        )
+        running = (jobs.c.state == "running") & (jobs.c.analysis_version == analysis_version)
         if recording_ids is not None:
-            where &= jobs.c.recording_id.in_(recording_ids)
+            running &= jobs.c.recording_id.in_(recording_ids)
+        with self.transaction() as c:
+            held = c.execute(
+                sa.select(jobs.c.id, jobs.c.holder).where(running & (jobs.c.updated_at >= cutoff))
+            )
+            gone = [
+                (jobs.c.id == row.id) & (jobs.c.holder == row.holder) for row in held if _gone(row.holder)
+            ]
+        where = running & ((jobs.c.updated_at < cutoff) | sa.or_(sa.false(), *gone))
         lost = "its worker stopped answering while it ran (killed, or out of memory)"
         with self.transaction() as c:
             aside = c.execute(
                 sa.update(jobs)
                 .where(where & (jobs.c.attempts >= MAX_ATTEMPTS))
-                .values(state="set_aside", error=lost, token="", updated_at=_now())
+                .values(state="set_aside", error=lost, token="", holder="", updated_at=_now())
             ).rowcount
             again = c.execute(
-                sa.update(jobs).where(where).values(state="queued", token="", updated_at=_now())
+                sa.update(jobs).where(where).values(state="queued", token="", holder="", updated_at=_now())
             ).rowcount
             return int(aside + again)
 

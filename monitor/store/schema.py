@@ -7,8 +7,9 @@
 - ``recordings``: stored recordings by content hash (the same content is
   stored once per fleet), the file's place in the recording folder;
 - ``jobs``: one analysis of one recording at one analysis version, with its
-  state (queued, running, done, failed, set_aside), attempts, last error and
-  the token of its current taker;
+  state (queued, running, done, failed, set_aside), attempts, last error,
+  the token and process of its current taker, and the time before which a
+  retry waits;
 - ``results``: the documents an analysis wrote, at most one per recording,
   analysis version and kind.
 
@@ -83,6 +84,8 @@ jobs = sa.Table(
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     sa.Column("updated_at", sa.DateTime(timezone=True), nullable=False),
     sa.Column("token", sa.String(32), nullable=False, server_default=""),
+    sa.Column("holder", sa.String(300), nullable=False, server_default=""),
+    sa.Column("not_before", sa.DateTime(timezone=True), nullable=True),
     sa.UniqueConstraint("recording_id", "analysis_version", name="uq_jobs_recording_version"),
     sa.CheckConstraint(f"state IN ({', '.join(repr(s) for s in JOB_STATES)})", name="ck_jobs_state"),
     sa.Index("ix_jobs_state", "state"),

@@ -1,0 +1,82 @@
+"""Analysis processes that die with their parent and inherit none of its files or sockets.
+
+A process pool forked from a server holds copies of every descriptor the
+server had open, the listening socket included, and never learns that its
+parent died: after ``kill -9`` of the server its children live on, keep the
+port, and a restart fails with "address already in use". So the pools here:
+
+- start their processes with ``multiprocessing``'s ``spawn`` method: a
+  fresh interpreter started by ``exec``, which receives only the pipes it
+  needs (Python opens every descriptor not inheritable), so none holds the
+  server's socket or files. (The ``forkserver`` method would not do: each
+  of its processes holds the pipe whose closing tells the fork server its
+  parent died, so after a ``kill -9`` the fork server and its processes wait
+  for each other for ever);
+- make each process die with its parent: on Linux the kernel sends it
+  ``SIGKILL`` when the thread that started it ends
+  (``prctl(PR_SET_PDEATHSIG)``; pools are started by threads that live as
+  long as the pool), and on any system a thread in it checks every
+  :data:`WATCH_S` seconds that its parent is still the one it started with.
+
+A new process imports the analysis modules itself, about a second once per
+pool (the pools live as long as the worker or the batch).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+__all__ = ["WATCH_S", "analysis_pool", "die_with_parent"]
+
+#: Seconds between an analysis process's looks at its parent (where the kernel does not tell it).
+WATCH_S = 1.0
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+_EXIT_ORPHANED = 70  # the exit status of a process whose parent died (EX_SOFTWARE)
+
+
+def analysis_pool(max_workers: int) -> ProcessPoolExecutor:
+    """A process pool whose processes die with this process and inherit none of its descriptors.
+
+    Parameters
+    ----------
+    max_workers : int
+        Processes at most.
+
+    Returns
+    -------
+    ProcessPoolExecutor
+    """
+    context = multiprocessing.get_context("spawn")
+    return ProcessPoolExecutor(
+        max_workers=max(1, max_workers), mp_context=context, initializer=die_with_parent
+    )
+
+
+def die_with_parent() -> None:
+    """Make this process end when its parent does (a pool's initializer).
+
+    The kernel's parent-death signal where there is one (Linux), and a watching
+    thread everywhere; a parent already gone before either was set ends the
+    process at once.
+    """
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if parent == 1 or os.getppid() != parent:  # orphaned before the signal was set
+        os._exit(_EXIT_ORPHANED)
+    threading.Thread(target=_watch, args=(parent,), name="parent-watch", daemon=True).start()
+
+
+def _watch(parent: int) -> None:
+    while True:
+        time.sleep(WATCH_S)
+        if os.getppid() != parent:
+            os._exit(_EXIT_ORPHANED)
