@@ -362,6 +362,7 @@ def run_batch(
         while page := store.recordings(fleet_id, since=since, offset=offset, limit=500):
             scope += [r.id for r in page]
             offset += len(page)
+    scope = list(dict.fromkeys(scope))  # a file found twice (copies of one content) is one recording
     # jobs of a batch or worker that died (a process of this host that is gone, or silent for the
     # lease) are taken back at once; those of a live one are waited for, after this run's own
     summary.requeued = store.requeue_stale(ANALYSIS_VERSION, lease, recording_ids=scope)
@@ -488,7 +489,7 @@ def _executor(scheduler: str | None, workers: int | None, total: int) -> Iterato
     """A local process pool, or a Dask cluster's executor; with how many jobs to keep in flight each."""
     if scheduler is None:
         count = workers or os.cpu_count() or 1
-        with analysis_pool(min(count, total)) as pool:
+        with analysis_pool(min(count, total), fork=True) as pool:  # a command: no socket to keep from them
             yield pool, count
         return
     try:

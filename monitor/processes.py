@@ -18,8 +18,10 @@ port, and a restart fails with "address already in use". So the pools here:
   long as the pool), and on any system a thread in it checks every
   :data:`WATCH_S` seconds that its parent is still the one it started with.
 
-A new process imports the analysis modules itself, about a second once per
-pool (the pools live as long as the worker or the batch).
+A new process imports the analysis modules itself, a few seconds once per
+pool (the worker's pool lives as long as the worker). The batch, a command
+that listens on nothing, forks its processes instead, so they start at once;
+they die with it all the same.
 """
 
 from __future__ import annotations
@@ -41,19 +43,23 @@ _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _EXIT_ORPHANED = 70  # the exit status of a process whose parent died (EX_SOFTWARE)
 
 
-def analysis_pool(max_workers: int) -> ProcessPoolExecutor:
+def analysis_pool(max_workers: int, *, fork: bool = False) -> ProcessPoolExecutor:
     """A process pool whose processes die with this process and inherit none of its descriptors.
 
     Parameters
     ----------
     max_workers : int
         Processes at most.
+    fork : bool, optional
+        Fork the processes instead (Linux): they start at once with the modules this process has
+        imported, but hold copies of its descriptors. Only for a process with no socket a child
+        must not keep: the batch, a command line, never the server.
 
     Returns
     -------
     ProcessPoolExecutor
     """
-    context = multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("fork" if fork and sys.platform.startswith("linux") else "spawn")
     return ProcessPoolExecutor(
         max_workers=max(1, max_workers), mp_context=context, initializer=die_with_parent
     )

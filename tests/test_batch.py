@@ -45,6 +45,7 @@ def test_a_batch_diagnoses_each_recording_once_and_a_rerun_does_nothing(folder: 
         fleet = store.create_fleet("ships")
         first = run_batch(store, fleet, path=folder, workers=2)
         assert (first.registered, first.known, first.diagnosed, first.failed) == (3, 1, 3, [])
+        assert first.held == 0  # the copy is the same recording, not a job another run holds
         assert [name for name, _ in first.unreadable] == ["notes.h5"]
         assert dict(first.by_engine["man-b-w-7k98mc"]) == {"healthy": 1, "alarm": 1}
         assert dict(first.by_engine["medium-speed-6l32"]) == {"alarm": 1}
