@@ -19,11 +19,13 @@ Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import os
 import re
 import tempfile
-import threading
+import time
+from collections import Counter, defaultdict
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -40,7 +42,7 @@ from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from api.validate import validate
+from api.validate import MAX_EXPANSION, Validation, validate
 from api.worker import Worker, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.store import RecordingRow, Store, open_store
@@ -60,6 +62,18 @@ class Settings:
     max_upload_bytes : int
     validation_memory_bytes, validation_timeout_s : int, float
         Limits of the validating child process.
+    validations, validations_per_fleet : int
+        Files validated at once, in all and per fleet (a fleet's next waits, without a thread, so one
+        fleet never takes every slot and reads never wait for validations).
+    uploads_per_fleet : int
+        A fleet's uploads in progress at once; one more is refused with 429.
+    upload_idle_s : float
+        Longest wait for the next bytes of an upload's body [s]; then 408.
+    upload_min_rate : float
+        Slowest average rate of an upload's body after its first ``upload_idle_s`` [bytes/s]; a
+        slower one (a trickle that holds a connection and a file open) is cut off with 408.
+    max_expansion : float
+        Declared samples [bytes] per byte of file beyond which an upload is refused unread.
     workers : int
         Analysis processes in this server (0: none; a separate worker runs them).
     lease_s : float
@@ -74,6 +88,12 @@ class Settings:
     max_upload_bytes: int = 4 << 30
     validation_memory_bytes: int = 2 << 30
     validation_timeout_s: float = 120.0
+    validations: int = 2
+    validations_per_fleet: int = 1
+    uploads_per_fleet: int = 4
+    upload_idle_s: float = 30.0
+    upload_min_rate: float = 1024.0
+    max_expansion: float = MAX_EXPANSION
     workers: int = 1
     lease_s: float = 30.0
     retry_backoff_s: float = 10.0
@@ -82,13 +102,15 @@ class Settings:
 class ApiError(Exception):
     """An error answered with the service's one error body."""
 
-    def __init__(self, status: int, code: str, message: str) -> None:
+    def __init__(self, status: int, code: str, message: str, headers: dict[str, str] | None = None) -> None:
         super().__init__(message)
-        self.status, self.code, self.message = status, code, message
+        self.status, self.code, self.message, self.headers = status, code, message, headers
 
 
-def _error(status: int, code: str, message: str) -> JSONResponse:
-    return JSONResponse({"error": {"status": status, "code": code, "message": message}}, status_code=status)
+def _error(status: int, code: str, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
+    return JSONResponse(
+        {"error": {"status": status, "code": code, "message": message}}, status_code=status, headers=headers
+    )
 
 
 class ErrorBody(BaseModel):
@@ -206,6 +228,45 @@ class EngineIn(BaseModel):
     description: dict[str, Any] = Field(description="the engine description (the TOML's content as JSON)")
 
 
+async def _receive(request: Request, out: Any, settings: Settings) -> tuple[int, str]:
+    """Stream an upload's body to ``out``: its size and SHA-256, or a 413 / 408 ApiError.
+
+    Each piece must come within ``upload_idle_s``, and after that long the body must have come at
+    ``upload_min_rate`` on average: a client that trickles bytes to hold a connection and an open
+    file is cut off.
+    """
+    digest = hashlib.sha256()
+    size = 0
+    started = time.monotonic()
+    pieces = request.stream().__aiter__()
+    while True:
+        try:
+            chunk = await asyncio.wait_for(pieces.__anext__(), settings.upload_idle_s)
+        except StopAsyncIteration:
+            break
+        except TimeoutError:
+            raise ApiError(
+                408, "upload_timeout", f"no bytes of the upload came for {settings.upload_idle_s:g} s"
+            ) from None
+        size += len(chunk)
+        if size > settings.max_upload_bytes:
+            raise ApiError(
+                413, "too_large", f"the file is over the limit of {settings.max_upload_bytes} bytes"
+            )
+        elapsed = time.monotonic() - started
+        if elapsed > settings.upload_idle_s and size < settings.upload_min_rate * elapsed:
+            raise ApiError(
+                408,
+                "upload_too_slow",
+                f"the upload came at {size / elapsed:.0f} bytes/s over {elapsed:.0f} s, slower than the "
+                f"{settings.upload_min_rate:g} bytes/s the service needs",
+            )
+        digest.update(chunk)
+        await run_in_threadpool(out.write, chunk)  # the disk never blocks the event loop
+    await run_in_threadpool(_sync, out)
+    return size, digest.hexdigest()
+
+
 def create_app(settings: Settings) -> FastAPI:
     """The FastAPI application for these settings."""
     state: dict[str, Any] = {}
@@ -253,7 +314,7 @@ def create_app(settings: Settings) -> FastAPI:
 
     @app.exception_handler(ApiError)
     async def api_error(_: Request, error: ApiError) -> JSONResponse:
-        return _error(error.status, error.code, error.message)
+        return _error(error.status, error.code, error.message, error.headers)
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, error: StarletteHTTPException) -> JSONResponse:
@@ -321,21 +382,32 @@ def create_app(settings: Settings) -> FastAPI:
         store().count("fleets")
         return {"status": "ok", "store": store().dialect, "analysis_version": ANALYSIS_VERSION}
 
-    validations = threading.BoundedSemaphore(2)  # each child may take validation_memory_bytes
+    slots = asyncio.Semaphore(settings.validations)  # each child may take validation_memory_bytes
+    fleet_slots: dict[int, asyncio.Semaphore] = defaultdict(
+        lambda: asyncio.Semaphore(settings.validations_per_fleet)
+    )
+    uploading: Counter[int] = Counter()  # uploads in progress per fleet
 
-    def keep(fleet_id: int, name: str, temporary: Path, content: str, size: int) -> tuple[RecordingRow, bool]:
-        """Validate an uploaded file, move it to its content's name, register it and queue its analysis."""
-        with validations:
-            checked = validate(
+    async def checked(fleet_id: int, name: str, temporary: Path) -> Validation:
+        """The validator's verdict on an uploaded file, awaited in the fleet's turn (no thread held)."""
+        async with fleet_slots[fleet_id], slots:
+            verdict = await validate(
                 temporary,
                 memory_bytes=settings.validation_memory_bytes,
                 timeout_s=settings.validation_timeout_s,
+                max_expansion=settings.max_expansion,
             )
-        if not checked.ok:
-            message = checked.message.replace(str(temporary), name)  # the reader names the file it read
+        if not verdict.ok:
+            message = verdict.message.replace(str(temporary), name)  # the reader names the file it read
             raise ApiError(422, "not_a_recording", message if name in message else f"{name}: {message}")
-        if len(checked.engine_id) > 200 or "\x00" in checked.engine_id:
+        if len(verdict.engine_id) > 200 or "\x00" in verdict.engine_id:
             raise ApiError(422, "not_a_recording", f"{name}: its engine id is longer than 200 characters")
+        return verdict
+
+    def keep(
+        fleet_id: int, name: str, temporary: Path, content: str, size: int, checked: Validation
+    ) -> tuple[RecordingRow, bool]:
+        """Move a validated upload to its content's name, register it and queue its analysis."""
         with open(temporary, "rb") as fh:
             suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
         final = settings.data_dir / "recordings" / f"{content}{suffix}"
@@ -385,29 +457,28 @@ def create_app(settings: Settings) -> FastAPI:
             raise ApiError(
                 413, "too_large", f"the file is over the limit of {settings.max_upload_bytes} bytes"
             )
+        if uploading[fleet_id] >= settings.uploads_per_fleet:
+            raise ApiError(
+                429,
+                "too_many_uploads",
+                f"this fleet has {uploading[fleet_id]} uploads in progress, the most it may have at once: "
+                "send the next when one has finished",
+                headers={"Retry-After": "5"},
+            )
+        uploading[fleet_id] += 1
         incoming = settings.data_dir / "incoming"
         handle, temporary = tempfile.mkstemp(dir=incoming, suffix=".part")
-        digest = hashlib.sha256()
-        size = 0
         try:
             with os.fdopen(handle, "wb") as out:
-                async for chunk in request.stream():
-                    size += len(chunk)
-                    if size > settings.max_upload_bytes:
-                        raise ApiError(
-                            413,
-                            "too_large",
-                            f"the file is over the limit of {settings.max_upload_bytes} bytes",
-                        )
-                    digest.update(chunk)
-                    await run_in_threadpool(out.write, chunk)  # the disk never blocks the event loop
-                await run_in_threadpool(_sync, out)
+                size, content = await _receive(request, out, settings)
             if size == 0:
                 raise ApiError(400, "empty", "the request body is empty: send the recording's bytes")
+            verdict = await checked(fleet_id, name, Path(temporary))
             row, created = await run_in_threadpool(
-                keep, fleet_id, name, Path(temporary), digest.hexdigest(), size
+                keep, fleet_id, name, Path(temporary), content, size, verdict
             )
         finally:
+            uploading[fleet_id] -= 1
             if os.path.exists(temporary):
                 os.unlink(temporary)
         if state["worker"] is not None:

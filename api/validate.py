@@ -1,22 +1,36 @@
 """Validate an uploaded file with the product's readers, in a process of its own.
 
-``python -m api.validate MEMORY_BYTES PATH`` limits its own address space,
-then prints the recording's engine, start time and channels as JSON (exit 0),
-or the reader's refusal (exit 3). The service runs it with that memory limit
-(``RLIMIT_AS``) and a time limit: a malformed file that
-makes a reader allocate without bound or loop cannot take the server down.
+``python -m api.validate MEMORY_BYTES MAX_EXPANSION PATH`` limits its own
+address space, then prints the recording's engine, start time and channels
+as JSON (exit 0), or the reader's refusal (exit 3). The service runs it with
+that memory limit (``RLIMIT_AS``) and a time limit, awaiting it without
+holding a thread: a malformed file that makes a reader allocate without
+bound or loop cannot take the server down, nor keep the read routes waiting.
+
+Before any sample is read, the samples the file declares (every channel's
+count times its sample size) are compared with the file's size: more than
+``MAX_EXPANSION`` times the file (a dataset declared with 10^12 samples it
+never wrote, a compression bomb) is refused at once. A recording's samples
+compress little (noise does not compress; our HDF5 is not compressed at
+all), so only a file of almost nothing but constant samples comes near.
 """
 
 from __future__ import annotations
 
+import asyncio
 import json
+import os
 import resource
-import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Validation", "validate"]
+import numpy as np
+
+__all__ = ["MAX_EXPANSION", "Validation", "validate"]
+
+#: Declared samples [bytes] per byte of file beyond which a file is refused unread.
+MAX_EXPANSION = 1000.0
 
 
 @dataclass(frozen=True)
@@ -30,10 +44,19 @@ class Validation:
     message: str = ""
 
 
-def _check(path: str) -> dict[str, object]:
+def _check(path: str, max_expansion: float) -> dict[str, object]:
+    from monitor.errors import MonitorError
     from monitor.io import open_recording
 
     with open_recording(path) as recording:  # every sample read by slices: checksums checked, memory bounded
+        declared = sum(int(c.data.shape[0]) * np.dtype(c.data.dtype).itemsize for c in recording.channels)
+        size = max(1, os.path.getsize(path))
+        if declared > max_expansion * size:
+            raise MonitorError(
+                f"{path}: its channels declare {declared} bytes of samples, {declared / size:.3g} times "
+                f"the file's {size} bytes (at most {max_expansion:g}): refused unread, as a compression "
+                "bomb or a dataset declared larger than it was written"
+            )
         for channel in recording.channels:
             n = int(channel.data.shape[0])
             for start in range(0, n, 1 << 20):
@@ -46,29 +69,37 @@ def _check(path: str) -> dict[str, object]:
         }
 
 
-def validate(path: Path, *, memory_bytes: int, timeout_s: float) -> Validation:
-    """Run the validator on ``path`` in a child process with the given limits."""
-
+async def validate(
+    path: Path, *, memory_bytes: int, timeout_s: float, max_expansion: float = MAX_EXPANSION
+) -> Validation:
+    """Run the validator on ``path`` in a child process with the given limits, awaiting it."""
+    child = await asyncio.create_subprocess_exec(  # the child sets its own memory limit first
+        sys.executable,
+        "-m",
+        "api.validate",
+        str(memory_bytes),
+        repr(float(max_expansion)),
+        str(path),
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+        cwd=Path(__file__).resolve().parents[1],
+    )
     try:
-        out = (
-            subprocess.run(  # the child sets its own memory limit first (no preexec_fn in a threaded server)
-                [sys.executable, "-m", "api.validate", str(memory_bytes), str(path)],
-                capture_output=True,
-                text=True,
-                timeout=timeout_s,
-                check=False,
-                cwd=Path(__file__).resolve().parents[1],
-            )
-        )
-    except subprocess.TimeoutExpired:
+        stdout, stderr = await asyncio.wait_for(child.communicate(), timeout_s)
+    except (TimeoutError, asyncio.CancelledError) as stop:
+        child.kill()
+        await child.wait()
+        if isinstance(stop, asyncio.CancelledError):  # the client went away: stop reading its file
+            raise
         return Validation(False, message=f"the file took longer than {timeout_s:g} s to read: refused")
-    if out.returncode == 0:
-        data = json.loads(out.stdout)
+    out, err = stdout.decode("utf-8", "replace"), stderr.decode("utf-8", "replace")
+    if child.returncode == 0:
+        data = json.loads(out)
         if data["truncated"]:
             return Validation(False, message="the recording is truncated (cut short): refused")
         return Validation(True, str(data["engine_id"]), str(data["start_time"]), tuple(data["channels"]))
-    reason = out.stderr.strip().splitlines()[-1] if out.stderr.strip() else f"exit status {out.returncode}"
-    if out.returncode != 3:
+    reason = err.strip().splitlines()[-1] if err.strip() else f"exit status {child.returncode}"
+    if child.returncode != 3:
         reason = f"the reader failed ({reason}); the file is not a recording the product can read"
     return Validation(False, message=reason)
 
@@ -79,7 +110,7 @@ def main() -> None:
     from monitor.errors import MonitorError
 
     try:
-        data = _check(sys.argv[2])
+        data = _check(sys.argv[3], float(sys.argv[2]))
     except (MonitorError, OSError, ValueError) as error:
         print(str(error), file=sys.stderr)
         sys.exit(3)

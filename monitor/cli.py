@@ -51,6 +51,26 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 1 or more")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a seed from 0 to 2**63 - 1")
+    return value
+
+
 def _port(text: str) -> int:
     try:
         value = int(text)
@@ -180,7 +200,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument("scene", nargs="?", metavar="SCENE.toml", help="the scene to simulate")
     sim.add_argument("-o", "--output", metavar="OUT.h5|OUT.mcap", help="recording to write")
-    sim.add_argument("--seed", type=int, help="noise seed (default: the scene's); same seed, same file")
+    sim.add_argument("--seed", type=_seed, help="noise seed (default: the scene's); same seed, same file")
     sim.add_argument(
         "--duration", type=_positive_float, metavar="S", help="simulate only the first S seconds of the scene"
     )
@@ -306,6 +326,28 @@ def _build_parser() -> argparse.ArgumentParser:
         help="seconds after which a running analysis whose worker went silent is taken back (default 30)",
     )
     serve.add_argument(
+        "--uploads-per-fleet",
+        type=_positive_int,
+        default=4,
+        metavar="N",
+        help="a fleet's uploads in progress at once; one more is refused with 429 (default 4)",
+    )
+    serve.add_argument(
+        "--upload-idle",
+        type=_positive_float,
+        default=30.0,
+        metavar="S",
+        help="longest wait for the next bytes of an upload, and the time after which it must have come "
+        "at --upload-min-rate (default 30)",
+    )
+    serve.add_argument(
+        "--upload-min-rate",
+        type=_positive_float,
+        default=1024.0,
+        metavar="B/S",
+        help="slowest average rate of an upload after --upload-idle [bytes/s] (default 1024)",
+    )
+    serve.add_argument(
         "--retry-backoff",
         type=_positive_float,
         default=10.0,
@@ -326,7 +368,7 @@ def _build_parser() -> argparse.ArgumentParser:
     work.add_argument(
         "--data", default="data", metavar="DIR", help="the service's data folder (default ./data)"
     )
-    work.add_argument("--processes", type=int, default=1, help="analyses at a time (default 1)")
+    work.add_argument("--processes", type=_positive_int, default=1, help="analyses at a time (default 1)")
     work.add_argument(
         "--lease", type=_positive_float, default=30.0, metavar="S", help="as for serve (default 30)"
     )
@@ -572,6 +614,9 @@ def _run_serve(args: argparse.Namespace) -> int:
         workers=max(0, args.workers),
         lease_s=args.lease,
         retry_backoff_s=args.retry_backoff,
+        uploads_per_fleet=args.uploads_per_fleet,
+        upload_idle_s=args.upload_idle,
+        upload_min_rate=args.upload_min_rate,
     )
     _check_listening(args.host, args.port)
     try:

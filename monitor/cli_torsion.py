@@ -19,6 +19,25 @@ import numpy as np
 __all__ = ["add_torsion_parser", "run_torsion"]
 
 
+def _finite(text: str) -> float:
+    """A finite number (argparse type): NaN and infinity are refused at the command line."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a finite number")
+    return value
+
+
+def _positive(text: str) -> float:
+    """A positive, finite number (argparse type)."""
+    value = _finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a positive number")
+    return value
+
+
 def add_torsion_parser(sub: Any) -> None:
     """Register the ``torsion`` subcommands on an argparse subparsers object.
 
@@ -49,21 +68,23 @@ def add_torsion_parser(sub: Any) -> None:
     camp = tsub.add_parser("campbell", help="critical speeds: excitation orders against natural frequencies")
     camp.add_argument("engine", metavar="ENGINE")
     camp.add_argument(
-        "--rpm-min", type=float, default=None, help="lowest speed [rpm] (default 20 %% of rated)"
+        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 20 %% of rated)"
     )
     camp.add_argument(
-        "--rpm-max", type=float, default=None, help="highest speed [rpm] (default 110 %% of rated)"
+        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 110 %% of rated)"
     )
-    camp.add_argument("--max-order", type=float, default=12.0, help="highest excitation order (default 12)")
+    camp.add_argument(
+        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
+    )
     common(camp)
 
     resp = tsub.add_parser("response", help="forced torsional response over a speed range")
     resp.add_argument("engine", metavar="ENGINE")
     resp.add_argument(
-        "--rpm-min", type=float, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
+        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
     )
     resp.add_argument(
-        "--rpm-max", type=float, default=None, help="highest speed [rpm] (default 105 %% of rated)"
+        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 105 %% of rated)"
     )
     resp.add_argument("--steps", type=int, default=120, help="speeds computed (default 120)")
     resp.add_argument(
@@ -72,7 +93,9 @@ def add_torsion_parser(sub: Any) -> None:
         help="fraction of rated IMEP, or 'propeller' for IMEP ~ speed^2 (default)",
     )
     resp.add_argument("--node", default=None, help="node reported (default: the tooth-wheel node)")
-    resp.add_argument("--max-order", type=float, default=12.0, help="highest excitation order (default 12)")
+    resp.add_argument(
+        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
+    )
     common(resp)
 
     axial = tsub.add_parser(
@@ -80,28 +103,30 @@ def add_torsion_parser(sub: Any) -> None:
     )
     axial.add_argument("engine", metavar="ENGINE")
     axial.add_argument(
-        "--rpm-min", type=float, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
+        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
     )
     axial.add_argument(
-        "--rpm-max", type=float, default=None, help="highest speed [rpm] (default 105 %% of rated)"
+        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 105 %% of rated)"
     )
     axial.add_argument("--steps", type=int, default=60, help="speeds computed (default 60)")
     axial.add_argument("--load", default="propeller", help="fraction of rated IMEP, or 'propeller' (default)")
-    axial.add_argument("--max-order", type=float, default=12.0, help="highest excitation order (default 12)")
+    axial.add_argument(
+        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
+    )
     common(axial)
 
     stab = tsub.add_parser(
         "stability", help="Floquet stability chart of the variable-inertia crank (paper 002)"
     )
-    stab.add_argument("--r-min", type=float, default=0.3)
-    stab.add_argument("--r-max", type=float, default=1.5)
-    stab.add_argument("--eps-min", type=float, default=0.0)
-    stab.add_argument("--eps-max", type=float, default=0.6)
+    stab.add_argument("--r-min", type=_finite, default=0.3)
+    stab.add_argument("--r-max", type=_finite, default=1.5)
+    stab.add_argument("--eps-min", type=_finite, default=0.0)
+    stab.add_argument("--eps-max", type=_finite, default=0.6)
     stab.add_argument("--points", type=int, default=200, help="grid points per axis (default 200)")
-    stab.add_argument("--zeta", type=float, default=0.0, help="damping ratio (default 0)")
+    stab.add_argument("--zeta", type=_finite, default=0.0, help="damping ratio (default 0)")
     stab.add_argument(
         "--epsilon",
-        type=float,
+        type=_finite,
         action="append",
         default=None,
         help="also list the instability ranges of r for this epsilon (repeatable)",
@@ -109,10 +134,10 @@ def add_torsion_parser(sub: Any) -> None:
     common(stab)
 
     sim = tsub.add_parser("simulate", help="time response of the variable-inertia crank (paper 002 Fig. 2-5)")
-    sim.add_argument("--epsilon", type=float, required=True, help="inertia ratio, 0 <= epsilon < 1")
-    sim.add_argument("--r", type=float, required=True, help="speed ratio, > 0")
-    sim.add_argument("--zeta", type=float, default=0.0, help="damping ratio (default 0)")
-    sim.add_argument("--revolutions", type=float, default=2.0, help="length of the run (default 2)")
+    sim.add_argument("--epsilon", type=_finite, required=True, help="inertia ratio, 0 <= epsilon < 1")
+    sim.add_argument("--r", type=_positive, required=True, help="speed ratio, > 0")
+    sim.add_argument("--zeta", type=_finite, default=0.0, help="damping ratio (default 0)")
+    sim.add_argument("--revolutions", type=_positive, default=2.0, help="length of the run (default 2)")
     sim.add_argument("--samples", type=int, default=2000, help="output samples per revolution (default 2000)")
     sim.add_argument("--form", choices=("linear", "full"), default="linear")
     sim.add_argument(
@@ -121,10 +146,10 @@ def add_torsion_parser(sub: Any) -> None:
         default=None,
         help="default: periodic for the linear form, DOP853 for the full one",
     )
-    sim.add_argument("--rtol", type=float, default=1e-10)
+    sim.add_argument("--rtol", type=_positive, default=1e-10)
     sim.add_argument(
         "--initial",
-        type=float,
+        type=_finite,
         nargs=2,
         default=(1.0, 0.0),
         metavar=("GAMMA", "GAMMA_PRIME"),

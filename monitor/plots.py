@@ -13,6 +13,7 @@ import numpy as np
 
 from monitor.crankshaft import EngineModel
 from monitor.errors import MonitorError
+from monitor.io.files import in_existing_folder
 from monitor.model_orders import ModelOrders
 
 __all__ = [
@@ -33,7 +34,7 @@ def new_figure(
     size: tuple[float, float] = (10, 5.5),
     squeeze: bool = True,
 ) -> tuple[Any, Any, Path]:
-    """A figure for a PNG file (headless backend), its folder created if needed.
+    """A figure for a PNG file (headless backend), in a folder that exists.
 
     Returns ``(figure, axes, path)``; ``axes`` is as ``matplotlib.pyplot.subplots``
     gives it (a single Axes for one panel unless ``squeeze=False``).
@@ -43,8 +44,7 @@ def new_figure(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = in_existing_folder(path)
     fig, axes = plt.subplots(rows, cols, figsize=size, constrained_layout=True, squeeze=squeeze)
     return fig, axes, out
 

@@ -36,6 +36,7 @@ class Server:
     keys: dict[str, str]
     process: subprocess.Popen[bytes] | None = None
     workers: int = 1
+    extra: tuple[str, ...] = ()
 
     def start(self, port: int | None = None) -> None:
         port = port or _free_port()
@@ -58,6 +59,7 @@ class Server:
                 "2",
                 "--workers",
                 str(self.workers),
+                *self.extra,
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

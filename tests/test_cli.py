@@ -242,6 +242,71 @@ BAD_INPUTS = [
 ]
 
 
+SAMPLE_ARG = "{sample}"
+BAD_OPTIONS = [
+    # every subcommand with an option out of its range: the status and what the error line must name
+    (["orders", "man-b-w-7k98mc", "--rpm", "-5"], "--rpm"),
+    (["orders", "man-b-w-7k98mc", "--rpm", "80", "--load", "7"], "load = 7.0"),
+    (["spectrum", SAMPLE_ARG, "--max-order", "-3"], "--max-order"),
+    (["spectrum", SAMPLE_ARG, "--orders", "x,-1"], "--orders"),
+    (["spectrum", SAMPLE_ARG, "--speed-map", "0"], "speed bin"),
+    (["import", "{tmp}/nothing.mf4", "-o", "{tmp}/x.h5"], "--map"),
+    (["simulate", "{scene}", "-o", "{tmp}/x.txt"], ".h5 or .mcap"),
+    (["simulate", "{scene}", "-o", "{tmp}/x.h5", "--seed", "-1"], "--seed"),
+    (["compare", SAMPLE_ARG, "--cycle-phase", "90"], "--cycle-phase"),
+    (["compare", SAMPLE_ARG, "--baseline", "{tmp}/none.json"], "none.json"),
+    (["calibrate", SAMPLE_ARG, "-o", "{tmp}/no/such/b.json"], "b.json"),
+    (["batch", "{tmp}", "--workers", "0"], "--workers"),
+    (["batch", "--since", "notadate"], "--since"),
+    (["serve", "--port", "99999"], "--port"),
+    (["serve", "--uploads-per-fleet", "0"], "--uploads-per-fleet"),
+    (["serve", "--upload-idle", "0"], "--upload-idle"),
+    (["worker", "--processes", "0"], "--processes"),
+    (["worker", "--lease", "nan"], "--lease"),
+    (["keys", "create"], "--fleet"),
+    (["keys", "revoke", "x"], "id"),
+    (["tdc", SAMPLE_ARG, "--cylinder", "0"], "--cylinder 0"),
+    (["engines", "--bogus"], "--bogus"),
+    (["torsion", "modes", "man-b-w-7k98mc", "--reciprocating", "half"], "--reciprocating"),
+    (["torsion", "campbell", "man-b-w-7k98mc", "--max-order", "0"], "--max-order"),
+    (["torsion", "response", "man-b-w-7k98mc", "--rpm-min", "100", "--rpm-max", "50"], "rpm-min"),
+    (["torsion", "axial", "man-b-w-7k98mc", "--max-order", "inf"], "--max-order"),
+    (["torsion", "stability", "--points", "0"], "points >= 2"),
+    (["torsion", "stability", "--r-min", "nan"], "--r-min"),
+    (["torsion", "simulate", "--epsilon", "0.1", "--r", "-1"], "--r"),
+]
+
+
+@pytest.mark.parametrize(("argv", "said"), BAD_OPTIONS, ids=[" ".join(c[0][:3]) for c in BAD_OPTIONS])
+def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
+    argv: list[str],
+    said: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """An option out of its range, of the wrong type, or missing: status 2 (3 for compare) and an error
+    line naming it
+    (argparse's usage lines above it for a usage error), never a traceback, never an 'unexpected'."""
+    monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
+    monkeypatch.chdir(tmp_path)
+    values = {
+        "tmp": tmp_path,
+        "sample": SAMPLE,
+        "scene": SAMPLE.parents[1] / "scenes" / "6l32-baseline.toml",
+    }
+    try:
+        status = main([a.format(**values) for a in argv])
+    except SystemExit as stop:  # argparse's usage error
+        status = stop.code  # type: ignore[assignment]
+    err = capsys.readouterr().err
+    assert status == (3 if argv[0] == "compare" else 2), err  # compare's 3: not diagnosed (README)
+    last = err.strip().splitlines()[-1]
+    assert "error: " in last and said in last, err
+    assert "Traceback" not in err and "unexpected" not in err
+    assert not (tmp_path / "data").exists()
+
+
 @pytest.mark.parametrize(("argv", "status", "said"), BAD_INPUTS, ids=[" ".join(c[0][:2]) for c in BAD_INPUTS])
 def test_every_subcommand_answers_a_bad_input_in_one_line(
     argv: list[str],

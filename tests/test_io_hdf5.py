@@ -317,3 +317,14 @@ def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Gener
         os.umask(before)
     for path in written:
         assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask, path
+
+
+def test_writers_make_no_folder_they_were_not_asked_for(tmp_path: Path, rng: np.random.Generator) -> None:
+    """A recording written into a folder that does not exist is refused naming it; none is created."""
+    from monitor.io.files import OutputFolderError
+    from monitor.io.mcap_io import write_mcap
+
+    for write, name in ((write_hdf5, "r.h5"), (write_mcap, "r.mcap")):
+        with pytest.raises(OutputFolderError, match=r"missing/deeper.*does not exist"):
+            write(_recording(rng), tmp_path / "missing" / "deeper" / name)
+    assert not (tmp_path / "missing").exists()

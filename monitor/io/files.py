@@ -1,4 +1,4 @@
-"""File modes: what a file the product writes is created with."""
+"""Output files: written into a folder that exists, with the mode a new file gets."""
 
 from __future__ import annotations
 
@@ -6,7 +6,37 @@ import os
 import threading
 from pathlib import Path
 
-__all__ = ["publish"]
+from monitor.errors import MonitorError
+
+__all__ = ["OutputFolderError", "in_existing_folder", "publish"]
+
+
+class OutputFolderError(MonitorError, FileNotFoundError):
+    """An output file's folder does not exist: the product makes no folder it was not asked for."""
+
+
+def in_existing_folder(path: str | Path) -> Path:
+    """``path``, once its folder is known to exist.
+
+    Parameters
+    ----------
+    path : str or Path
+        An output file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputFolderError
+        Naming the folder, when it does not exist (or is not a folder).
+    """
+    target = Path(path)
+    if not target.parent.is_dir():
+        raise OutputFolderError(f"{target}: the folder {target.parent} does not exist (create it first)")
+    return target
+
 
 _LOCK = threading.Lock()
 

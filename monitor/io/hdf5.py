@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from monitor.io import HDF5_SIGNATURE, file_signature
-from monitor.io.files import publish
+from monitor.io.files import in_existing_folder, publish
 from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader, field_value
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
@@ -83,9 +83,13 @@ def write_hdf5(recording: Recording, path: str | Path, *, chunk_seconds: float =
     Returns
     -------
     Path
+
+    Raises
+    ------
+    OutputFolderError
+        If the file's folder does not exist (none is created).
     """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    target = in_existing_folder(path)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(handle)
     try:

@@ -57,7 +57,7 @@ from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
-from monitor.io.files import publish
+from monitor.io.files import in_existing_folder, publish
 from monitor.recording import (
     INTEGER_FIELDS,
     KIND_FIELDS,
@@ -319,6 +319,8 @@ def write_mcap(
     ------
     FormatError
         For a waveform that is neither float32 nor float64.
+    OutputFolderError
+        If the file's folder does not exist (none is created).
     """
     for c in recording.channels:
         if not c.is_events and c.data.dtype not in (np.float32, np.float64):
@@ -326,8 +328,7 @@ def write_mcap(
                 f"channel {c.name!r}: MCAP stores float32 or float64 samples, not {c.data.dtype}"
             )
     start_ns = _start_ns(recording.start_time)
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    target = in_existing_folder(path)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(handle)
     kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
