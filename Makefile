@@ -6,7 +6,8 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
-.PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean
+.PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
+	wheelhouse check-container proto
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -48,6 +49,23 @@ bench-diagnosis: $(STAMP)
 ## rewrites its section of docs/performance.md
 bench-service: $(STAMP)
 	$(BIN)/python -m benchmarks.service_load --seconds 20
+
+## wheelhouse: the product and its pinned dependencies as wheels, for the container image (docker/wheelhouse/)
+wheelhouse: $(STAMP)
+	rm -rf docker/wheelhouse
+	$(BIN)/python -m pip wheel --quiet -c constraints.txt --wheel-dir docker/wheelhouse/dependencies '.[cluster]'
+	mkdir -p docker/wheelhouse/product
+	mv docker/wheelhouse/dependencies/engine_monitor-*.whl docker/wheelhouse/product/
+
+## check-container: build the image and run the compose stack for real (root; Debian's docker.io, docker-compose
+## and debootstrap, installed if missing; several minutes); writes its section of docs/service.md
+check-container: $(STAMP)
+	$(BIN)/python -m benchmarks.container
+
+## proto: regenerate the MCAP blocks' protobuf module from its .proto (protoc from grpcio-tools)
+proto: $(STAMP)
+	cd monitor/io/proto && ../../../$(BIN)/python -m grpc_tools.protoc -I. --python_out=. --pyi_out=. \
+		engine_monitor/recording.proto
 
 ## samples: regenerate the small recordings in recordings/samples/ from their scenes (deterministic)
 SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3

@@ -439,12 +439,14 @@ def main() -> None:
         f"{diagnosis_ratio:.2f}x, {_verdict(diagnosis_ratio <= 1.2)}.",
         "",
     ]
-    # the service's section (benchmarks.service_load) is kept as it is
-    from benchmarks.service_load import END, START
+    # the sections of the service (benchmarks.service_load) and of MCAP blocks (benchmarks.mcap_blocks)
+    # are kept as they are
+    from benchmarks import mcap_blocks, service_load
 
     old = DOC.read_text(encoding="utf-8") if DOC.exists() else ""
-    if START in old and END in old:
-        lines += [START + old.split(START, 1)[1].split(END, 1)[0] + END, ""]
+    for start, end in ((service_load.START, service_load.END), (mcap_blocks.START, mcap_blocks.END)):
+        if start in old and end in old:
+            lines += [start + old.split(start, 1)[1].split(end, 1)[0] + end, ""]
     DOC.write_text("\n".join(lines), encoding="utf-8")
     print(f"wrote {DOC.relative_to(ROOT)}")
 

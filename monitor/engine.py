@@ -63,7 +63,7 @@ __all__ = [
     "parse_engine",
 ]
 
-BUNDLED_DIR = Path(__file__).resolve().parents[1] / "recordings" / "engines"
+BUNDLED_DIR = Path(__file__).resolve().parent / "engines"  # package data; recordings/engines links here
 
 
 def _between(low: float, high: float, unit: str, hint: str = "") -> Callable[[float], float]:

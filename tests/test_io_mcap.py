@@ -239,3 +239,42 @@ def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.
     with open_mcap(cut) as opened:
         assert opened.truncated
         assert isinstance(opened.channels[0].data, np.ndarray)
+
+
+def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: Path) -> None:
+    """recording_pb2 is generated from the shipped .proto (make proto): compiled again here by protoc,
+    the .proto gives the very descriptor the product encodes with and embeds as each file's schema."""
+    protoc = pytest.importorskip("grpc_tools.protoc", reason="grpcio-tools comes with the test dependencies")
+    from google.protobuf import descriptor_pb2
+
+    from monitor.io.mcap_io import schema_descriptor_set
+    from monitor.io.proto.engine_monitor import recording_pb2
+
+    proto = Path(recording_pb2.__file__).with_suffix("").with_name("recording.proto")
+    include = proto.parents[1]
+    out = tmp_path / "set.pb"
+    well_known = Path(protoc.__file__).parent / "_proto"  # google/protobuf/timestamp.proto, from protoc
+    argv = ["protoc", f"-I{include}", f"-I{well_known}", f"--descriptor_set_out={out}"]
+    assert protoc.main([*argv, str(proto.relative_to(include))]) == 0
+    compiled = descriptor_pb2.FileDescriptorSet.FromString(out.read_bytes()).file[0]
+    for message in compiled.message_type:  # protoc adds the JSON names a generated module leaves out
+        for field in message.field:
+            field.ClearField("json_name")
+    shipped = descriptor_pb2.FileDescriptorProto()
+    recording_pb2.DESCRIPTOR.CopyToProto(shipped)
+    assert compiled == shipped
+    embedded = descriptor_pb2.FileDescriptorSet.FromString(schema_descriptor_set())
+    assert [f.name for f in embedded.file] == [
+        "google/protobuf/timestamp.proto",
+        "engine_monitor/recording.proto",
+    ]
+    assert embedded.file[1] == shipped
+
+
+def test_a_block_that_is_not_protobuf_is_refused() -> None:
+    for data in (b"\x0a\xff\xff\xff\xff\x0f", b"\x22\x05abc", b"\x07"):
+        with pytest.raises(FormatError, match="not a valid SampleBlock or EventBlock"):
+            decode_block(data)
+    block = encode_sample_block(0, 0.0, 100.0, np.arange(3, dtype=np.float32))
+    with pytest.raises(FormatError, match="not whole 4-byte floats"):  # 12 sample bytes, one cut off
+        decode_block(block.replace(b"\x22\x0c", b"\x22\x0b").replace(b"\x00\x00\x00@", b"\x00\x00@", 1))

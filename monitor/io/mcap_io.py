@@ -8,10 +8,13 @@ general MCAP viewer such as Foxglove decodes and plots them.  The recording's
 attributes are an MCAP metadata record ``recording``; each channel's are its
 MCAP channel metadata.  Chunks are compressed (zstd or lz4) and carry CRCs.
 
-Speed.  A packed ``repeated float`` field is, on the wire, exactly a
-little-endian float32 array; the blocks are encoded and decoded here at
-that level (``numpy.frombuffer``, no per-sample work), which the tests check
-against the official protobuf decoder.
+Schema.  The messages are those of ``proto/engine_monitor/recording.proto``,
+shipped with the product; its compiled descriptor is the schema embedded in
+each file.  The protobuf runtime encodes and decodes them, as ``BlockWire``:
+the same fields and wire format, the packed samples taken as the bytes they
+are on the wire (a packed ``repeated float`` is a little-endian float32
+array), so numpy views them without work per sample; the tests check the
+official decoder reads the blocks as ``SampleBlock`` and ``EventBlock``.
 
 Layout.  Each chunk holds one channel: a window of about ``chunk_size``
 bytes of it, the windows of all channels in turn, so that a reader of one
@@ -47,6 +50,7 @@ from pathlib import Path
 from typing import IO, Any, Literal, TypeVar, cast
 
 import numpy as np
+from google.protobuf.message import DecodeError
 from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
@@ -58,6 +62,7 @@ from mcap.writer import CompressionType, Writer
 from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
 from monitor.io.files import in_existing_folder, publish
+from monitor.io.proto.engine_monitor import recording_pb2
 from monitor.recording import (
     INTEGER_FIELDS,
     KIND_FIELDS,
@@ -91,91 +96,19 @@ _N = TypeVar("_N", int, float)
 
 # --------------------------------------------------------------------------------------- schema
 def schema_descriptor_set() -> bytes:
-    """The ``FileDescriptorSet`` embedded as the MCAP schema (protobuf, self-describing)."""
+    """The ``FileDescriptorSet`` embedded as the MCAP schema: ``engine_monitor/recording.proto`` (shipped
+    beside this module, compiled to ``recording_pb2``) with ``google/protobuf/timestamp.proto``."""
     from google.protobuf import descriptor_pb2, timestamp_pb2
 
     fds = descriptor_pb2.FileDescriptorSet()
     timestamp_pb2.DESCRIPTOR.CopyToProto(fds.file.add())
-    proto = fds.file.add()
-    proto.name = "engine_monitor/recording.proto"
-    proto.package = "engine_monitor"
-    proto.syntax = "proto3"
-    proto.dependency.append("google/protobuf/timestamp.proto")
-    f = descriptor_pb2.FieldDescriptorProto
-    sample = proto.message_type.add()
-    sample.name = "SampleBlock"
-    for number, name, kind, label, type_name in (
-        (1, "timestamp", f.TYPE_MESSAGE, f.LABEL_OPTIONAL, ".google.protobuf.Timestamp"),
-        (2, "start_offset_s", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-        (3, "sample_rate_hz", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-        (4, "samples_f32", f.TYPE_FLOAT, f.LABEL_REPEATED, ""),
-        (5, "samples_f64", f.TYPE_DOUBLE, f.LABEL_REPEATED, ""),
-        (6, "mean", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-        (7, "rms", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-        (8, "minimum", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-        (9, "maximum", f.TYPE_DOUBLE, f.LABEL_OPTIONAL, ""),
-    ):
-        field = sample.field.add(name=name, number=number, type=kind, label=label)
-        if type_name:
-            field.type_name = type_name
-    event = proto.message_type.add()
-    event.name = "EventBlock"
-    event.field.add(
-        name="timestamp",
-        number=1,
-        type=f.TYPE_MESSAGE,
-        label=f.LABEL_OPTIONAL,
-        type_name=".google.protobuf.Timestamp",
-    )
-    event.field.add(name="times_s", number=4, type=f.TYPE_DOUBLE, label=f.LABEL_REPEATED)
+    recording_pb2.DESCRIPTOR.CopyToProto(fds.file.add())
     return fds.SerializeToString()
 
 
 # ------------------------------------------------------------------------------------ wire format
-def _varint(value: int) -> bytes:
-    out = bytearray()
-    while True:
-        byte = value & 0x7F
-        value >>= 7
-        if value:
-            out.append(byte | 0x80)
-        else:
-            out.append(byte)
-            return bytes(out)
-
-
-def _read_varint(buf: memoryview, pos: int) -> tuple[int, int]:
-    result = shift = 0
-    while True:
-        byte = buf[pos]
-        pos += 1
-        result |= (byte & 0x7F) << shift
-        if not byte & 0x80:
-            return result, pos
-        shift += 7
-
-
-def _timestamp(ns: int) -> bytes:
-    seconds, nanos = divmod(ns, 1_000_000_000)
-    inner = b""
-    if seconds:
-        inner += b"\x08" + _varint(seconds)
-    if nanos:
-        inner += b"\x10" + _varint(nanos)
-    return b"\x0a" + _varint(len(inner)) + inner
-
-
-def _double(number: int, value: float) -> bytes:
-    return _varint(number << 3 | 1) + struct.pack("<d", value)
-
-
-def _packed(number: int, data: np.ndarray) -> bytes:
-    raw = data.astype(data.dtype.newbyteorder("<"), copy=False).tobytes()
-    return _varint(number << 3 | 2) + _varint(len(raw)) + raw
-
-
 def encode_sample_block(time_ns: int, start_offset: float, rate: float, samples: np.ndarray) -> bytes:
-    """One ``engine_monitor.SampleBlock`` in protobuf wire format (float32 or float64 samples).
+    """One ``engine_monitor.SampleBlock`` (float32 or float64 samples), serialised by the protobuf runtime.
 
     Parameters
     ----------
@@ -193,23 +126,28 @@ def encode_sample_block(time_ns: int, start_offset: float, rate: float, samples:
     bytes
     """
     finite = samples[np.isfinite(samples)].astype(np.float64)
-    stats = (
-        (finite.mean(), np.sqrt(np.mean(finite**2)), finite.min(), finite.max())
-        if finite.size
-        else (0.0,) * 4
+    mean, rms, low, high = (0.0,) * 4
+    if finite.size:
+        mean, rms, low, high = finite.mean(), np.sqrt(np.mean(finite**2)), finite.min(), finite.max()
+    block = recording_pb2.BlockWire(
+        start_offset_s=start_offset,
+        sample_rate_hz=rate,
+        mean=float(mean),
+        rms=float(rms),
+        minimum=float(low),
+        maximum=float(high),
     )
-    field = 4 if samples.dtype == np.float32 else 5
-    return (
-        _timestamp(time_ns)
-        + _double(2, start_offset)
-        + _double(3, rate)
-        + _packed(field, samples)
-        + b"".join(_double(6 + i, float(v)) for i, v in enumerate(stats))
-    )
+    block.timestamp.FromNanoseconds(time_ns)
+    raw = samples.astype(samples.dtype.newbyteorder("<"), copy=False).tobytes()
+    if samples.dtype == np.float32:
+        block.values_4 = raw
+    else:
+        block.values_5 = raw
+    return block.SerializeToString()
 
 
 def encode_event_block(time_ns: int, times: np.ndarray) -> bytes:
-    """One ``engine_monitor.EventBlock`` in protobuf wire format.
+    """One ``engine_monitor.EventBlock``, serialised by the protobuf runtime.
 
     Parameters
     ----------
@@ -222,11 +160,13 @@ def encode_event_block(time_ns: int, times: np.ndarray) -> bytes:
     -------
     bytes
     """
-    return _timestamp(time_ns) + _packed(4, times.astype(np.float64))
+    block = recording_pb2.BlockWire(values_4=times.astype("<f8").tobytes())
+    block.timestamp.FromNanoseconds(time_ns)
+    return block.SerializeToString()
 
 
 def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
-    """Decode a SampleBlock or an EventBlock from its protobuf wire format.
+    """Decode a SampleBlock or an EventBlock with the protobuf runtime (as ``BlockWire``).
 
     Parameters
     ----------
@@ -242,49 +182,22 @@ def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
     Raises
     ------
     FormatError
-        If the message is not valid protobuf (a field that runs past its end, an
-        unknown wire type, a packed field that is not whole numbers).
+        If the message is not valid protobuf, or its samples are not whole floats.
     """
-    buf = memoryview(data)
-    pos, start, rate = 0, 0.0, 0.0
-    values: np.ndarray = np.empty(0)
+    block = recording_pb2.BlockWire()
     try:
-        while pos < len(buf):
-            key, pos = _read_varint(buf, pos)
-            number, wire = key >> 3, key & 7
-            if wire == 1:
-                value = struct.unpack_from("<d", buf, pos)[0]
-                pos += 8
-                if number == 2:
-                    start = value
-                elif number == 3:
-                    rate = value
-            elif wire == 2:
-                length, pos = _read_varint(buf, pos)
-                if pos + length > len(buf):
-                    raise FormatError(
-                        f"message field {number} of {length} bytes runs past the message's end "
-                        f"({len(buf)} bytes); expected a whole SampleBlock or EventBlock"
-                    )
-                if number in (4, 5):
-                    dtype = "<f4" if number == 4 and rate else "<f8"
-                    if length % np.dtype(dtype).itemsize:
-                        raise FormatError(
-                            f"message field {number} has {length} bytes, not whole {dtype[-1]}-byte floats"
-                        )
-                    values = np.frombuffer(buf[pos : pos + length], dtype=dtype).copy()
-                pos += length
-            elif wire == 0:
-                _, pos = _read_varint(buf, pos)
-            elif wire == 5:
-                pos += 4
-            else:
-                raise FormatError(f"message has a field of wire type {wire}, not valid protobuf")
-    except (IndexError, struct.error):  # a varint or a double the message ends inside
-        raise FormatError(
-            f"message ends inside a field ({len(buf)} bytes); expected a whole SampleBlock or EventBlock"
-        ) from None
-    return start, rate, values
+        block.ParseFromString(data)
+    except DecodeError as error:
+        raise FormatError(f"message is not a valid SampleBlock or EventBlock ({error})") from None
+    rate = block.sample_rate_hz
+    if block.values_5 or not rate:  # float64 samples, or an EventBlock's times
+        raw, dtype, number = (block.values_5, "<f8", 5) if rate else (block.values_4, "<f8", 4)
+    else:
+        raw, dtype, number = block.values_4, "<f4", 4
+    size = np.dtype(dtype).itemsize
+    if len(raw) % size:
+        raise FormatError(f"message field {number} has {len(raw)} bytes, not whole {size}-byte floats")
+    return block.start_offset_s, rate, np.frombuffer(raw, dtype=dtype).copy()
 
 
 # ------------------------------------------------------------------------------------------ write
