@@ -1,0 +1,263 @@
+"""The service killed with ``kill -9`` mid-analysis, again and again (``make bench-kill``).
+
+``python -m benchmarks.service_kill [--sqlite-runs 20] [--postgresql-runs 5]``. Each run starts on a
+fresh store a server, and in every other run a separate worker (the server then only queues),
+uploads three recordings, waits until an analysis runs, then kills with SIGKILL the process that runs
+it (the server itself, or the worker): that process alone, not its group. It then checks that
+nothing of the killed process is left running (its analysis processes die with it), restarts it at
+once on the same port, and waits until every analysis is done. Counted per store: uploads lost (a
+recording answered 201 and not stored, or never analysed), results duplicated, 5xx answers,
+processes left behind, restarts that failed. It writes its section of docs/service.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+from benchmarks.service_load import POSTGRES, _free_port, _postgres_database
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "service.md"
+START, END = "<!-- service-kill: start -->", "<!-- service-kill: end -->"
+UPLOADS = 3
+STARTUP_S = 60.0
+FINISH_S = 180.0
+
+
+@dataclass
+class Tally:
+    """What the runs of one store found."""
+
+    runs: int = 0
+    server_kills: int = 0
+    worker_kills: int = 0
+    uploads: int = 0
+    lost: int = 0
+    duplicated: int = 0
+    errors_5xx: int = 0
+    left_behind: int = 0
+    restart_failures: int = 0
+    restart_s: list[float] = field(default_factory=list)
+    finish_s: list[float] = field(default_factory=list)
+
+
+def _recordings(folder: Path) -> list[Path]:
+    from monitor.io.hdf5 import write_hdf5
+    from monitor.scene import load_scene, simulate
+
+    scene = load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml").model_copy(
+        update={"duration_s": 6.0}
+    )
+    paths = []
+    for seed in range(UPLOADS):
+        path = folder / f"r{seed}.h5"
+        write_hdf5(simulate(scene, seed=500 + seed).recording, path)
+        paths.append(path)
+    return paths
+
+
+def _session(session: int) -> list[int]:
+    """The live processes of a session (each service process starts its own), zombies left out."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == session and fields[0] not in ("Z", "X"):
+            found.append(int(stat.parent.name))
+    return found
+
+
+def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
+    with open(log, "ab") as out:
+        return subprocess.Popen(
+            [sys.executable, "-m", "monitor", *argv], stdout=out, stderr=out, start_new_session=True, cwd=ROOT
+        )
+
+
+def _wait_healthy(url: str) -> float | None:
+    started = time.monotonic()
+    while time.monotonic() - started < STARTUP_S:
+        try:
+            if httpx.get(f"{url}/health", timeout=2).status_code == 200:
+                return time.monotonic() - started
+        except httpx.TransportError:
+            pass
+        time.sleep(0.1)
+    return None
+
+
+def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: bool, tally: Tally) -> None:
+    from monitor.store import open_store
+
+    store = open_store(store_url)
+    key = store.create_key(store.create_fleet("fleet"))
+    store.close()
+    data, log = folder / "data", folder / "service.log"
+    port = _free_port()
+    url = f"http://127.0.0.1:{port}"
+    serve = ["serve", "--port", str(port), "--store", store_url, "--data", str(data), "--lease", "30"]
+    serve += ["--workers", "0" if kill_worker else "1"]
+    work = ["worker", "--store", store_url, "--data", str(data), "--lease", "30"]
+    server = _start(serve, log)
+    worker = _start(work, log) if kill_worker else None
+    try:
+        if _wait_healthy(url) is None:
+            raise RuntimeError(f"the server did not start (see {log})")
+        client = httpx.Client(base_url=url, headers={"X-API-Key": key}, timeout=60)
+
+        def answered(response: httpx.Response) -> httpx.Response:
+            tally.errors_5xx += response.status_code >= 500
+            return response
+
+        ids = []
+        for path in recordings:
+            answer = answered(
+                client.post("/recordings", params={"filename": path.name}, content=path.read_bytes())
+            )
+            if answer.status_code == 201:
+                ids.append(answer.json()["id"])
+        tally.uploads += len(ids)
+        deadline = time.monotonic() + FINISH_S
+        while not any(answered(client.get(f"/recordings/{i}")).json()["status"] == "running" for i in ids):
+            if time.monotonic() > deadline:
+                raise RuntimeError("no analysis started")
+            time.sleep(0.05)
+        victim = worker if kill_worker else server
+        assert victim is not None
+        victim.send_signal(signal.SIGKILL)
+        victim.wait()
+        tally.worker_kills += kill_worker
+        tally.server_kills += not kill_worker
+        gone = time.monotonic() + 5
+        while _session(victim.pid) and time.monotonic() < gone:
+            time.sleep(0.05)
+        tally.left_behind += len(_session(victim.pid))
+        restarted = time.monotonic()
+        if kill_worker:
+            worker = _start(work, log)
+        else:
+            server = _start(serve, log)
+            if _wait_healthy(url) is None:
+                tally.restart_failures += 1
+                raise RuntimeError(f"the server did not restart on port {port} (see {log})")
+            tally.restart_s.append(time.monotonic() - restarted)
+        deadline = time.monotonic() + FINISH_S
+        while True:
+            states = [answered(client.get(f"/recordings/{i}")).json()["status"] for i in ids]
+            if all(state in ("done", "set_aside") for state in states) or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        tally.finish_s.append(time.monotonic() - restarted)
+        tally.lost += len(ids) - sum(state == "done" for state in states)
+        client.close()
+        store = open_store(store_url)
+        try:
+            tally.duplicated += max(0, store.count("results") - 2 * len(ids))
+            tally.lost += max(0, len(ids) - store.count("recordings"))
+        finally:
+            store.close()
+        tally.runs += 1
+    finally:
+        for process in (server, worker):
+            if process is not None and process.poll() is None:
+                process.send_signal(signal.SIGTERM)
+                try:
+                    process.wait(10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+
+
+def _median(values: list[float]) -> str:
+    return f"{sorted(values)[len(values) // 2]:.1f}" if values else "-"
+
+
+def document(tallies: dict[str, Tally], note: str) -> str:
+    moment = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [
+        START,
+        f"Written by `make bench-kill` (`python -m benchmarks.service_kill`) on {moment}, Python "
+        f"{platform.python_version()}, 2 cores (shared machine). {note}",
+        "",
+        "| store | runs | server kills | worker kills | uploads | lost | results duplicated | 5xx "
+        "| processes "
+        "left behind | restarts failed | restart to healthy [s], median | restart to all done [s], median |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, t in tallies.items():
+        lines.append(
+            f"| {name} | {t.runs} | {t.server_kills} | {t.worker_kills} | {t.uploads} | {t.lost} "
+            f"| {t.duplicated} | "
+            f"{t.errors_5xx} | {t.left_behind} | {t.restart_failures} | {_median(t.restart_s)} | "
+            f"{_median(t.finish_s)} |"
+        )
+    held = all(
+        t.lost == t.duplicated == t.errors_5xx == t.left_behind == t.restart_failures == 0
+        for t in tallies.values()
+    )
+    lines += ["", f"Target (the hardening issue): nothing lost, duplicated or left behind, no 5xx: "
+              f"{'met' if held else 'not met'}.", END]  # fmt: skip
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sqlite-runs", type=int, default=20)
+    parser.add_argument("--postgresql-runs", type=int, default=5)
+    parser.add_argument(
+        "--postgres", default=POSTGRES, help="an administrator's URL of the server on loopback"
+    )
+    args = parser.parse_args(argv)
+    tallies: dict[str, Tally] = {}
+    note = (
+        f"Each run: {UPLOADS} recordings of 6 s uploaded, SIGKILL of the server (even runs) or of the "
+        "separate worker (odd runs) once an analysis runs, restart at once on the same port and store."
+    )
+    with tempfile.TemporaryDirectory() as scratch:
+        recordings = _recordings(Path(scratch))
+        for name, runs in (("SQLite", args.sqlite_runs), ("PostgreSQL", args.postgresql_runs)):
+            tally = tallies.setdefault(name, Tally())
+            for run in range(runs):
+                folder = Path(scratch) / f"{name}-{run}"
+                folder.mkdir()
+                database: tuple[str, Any] | None = (
+                    (f"sqlite:///{folder / 'store.db'}", None)
+                    if name == "SQLite"
+                    else _postgres_database(args.postgres)
+                )
+                if database is None:
+                    note += " No PostgreSQL server answered: its runs were skipped."
+                    break
+                url, drop = database
+                try:
+                    one_run(url, folder, recordings, kill_worker=bool(run % 2), tally=tally)
+                finally:
+                    if drop is not None:
+                        drop()
+                print(f"{name} run {run + 1}/{runs}: {tally}", flush=True)
+    section = document(tallies, note)
+    text = DOC.read_text(encoding="utf-8")
+    if START in text and END in text:
+        head, rest = text.split(START, 1)
+        text = head + section + rest.split(END, 1)[1]
+    else:
+        text = text.rstrip("\n") + "\n\n" + section + "\n"
+    DOC.write_text(text, encoding="utf-8")
+    print(section)
+
+
+if __name__ == "__main__":
+    main()
