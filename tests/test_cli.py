@@ -182,17 +182,48 @@ def _hostile_copies(folder: Path) -> dict[str, Path]:
     with h5py.File(missing, "r+") as f:
         del f["channels"]
     out["no channels group"] = missing
+    empty = folder / "empty.h5"
+    empty.write_bytes(b"")
+    out["an empty file"] = empty
+    text = folder / "notes.mcap"
+    text.write_text("not a recording\n")
+    out["text named .mcap"] = text
+    cut = folder / "cut.h5"
+    cut.write_bytes(SAMPLE.read_bytes()[: SAMPLE.stat().st_size // 2])
+    out["an HDF5 file cut in half"] = cut
+    from monitor.io.hdf5 import read_hdf5
+    from monitor.io.mcap_io import write_mcap
+
+    damaged = write_mcap(read_hdf5(SAMPLE), folder / "damaged.mcap", compression="none")
+    data = damaged.read_bytes()  # the engine id is in the 'recording' metadata record only
+    damaged.write_bytes(data.replace(b"man-b-w-7k98mc", b"man-b-w-7k98md"))
+    out["an MCAP file with its engine id changed"] = damaged
     return out
 
 
-@pytest.mark.parametrize("command", ["spectrum", "compare"])
+COMMANDS_READING_A_RECORDING = [
+    ["spectrum", "{path}"],
+    ["compare", "{path}"],
+    ["calibrate", "{path}", "-o", "{tmp}/baseline.json"],
+    ["tdc", "{path}"],
+    ["simulate", "--truth", "{path}"],
+]
+
+
+@pytest.mark.parametrize(
+    "argv", COMMANDS_READING_A_RECORDING, ids=[c[0] for c in COMMANDS_READING_A_RECORDING]
+)
 def test_a_damaged_or_hostile_file_is_one_error_line_not_a_traceback(
-    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A sample with a waveform at 0 Hz (it divided by zero), a file whose channels are a soft-link loop,
-    one without its channels: each is one line on stderr naming the file, status 2 (3 for compare)."""
+    """Every command that reads a recording, given a sample with a waveform at 0 Hz (it divided by
+    zero), a soft-link loop, a file without its channels, an empty file, text, an HDF5 file cut in half,
+    an MCAP file whose metadata was changed: one line on stderr naming the file, status 2 (3 for
+    compare). (Damage inside one channel's samples is that channel's fault, reported as such.)"""
     for what, path in _hostile_copies(tmp_path).items():
-        assert main([command, str(path)]) == (3 if command == "compare" else 2), what
+        status = main([a.format(path=path, tmp=tmp_path) for a in argv])
+        assert status == (3 if argv[0] == "compare" else 2), what
+        assert not (tmp_path / "baseline.json").exists()
         said = capsys.readouterr().err
         assert "Traceback" not in said and len(said.strip().splitlines()) == 1, (what, said)
         assert said.startswith("engine-monitor: error: ") and path.name in said, (what, said)
