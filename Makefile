@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto
+	wheelhouse check-container proto bench-kill
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -66,6 +66,11 @@ check-container: $(STAMP)
 proto: $(STAMP)
 	cd monitor/io/proto && ../../../$(BIN)/python -m grpc_tools.protoc -I. --python_out=. --pyi_out=. \
 		engine_monitor/recording.proto
+
+## bench-kill: the service killed with kill -9 mid-analysis and restarted (20 runs on SQLite, 5 on PostgreSQL);
+## rewrites its section of docs/service.md
+bench-kill: $(STAMP)
+	$(BIN)/python -m benchmarks.service_kill --sqlite-runs 20 --postgresql-runs 5
 
 ## samples: regenerate the small recordings in recordings/samples/ from their scenes (deterministic)
 SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3

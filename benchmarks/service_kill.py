@@ -26,7 +26,9 @@ from typing import Any
 
 import httpx
 
+from benchmarks.sections import replace_section
 from benchmarks.service_load import POSTGRES, _free_port, _postgres_database
+from monitor.processes import session_processes
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "service.md"
@@ -66,19 +68,6 @@ def _recordings(folder: Path) -> list[Path]:
         write_hdf5(simulate(scene, seed=500 + seed).recording, path)
         paths.append(path)
     return paths
-
-
-def _session(session: int) -> list[int]:
-    """The live processes of a session (each service process starts its own), zombies left out."""
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[3]) == session and fields[0] not in ("Z", "X"):
-            found.append(int(stat.parent.name))
-    return found
 
 
 def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
@@ -143,9 +132,9 @@ def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: b
         tally.worker_kills += kill_worker
         tally.server_kills += not kill_worker
         gone = time.monotonic() + 5
-        while _session(victim.pid) and time.monotonic() < gone:
+        while session_processes(victim.pid) and time.monotonic() < gone:
             time.sleep(0.05)
-        tally.left_behind += len(_session(victim.pid))
+        tally.left_behind += len(session_processes(victim.pid))
         restarted = time.monotonic()
         if kill_worker:
             worker = _start(work, log)
@@ -249,13 +238,7 @@ def main(argv: list[str] | None = None) -> None:
                         drop()
                 print(f"{name} run {run + 1}/{runs}: {tally}", flush=True)
     section = document(tallies, note)
-    text = DOC.read_text(encoding="utf-8")
-    if START in text and END in text:
-        head, rest = text.split(START, 1)
-        text = head + section + rest.split(END, 1)[1]
-    else:
-        text = text.rstrip("\n") + "\n\n" + section + "\n"
-    DOC.write_text(text, encoding="utf-8")
+    replace_section(DOC, START, END, section)
     print(section)
 
 

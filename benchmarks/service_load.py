@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.sections import replace_section
+
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "performance.md"
 START, END = "<!-- service-load: start -->", "<!-- service-load: end -->"
@@ -237,14 +239,7 @@ def _section(rows: list[tuple[str, dict[str, Any]]], seconds: float) -> list[str
 
 def write_section(lines: list[str]) -> None:
     """Replace (or append) the section between the markers in docs/performance.md."""
-    text = DOC.read_text(encoding="utf-8") if DOC.exists() else "# Performance\n"
-    if START in text and END in text:
-        head, rest = text.split(START, 1)
-        tail = rest.split(END, 1)[1]
-        text = head + "\n".join(lines) + tail
-    else:
-        text = text.rstrip("\n") + "\n\n" + "\n".join(lines) + "\n"
-    DOC.write_text(text, encoding="utf-8")
+    replace_section(DOC, START, END, "\n".join(lines))
 
 
 def main() -> None:

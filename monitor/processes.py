@@ -34,8 +34,9 @@ import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
-__all__ = ["WATCH_S", "analysis_pool", "die_with_parent"]
+__all__ = ["WATCH_S", "analysis_pool", "die_with_parent", "session_processes"]
 
 #: Seconds between an analysis process's looks at its parent (where the kernel does not tell it).
 WATCH_S = 1.0
@@ -86,3 +87,30 @@ def _watch(parent: int) -> None:
         time.sleep(WATCH_S)
         if os.getppid() != parent:
             os._exit(_EXIT_ORPHANED)
+
+
+def session_processes(session: int) -> list[int]:
+    """The live processes of a session, zombies left out (Linux's ``/proc``; none elsewhere).
+
+    A service started in a session of its own (``start_new_session``) has its session id equal to its
+    process id: what is left of it after it was killed is this list.
+
+    Parameters
+    ----------
+    session : int
+        The session id.
+
+    Returns
+    -------
+    list of int
+        Process ids.
+    """
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[3]) == session and fields[0] not in ("Z", "X"):
+            found.append(int(stat.parent.name))
+    return found

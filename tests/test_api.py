@@ -19,6 +19,7 @@ import pytest
 
 from monitor.cli import main
 from monitor.io.hdf5 import write_hdf5
+from monitor.processes import session_processes
 from monitor.scene import load_scene, simulate
 from monitor.store import open_store
 
@@ -319,19 +320,6 @@ def test_the_openapi_document_lists_every_route(server: Server) -> None:
     }
 
 
-def _session_processes(session: int) -> list[int]:
-    """The live processes of a session (a server started in its own), zombies left out."""
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[3]) == session and fields[0] not in ("Z", "X"):
-            found.append(int(stat.parent.name))
-    return found
-
-
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
 def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Server, tmp_path: Path) -> None:
     """The server alone is killed (kill -9 of its process, not its group) while the analysis runs: its
@@ -342,13 +330,13 @@ def test_a_server_killed_mid_analysis_finishes_the_job_after_restart(server: Ser
         recording = _upload_and_wait_running(client, tmp_path)
     assert server.process is not None
     pid, port = server.process.pid, int(server.url.rsplit(":", 1)[1])
-    assert len(_session_processes(pid)) >= 2  # the server and its analysis process
+    assert len(session_processes(pid)) >= 2  # the server and its analysis process
     os.kill(pid, signal.SIGKILL)
     server.process.wait()
     deadline = time.monotonic() + 5
-    while _session_processes(pid) and time.monotonic() < deadline:
+    while session_processes(pid) and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert _session_processes(pid) == [], "analysis processes outlived the server"
+    assert session_processes(pid) == [], "analysis processes outlived the server"
     store = open_store(server.store_url)
     try:
         assert store.count("results") == 0  # killed before it finished
