@@ -1,11 +1,16 @@
-"""The container files, checked without a Docker engine (none runs here): structure and commands.
+"""The container files' structure and commands (the image and the stack are built and run for real
+by ``make check-container``, benchmarks/container.py, whose result docs/service.md shows).
 
-The image runs as a user without privileges; the compose file has the API, a worker, PostgreSQL
-and a Dask scheduler with workers; every engine-monitor command in it parses with the CLI.
+The image runs as a user without privileges from a base pinned by digest, installs wheels (the
+dependencies in a layer of their own); the compose file has the API, a worker, PostgreSQL and a Dask
+scheduler with workers, each with a healthcheck, the database password as a secret file; every
+engine-monitor command in it parses with the CLI.
 """
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import pytest
@@ -23,7 +28,22 @@ def test_the_image_runs_as_a_user_without_privileges() -> None:
     last_user = max(i for i, line in enumerate(lines) if line.startswith("USER "))
     assert last_user < min(i for i, line in enumerate(lines) if line.startswith(("ENTRYPOINT", "CMD")))
     assert any("useradd --system" in line for line in lines)
-    assert any(line.startswith("RUN pip install -c constraints.txt") for line in lines)  # the pinned versions
+
+
+def test_the_image_is_pinned_and_installs_wheels_dependencies_first() -> None:
+    text = (DOCKER / "Dockerfile").read_text()
+    lines = [line.strip() for line in text.splitlines()]
+    base = next(line for line in lines if line.startswith("ARG BASE="))
+    assert re.fullmatch(r"ARG BASE=python:3\.11-slim-bookworm@sha256:[0-9a-f]{64}", base)
+    assert "FROM ${BASE}" in lines
+    installs = [line for line in lines if line.startswith("RUN pip install")]
+    assert installs and all("--no-index" in line and "-e " not in line for line in installs)
+    copies = [line for line in lines if line.startswith("COPY")]
+    assert copies == [
+        "COPY docker/wheelhouse/dependencies/ /tmp/wheels/",
+        "COPY docker/wheelhouse/product/ /tmp/wheels/",
+    ]  # the dependencies' layer does not change with the code
+    assert any(line.startswith("HEALTHCHECK") for line in lines)
 
 
 def test_the_compose_file_has_every_service_and_their_commands_parse() -> None:
@@ -31,14 +51,19 @@ def test_the_compose_file_has_every_service_and_their_commands_parse() -> None:
     compose = yaml.safe_load((DOCKER / "compose.yaml").read_text())
     services = compose["services"]
     assert {"api", "worker", "postgres", "dask-scheduler", "dask-worker", "batch"} <= set(services)
-    assert services["postgres"]["image"].startswith("postgres:")
     parser = _build_parser()
     for name in ("api", "worker", "batch"):
         command = services[name]["command"]
         args = parser.parse_args(command)  # raises SystemExit on an option the CLI does not have
         assert args.command == command[0]
     url = services["api"]["environment"]["ENGINE_MONITOR_DB"]
-    assert url.startswith("postgresql+psycopg://") and "@postgres:5432/" in url
+    assert url.startswith("postgresql+psycopg://monitor@postgres:5432/")  # no password in the file
+    assert "PASSWORD" not in json.dumps(services["postgres"]["environment"]).replace("PASSWORD_FILE", "")
+    assert services["api"]["environment"]["ENGINE_MONITOR_DB_PASSWORD_FILE"] == "/run/secrets/db_password"
+    assert compose["secrets"]["db_password"]["file"].endswith("./secrets/db_password}")
+    assert re.search(r"postgres:16-bookworm@sha256:[0-9a-f]{64}", services["postgres"]["image"])
+    for name, service in services.items():  # every service but the batch (a command) says whether it is well
+        assert "test" in service.get("healthcheck", {}) or name == "batch", name
     assert services["dask-worker"]["entrypoint"][:3] == ["dask", "worker", "tcp://dask-scheduler:8786"]
     assert "--scheduler" in services["batch"]["command"]
     assert all(service.get("volumes") for key, service in services.items() if key != "dask-scheduler")

@@ -298,3 +298,29 @@ def test_engines_are_created_and_updated(store: Store) -> None:
     assert store.put_engine(fleet, "e1", {"id": "e1", "cylinders": 7}) is False
     assert store.engine(fleet, "e1") == {"id": "e1", "cylinders": 7}
     assert store.engines(fleet) == ["e1"] and store.engine(store.create_fleet("b"), "e1") is None
+
+
+def test_the_password_comes_from_a_secrets_file_when_the_url_has_none(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A container's secret: $ENGINE_MONITOR_DB_PASSWORD_FILE names a file with the password, so that
+    it never appears in the URL, the environment or a command line."""
+    from monitor.store import PASSWORD_FILE_ENV, _with_password_file
+
+    secret = tmp_path / "db_password"
+    secret.write_text("s3cr:et@\n")
+    url = "postgresql+psycopg://monitor@postgres:5432/monitor"
+    assert _with_password_file(url) == url  # no file named: the URL as given
+    monkeypatch.setenv(PASSWORD_FILE_ENV, str(secret))
+    with_password = _with_password_file(url)
+    assert isinstance(with_password, sa.URL) and with_password.password == "s3cr:et@"
+    assert (
+        with_password.render_as_string(hide_password=True)
+        == "postgresql+psycopg://monitor:***@postgres:5432/monitor"
+    )
+    given = "postgresql+psycopg://monitor:other@postgres:5432/monitor"
+    assert _with_password_file(given) == given  # a password in the URL wins
+    assert _with_password_file("sqlite:///x.db") == "sqlite:///x.db"
+    monkeypatch.setenv(PASSWORD_FILE_ENV, str(tmp_path / "missing"))
+    with pytest.raises(StoreError, match=r"ENGINE_MONITOR_DB_PASSWORD_FILE.*missing: cannot read"):
+        _with_password_file(url)

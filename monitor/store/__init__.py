@@ -44,6 +44,7 @@ from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, reco
 __all__ = [
     "DEFAULT_URL_ENV",
     "MAX_ATTEMPTS",
+    "PASSWORD_FILE_ENV",
     "RETRY_BACKOFF",
     "Job",
     "KeyRow",
@@ -56,6 +57,9 @@ __all__ = [
 ]
 
 DEFAULT_URL_ENV = "ENGINE_MONITOR_DB"  # environment variable with the store's URL
+#: Environment variable naming a file that holds the store's password (a container secret), for a URL
+#: written without one; the password never has to appear in the URL, the environment or a command line.
+PASSWORD_FILE_ENV = "ENGINE_MONITOR_DB_PASSWORD_FILE"
 MAX_ATTEMPTS = 3  # a job that failed this many times is set aside
 #: The wait before the first retry of a job that failed for a passing reason; doubled after each attempt.
 RETRY_BACKOFF = timedelta(seconds=10)
@@ -672,13 +676,35 @@ def _sqlite_pragmas(connection: Any, _: Any) -> None:
     cursor.close()
 
 
+def _with_password_file(url: str) -> str | sa.URL:
+    """The URL with the password from :data:`PASSWORD_FILE_ENV`'s file, where it names one and the URL
+    has none."""
+    secret = os.environ.get(PASSWORD_FILE_ENV)
+    if not secret:
+        return url
+    try:
+        parsed = sa.make_url(url)
+    except sa.exc.ArgumentError:
+        return url  # refused, with its message, by create_engine
+    if parsed.password is not None or parsed.get_backend_name() == "sqlite":
+        return url
+    try:
+        password = Path(secret).read_text(encoding="utf-8").rstrip("\r\n")
+    except OSError as error:
+        raise StoreError(
+            f"${PASSWORD_FILE_ENV} {secret}: cannot read the store's password ({error})"
+        ) from None
+    return parsed.set(password=password)
+
+
 def open_store(url: str | None = None) -> Store:
     """Open (and migrate to the newest schema) the store at ``url``.
 
     Parameters
     ----------
     url : str, optional
-        ``sqlite:///PATH`` or ``postgresql+psycopg://...``; default: :func:`default_url`.
+        ``sqlite:///PATH`` or ``postgresql+psycopg://...``; default: :func:`default_url`. A URL
+        without a password takes it from the file ``$ENGINE_MONITOR_DB_PASSWORD_FILE`` names, if set.
 
     Raises
     ------
@@ -690,7 +716,7 @@ def open_store(url: str | None = None) -> Store:
 
     target = url or default_url()
     try:
-        engine = sa.create_engine(target, pool_pre_ping=True)
+        engine = sa.create_engine(_with_password_file(target), pool_pre_ping=True)
     except (sa.exc.ArgumentError, ImportError) as error:
         shown = _without_password(target)
         raise StoreError(f"store URL {shown!r}: {str(error).replace(target, shown)}") from None
