@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
+import logging
 import os
 import re
 import tempfile
@@ -41,11 +42,15 @@ from fastapi.routing import APIRoute
 from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.requests import ClientDisconnect
 
 from api.validate import MAX_EXPANSION, Validation, validate
 from api.worker import Worker, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.engine import bundled_engines
 from monitor.store import RecordingRow, Store, open_store
+
+log = logging.getLogger("engine_monitor.api")
 
 __all__ = ["ApiError", "Settings", "create_app"]
 
@@ -408,6 +413,13 @@ def create_app(settings: Settings) -> FastAPI:
         fleet_id: int, name: str, temporary: Path, content: str, size: int, checked: Validation
     ) -> tuple[RecordingRow, bool]:
         """Move a validated upload to its content's name, register it and queue its analysis."""
+        if checked.engine_id not in bundled_engines() and store().engine(fleet_id, checked.engine_id) is None:
+            raise ApiError(
+                422,
+                "unknown_engine",
+                f"{name}: engine {checked.engine_id!r} is neither bundled nor among the fleet's engines: "
+                "add its description (POST /engines), then upload the recording again",
+            )
         with open(temporary, "rb") as fh:
             suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
         final = settings.data_dir / "recordings" / f"{content}{suffix}"
@@ -470,7 +482,13 @@ def create_app(settings: Settings) -> FastAPI:
         handle, temporary = tempfile.mkstemp(dir=incoming, suffix=".part")
         try:
             with os.fdopen(handle, "wb") as out:
-                size, content = await _receive(request, out, settings)
+                try:
+                    size, content = await _receive(request, out, settings)
+                except ClientDisconnect:  # the client went away: nothing to answer, nothing kept
+                    log.info(
+                        "upload fleet=%d filename=%r: the client went away; nothing kept", fleet_id, name
+                    )
+                    return _error(400, "disconnected", "the client disconnected before the end of the body")
             if size == 0:
                 raise ApiError(400, "empty", "the request body is empty: send the recording's bytes")
             verdict = await checked(fleet_id, name, Path(temporary))

@@ -90,6 +90,10 @@ WORD_FIELDS: dict[str, tuple[str, ...] | None] = {
     "polarity": ("normal", "reversed"),
     "index_channel": None,  # a channel's name
 }
+#: The most tooth positions a crank tooth wheel has here (one per 0.1 deg), and the most pulses per
+#: revolution of an encoder (2**20, a 20-bit one): beyond them a stated count is a mistake.
+MAX_TEETH = 3600
+MAX_PULSES = 2**20
 #: The shortest run of equal extreme samples reported as clipping.
 CLIP_RUN = 5
 
@@ -219,6 +223,11 @@ class Channel:
             )
         if self.data.ndim != 1:
             raise FormatError(f"{where}: data has shape {self.data.shape}, expected one dimension")
+        if np.dtype(self.data.dtype).kind != "f":
+            raise FormatError(
+                f"{where}: samples of type {np.dtype(self.data.dtype)}; expected float32 or float64 "
+                "(integer ADC counts scaled to the channel's unit first)"
+            )
         if self.is_events:
             if self.unit != "s":
                 raise FormatError(
@@ -253,21 +262,21 @@ class Channel:
                 )
         if self.kind == "encoder":
             pulses = self.fields["pulses_per_revolution"]
-            if not (isinstance(pulses, int | np.integer) and pulses >= 2):
+            if not (isinstance(pulses, int | np.integer) and 2 <= pulses <= MAX_PULSES):
                 raise FormatError(
-                    f"{where}: pulses_per_revolution = {pulses!r}: expected an integer of at least 2"
+                    f"{where}: pulses_per_revolution = {pulses!r}: expected an integer from 2 to {MAX_PULSES}"
                 )
         if self.kind == "tooth":
             teeth, missing = self.fields["teeth"], self.fields["missing_teeth"]
             if not (
                 isinstance(teeth, int | np.integer)
                 and isinstance(missing, int | np.integer)
-                and teeth >= 3
+                and 3 <= teeth <= MAX_TEETH
                 and 1 <= missing < teeth - 1
             ):
                 raise FormatError(
                     f"{where}: teeth = {teeth!r}, missing_teeth = {missing!r}: expected integers, "
-                    "teeth >= 3 and 1 <= missing_teeth < teeth - 1"
+                    f"3 <= teeth <= {MAX_TEETH} and 1 <= missing_teeth < teeth - 1"
                 )
 
     @property

@@ -13,6 +13,7 @@ import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
@@ -42,31 +43,32 @@ class Server:
     def start(self, port: int | None = None) -> None:
         port = port or _free_port()
         self.url = f"http://127.0.0.1:{port}"
-        self.process = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "monitor",
-                "serve",
-                "--port",
-                str(port),
-                "--store",
-                self.store_url,
-                "--data",
-                str(self.data),
-                "--max-upload-mb",
-                str(LIMIT_MB),
-                "--lease",
-                "2",
-                "--workers",
-                str(self.workers),
-                *self.extra,
-            ],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
-            cwd=ROOT,
-        )
+        with self.log_file() as log:
+            self.process = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "monitor",
+                    "serve",
+                    "--port",
+                    str(port),
+                    "--store",
+                    self.store_url,
+                    "--data",
+                    str(self.data),
+                    "--max-upload-mb",
+                    str(LIMIT_MB),
+                    "--lease",
+                    "2",
+                    "--workers",
+                    str(self.workers),
+                    *self.extra,
+                ],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+                cwd=ROOT,
+            )
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             try:
@@ -75,6 +77,15 @@ class Server:
             except httpx.TransportError:
                 time.sleep(0.2)
         raise RuntimeError("the server did not start")
+
+    @property
+    def log(self) -> Path:
+        """What the server wrote (every start appends), beside its data folder."""
+        return self.data.parent / "server.log"
+
+    def log_file(self) -> Any:
+        self.data.parent.mkdir(parents=True, exist_ok=True)
+        return open(self.log, "ab")
 
     def kill(self) -> None:
         if self.process is not None and self.process.poll() is None:
@@ -212,7 +223,7 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
 
 
 def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Server, tmp_path: Path) -> None:
-    """A readable recording of an engine nobody described: the input's own fault, so the first attempt
+    """A readable recording without an angle reference: the input's own fault, so the first attempt
     sets the job aside with the reason (trying again would give the same answer); the diagnosis
     answers 422 'analysis_failed' and says why, not 409 'not_ready', which would ask the client to
     wait for a result that will never come."""
@@ -220,16 +231,37 @@ def test_an_analysis_that_keeps_failing_is_set_aside_with_its_reason(server: Ser
 
     from monitor.io.hdf5 import read_hdf5
 
-    unknown = tmp_path / "unknown.h5"
-    write_hdf5(replace(read_hdf5(SAMPLES / "7k98mc-baseline.h5"), engine_id="ship-x-main-engine"), unknown)
+    sample = read_hdf5(SAMPLES / "7k98mc-baseline.h5")
+    blind = tmp_path / "no-angle.h5"
+    write_hdf5(replace(sample, channels=tuple(c for c in sample.channels if c.kind == "acceleration")), blind)
     with server.client() as client:
-        recording = _upload(client, unknown).json()["id"]
+        recording = _upload(client, blind).json()["id"]
         done = _wait_done(client, recording)
         assert (done["status"], done["attempts"]) == ("set_aside", 1)
-        assert "engine 'ship-x-main-engine' is neither in the fleet's engines nor bundled" in done["error"]
+        assert "no usable angle reference" in done["error"]
         answer = client.get(f"/recordings/{recording}/diagnosis")
         assert answer.status_code == 422 and answer.json()["error"]["code"] == "analysis_failed"
         assert "set aside" in answer.json()["error"]["message"]
+
+
+def test_a_recording_of_an_engine_nobody_described_is_refused_at_upload(
+    server: Server, tmp_path: Path
+) -> None:
+    """Issue 14: such uploads were accepted and failed their analyses; now the upload says what to do."""
+    from dataclasses import replace
+
+    from monitor.io.hdf5 import read_hdf5
+
+    unknown = tmp_path / "unknown.h5"
+    write_hdf5(replace(read_hdf5(SAMPLES / "7k98mc-baseline.h5"), engine_id="ship-x-main-engine"), unknown)
+    with server.client() as client:
+        answer = _upload(client, unknown)
+        assert answer.status_code == 422 and answer.json()["error"]["code"] == "unknown_engine"
+        assert "'ship-x-main-engine' is neither bundled nor among the fleet's engines" in answer.text
+        assert "POST /engines" in answer.text
+        assert client.get("/recordings").json()["items"] == []
+    assert list((server.data / "recordings").iterdir()) == []
+    assert list((server.data / "incoming").iterdir()) == []
 
 
 def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from monitor.io.hdf5 import open_hdf5, read_hdf5, write_hdf5
+from monitor.io.hdf5 import FORMAT_NAME, open_hdf5, read_hdf5, write_hdf5
 from monitor.recording import Channel, FormatError, Recording, quality_spans
 
 
@@ -328,3 +328,34 @@ def test_writers_make_no_folder_they_were_not_asked_for(tmp_path: Path, rng: np.
         with pytest.raises(OutputFolderError, match=r"missing/deeper.*does not exist"):
             write(_recording(rng), tmp_path / "missing" / "deeper" / name)
     assert not (tmp_path / "missing").exists()
+
+
+@pytest.mark.parametrize("dtype", [np.complex64, np.bool_, np.int16])
+def test_samples_that_are_not_floats_are_refused(tmp_path: Path, dtype: type) -> None:
+    """Issue 14: complex, bool and integer samples were taken (and failed later, or meant nothing)."""
+    path = tmp_path / "r.h5"
+    with h5py.File(path, "w") as f:
+        f.attrs.update(
+            {
+                "format": FORMAT_NAME,
+                "format_version": 1,
+                "engine_id": "e",
+                "start_time": "2026-01-01T00:00:00Z",
+            }
+        )
+        ds = f.create_group("channels").create_dataset("mb1", data=np.ones(100, dtype))
+        ds.attrs.update({"kind": "acceleration", "unit": "g", "sample_rate_hz": 1000.0})
+    with pytest.raises(FormatError, match=f"samples of type {np.dtype(dtype)}; expected float32 or float64"):
+        read_hdf5(path)
+
+
+@pytest.mark.parametrize(
+    ("kind", "fields", "said"),
+    [
+        ("tooth", {"teeth": 10**9, "missing_teeth": 2, "first_tooth_angle_deg": 0.0}, "3 <= teeth <= 3600"),
+        ("encoder", {"pulses_per_revolution": 2**30, "first_pulse_angle_deg": 0.0}, "from 2 to 1048576"),
+    ],
+)
+def test_absurd_pulse_counts_are_refused(kind: str, fields: dict, said: str) -> None:  # type: ignore[type-arg]
+    with pytest.raises(FormatError, match=said):
+        Channel("wheel", kind, "s", np.cumsum(np.full(10, 0.01)), None, fields=fields)

@@ -248,3 +248,17 @@ def test_the_declared_size_check_passes_real_recordings(tmp_path: Path) -> None:
             assert _check(str(path), MAX_EXPANSION)["engine_id"]
     with pytest.raises(MonitorError, match="refused unread"):
         _check(str(SAMPLES / "7k98mc-baseline.h5"), 0.5)  # a float32 file holds about its samples' bytes
+
+
+def test_a_client_that_goes_away_mid_upload_leaves_no_file_and_no_traceback(limited: Server) -> None:
+    """Issue 14: each client disconnect logged an ERROR traceback."""
+    for _ in range(3):
+        connection = _open_upload(limited, "a", 10_000, b"\x89HDF" * 100)
+        time.sleep(0.2)
+        connection.close()
+    time.sleep(0.5)
+    with limited.client("a") as client:
+        assert client.get("/recordings").status_code == 200
+    assert list((limited.data / "incoming").glob("*")) == []
+    log = limited.log.read_text(errors="replace")
+    assert "Traceback" not in log and "ClientDisconnect" not in log

@@ -814,7 +814,7 @@ def _dtype(where: str, meta: dict[str, str]) -> np.dtype[Any]:
         dtype = np.dtype(meta["dtype"])
     except TypeError:
         dtype = None
-    if dtype is None or dtype.kind not in "fiu":
+    if dtype is None or dtype.kind != "f":
         raise FormatError(
             f"{where}: channel metadata 'dtype' is {meta['dtype']!r}, expected float32 or float64"
         )
