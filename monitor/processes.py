@@ -62,22 +62,30 @@ def analysis_pool(max_workers: int, *, fork: bool = False) -> ProcessPoolExecuto
     """
     context = multiprocessing.get_context("fork" if fork and sys.platform.startswith("linux") else "spawn")
     return ProcessPoolExecutor(
-        max_workers=max(1, max_workers), mp_context=context, initializer=die_with_parent
+        max_workers=max(1, max_workers),
+        mp_context=context,
+        initializer=die_with_parent,
+        initargs=(os.getpid(),),
     )
 
 
-def die_with_parent() -> None:
+def die_with_parent(parent: int) -> None:
     """Make this process end when its parent does (a pool's initializer).
 
     The kernel's parent-death signal where there is one (Linux), and a watching
     thread everywhere; a parent already gone before either was set ends the
     process at once.
+
+    Parameters
+    ----------
+    parent : int
+        The process id of the pool's owner, this process's parent. (Not "1 means orphaned": in a
+        container the owner is often process 1 itself.)
     """
-    parent = os.getppid()
     if sys.platform.startswith("linux"):
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if parent == 1 or os.getppid() != parent:  # orphaned before the signal was set
+    if os.getppid() != parent:  # orphaned before the signal was set
         os._exit(_EXIT_ORPHANED)
     threading.Thread(target=_watch, args=(parent,), name="parent-watch", daemon=True).start()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -92,3 +93,32 @@ def test_analysis_processes_hold_no_socket_of_the_parent_and_die_with_it(tmp_pat
             os.killpg(parent.pid, signal.SIGKILL)  # whatever is left of the group, if the test failed
         except ProcessLookupError:
             pass
+
+
+@pytest.mark.skipif(
+    shutil.which("unshare") is None or os.geteuid() != 0, reason="needs unshare and root (a PID namespace)"
+)
+def test_a_pool_owned_by_process_1_works_as_in_a_container(tmp_path: Path) -> None:
+    """In a container the server or worker is process 1, so its analysis processes' parent is 1. Found by
+    make check-container: a guard that took a parent of 1 for 'orphaned' killed every analysis process
+    at its start, and every job failed as 'the analysis process died'."""
+    (tmp_path / "probe.py").write_text(textwrap.dedent(PROBE))
+    script = (
+        "import os\nfrom monitor.processes import analysis_pool\nfrom probe import probe\n"
+        "if __name__ == '__main__':\n"
+        "    assert os.getpid() == 1\n"
+        "    print(analysis_pool(1).submit(probe, 0).result(timeout=60)['pid'] != 1)\n"
+    )
+    (tmp_path / "owner.py").write_text(script)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)])}
+    out = subprocess.run(
+        ["unshare", "--pid", "--fork", "--mount-proc", sys.executable, str(tmp_path / "owner.py")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    if "unshare failed" in out.stderr or "Operation not permitted" in out.stderr:
+        pytest.skip(f"no PID namespace here: {out.stderr.strip()}")
+    assert out.returncode == 0 and out.stdout.strip() == "True", out.stderr
