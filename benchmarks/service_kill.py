@@ -27,7 +27,7 @@ from typing import Any
 import httpx
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import POSTGRES, _free_port, _postgres_database
+from benchmarks.service_load import POSTGRES, _free_port, _postgres_database, _recordings
 from monitor.processes import session_processes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,21 +53,6 @@ class Tally:
     restart_failures: int = 0
     restart_s: list[float] = field(default_factory=list)
     finish_s: list[float] = field(default_factory=list)
-
-
-def _recordings(folder: Path) -> list[Path]:
-    from monitor.io.hdf5 import write_hdf5
-    from monitor.scene import load_scene, simulate
-
-    scene = load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml").model_copy(
-        update={"duration_s": 6.0}
-    )
-    paths = []
-    for seed in range(UPLOADS):
-        path = folder / f"r{seed}.h5"
-        write_hdf5(simulate(scene, seed=500 + seed).recording, path)
-        paths.append(path)
-    return paths
 
 
 def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
@@ -216,7 +201,7 @@ def main(argv: list[str] | None = None) -> None:
         "separate worker (odd runs) once an analysis runs, restart at once on the same port and store."
     )
     with tempfile.TemporaryDirectory() as scratch:
-        recordings = _recordings(Path(scratch))
+        recordings = _recordings(Path(scratch), UPLOADS, seconds=6.0)
         for name, runs in (("SQLite", args.sqlite_runs), ("PostgreSQL", args.postgresql_runs)):
             tally = tallies.setdefault(name, Tally())
             for run in range(runs):

@@ -51,13 +51,13 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _recordings(folder: Path, count: int) -> list[Path]:
-    """Distinct short recordings to upload (3 s of the 6L32 baseline scene, one seed each)."""
+def _recordings(folder: Path, count: int, seconds: float = 3.0) -> list[Path]:
+    """Distinct short recordings to upload (``seconds`` of the 6L32 baseline scene, one seed each)."""
     from monitor.io.hdf5 import write_hdf5
     from monitor.scene import load_scene, simulate
 
     scene = load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml").model_copy(
-        update={"duration_s": 3.0}
+        update={"duration_s": seconds}
     )
     paths = []
     for seed in range(count):

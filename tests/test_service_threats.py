@@ -15,31 +15,18 @@ from pathlib import Path
 import h5py
 import httpx
 import numpy as np
-import pytest
 
 from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.io.mcap_io import read_mcap, write_mcap
-from monitor.store import open_store
 
+from . import test_api
 from .test_api import SAMPLES, Server, _upload
+
+server = test_api.server  # the same fixture: a server with fleets a and b, one analysis process
 
 ENGINES = Path(__file__).resolve().parents[1] / "monitor" / "engines"
 #: Damaged copies uploaded per format: bit flips anywhere, then cuts.
 FLIPS, CUTS = 12, 4
-
-
-@pytest.fixture
-def server(tmp_path: Path) -> Iterator[Server]:
-    url = f"sqlite:///{tmp_path / 'store.db'}"
-    store = open_store(url)
-    keys = {name: store.create_key(store.create_fleet(name)) for name in ("a", "b")}
-    store.close()
-    running = Server("", url, tmp_path / "data", keys, workers=1)
-    running.start()
-    try:
-        yield running
-    finally:
-        running.kill()
 
 
 def _routes(server: Server) -> list[tuple[str, str]]:
