@@ -44,6 +44,8 @@ def test_the_image_is_pinned_and_installs_wheels_dependencies_first() -> None:
         "COPY docker/wheelhouse/product/ /tmp/wheels/",
     ]  # the dependencies' layer does not change with the code
     assert any(line.startswith("HEALTHCHECK") for line in lines)
+    ignored = [line for line in (ROOT / ".dockerignore").read_text().splitlines() if not line.startswith("#")]
+    assert ignored == ["*", "!docker/wheelhouse/", "!docker/test/"]  # wheels; never .venv or build/
 
 
 def test_the_compose_file_has_every_service_and_their_commands_parse() -> None:
