@@ -273,9 +273,21 @@ def test_a_killed_analysis_process_fails_its_job_and_the_worker_goes_on(
     with server.client() as client:
         recording = _upload_and_wait_running(client, tmp_path)
         assert server.process is not None
-        # the job is marked running as it is handed to the pool, a moment before its process starts
+        # the job is marked running as it is handed to the pool, a moment before its process starts;
+        # the pool's processes are spawned (spawn_main), beside multiprocessing's resource tracker
         deadline = time.monotonic() + 30
-        while not (children := psutil.Process(server.process.pid).children(recursive=True)):
+
+        def analysis_processes() -> list:  # type: ignore[type-arg]
+            found = []
+            for child in psutil.Process(server.process.pid).children(recursive=True):  # type: ignore[union-attr]
+                try:
+                    if "spawn_main" in " ".join(child.cmdline()):
+                        found.append(child)
+                except psutil.NoSuchProcess:
+                    continue
+            return found
+
+        while not (children := analysis_processes()):
             assert time.monotonic() < deadline, "the analysis runs in a child process"
             time.sleep(0.02)
         for child in children:
