@@ -979,8 +979,7 @@ def _run_simulate(args: argparse.Namespace) -> int:
     import time
 
     from monitor.errors import ModelError
-    from monitor.pipeline import open_recording
-    from monitor.scene import load_scene, simulate
+    from monitor.io import open_recording  # the reader alone: the truth needs no signal processing
 
     if args.truth:
         with open_recording(args.truth) as recording:
@@ -990,6 +989,8 @@ def _run_simulate(args: argparse.Namespace) -> int:
         return 0
     if not args.scene or not args.output:
         raise ModelError("simulate needs SCENE.toml and -o OUT.h5|OUT.mcap (or --truth RECORDING)")
+    from monitor.scene import load_scene, simulate
+
     scene = load_scene(args.scene)
     if args.duration is not None:
         scene = scene.model_copy(update={"duration_s": min(scene.duration_s, args.duration)})

@@ -43,7 +43,6 @@ from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
-from scipy.interpolate import PchipInterpolator
 
 from monitor.engine import Combustion, Engine
 from monitor.errors import ModelError
@@ -197,6 +196,8 @@ def resample_trace(
         )
     extended_angle = np.concatenate([angle - period, angle, angle + period])
     extended_pressure = np.tile(pressure, 3)
+    from scipy.interpolate import PchipInterpolator  # here: half a second to import, for measured traces only
+
     interpolant = PchipInterpolator(extended_angle, extended_pressure)
     return np.asarray(interpolant(np.mod(np.asarray(crank_angle, dtype=np.float64), period)))
 
