@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import sys
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
@@ -506,20 +505,3 @@ def _executor(scheduler: str | None, workers: int | None, total: int) -> Iterato
             yield pool, count
     finally:
         client.close()
-
-
-def progress_bar(stream: Any = None) -> Callable[[int, int], None]:
-    """A progress bar on a terminal (nothing otherwise)."""
-    out = stream or sys.stderr
-
-    def show(done: int, total: int) -> None:
-        if out.isatty():
-            bar = "#" * round(30 * done / total)
-            print(
-                f"\rdiagnosing [{bar:30s}] {done}/{total}",
-                end="" if done < total else "\n",
-                file=out,
-                flush=True,
-            )
-
-    return show

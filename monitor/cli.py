@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 from monitor import __version__
 from monitor.cli_torsion import add_torsion_parser, run_torsion
 from monitor.errors import MonitorError
+from monitor.progress import progress_bar, progress_counter
 
 if TYPE_CHECKING:
     from monitor.recording import Recording
@@ -540,7 +541,7 @@ def _run_batch(args: argparse.Namespace) -> int:
     import os
     from datetime import UTC, datetime
 
-    from monitor.batch import progress_bar, run_batch
+    from monitor.batch import run_batch
     from monitor.diagnosis import Baseline
     from monitor.errors import ModelError
     from monitor.store import DEFAULT_URL_ENV, StoreError, open_store
@@ -577,17 +578,18 @@ def _run_batch(args: argparse.Namespace) -> int:
                 ) from None
             fleet_id = store.create_fleet(args.fleet)
             print(f"fleet {args.fleet!r} created in the store", file=sys.stderr)
-        summary = run_batch(
-            store,
-            fleet_id,
-            path=Path(args.path) if args.path else None,
-            since=since,
-            baselines=baselines,
-            workers=args.workers,
-            progress=progress_bar(),
-            scheduler=args.scheduler,
-            data_dir=data.resolve(),
-        )
+        with progress_counter("diagnosing", unit="recording") as progress:
+            summary = run_batch(
+                store,
+                fleet_id,
+                path=Path(args.path) if args.path else None,
+                since=since,
+                baselines=baselines,
+                workers=args.workers,
+                progress=progress,
+                scheduler=args.scheduler,
+                data_dir=data.resolve(),
+            )
     finally:
         store.close()
     print(summary.text())
@@ -995,15 +997,10 @@ def _run_simulate(args: argparse.Namespace) -> int:
     if args.duration is not None:
         scene = scene.model_copy(update={"duration_s": min(scene.duration_s, args.duration)})
     start = time.perf_counter()
-
-    def progress(fraction: float) -> None:
-        if sys.stderr.isatty():
-            bar = "#" * round(30 * fraction)
-            print(f"\rsimulating [{bar:30s}] {100 * fraction:3.0f} %", end="", file=sys.stderr, flush=True)
-
-    simulation = simulate(scene, seed=args.seed, progress=progress)
-    if sys.stderr.isatty():
-        print(file=sys.stderr)
+    with progress_bar(len(scene.sensors), "simulating", unit="sensor") as report:
+        simulation = simulate(
+            scene, seed=args.seed, progress=lambda fraction: report(fraction * len(scene.sensors))
+        )
     output = _write_recording(simulation.recording, args.output)
     print(
         f"{scene.duration_s:g} s simulated in {time.perf_counter() - start:.2f} s "
