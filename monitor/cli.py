@@ -494,6 +494,7 @@ def _run_calibrate(args: argparse.Namespace) -> int:
         recording = stack.enter_context(open_recording(args.recording))
         run = None if args.pitch_from is None else stack.enter_context(open_recording(args.pitch_from))
         engine = _engine_of(recording, args.engine)
+        report = stack.enter_context(progress_bar(1.0, "calibrating", unit="recording"))
         baseline = calibrate(
             recording,
             engine,
@@ -502,6 +503,7 @@ def _run_calibrate(args: argparse.Namespace) -> int:
             cycle_phase=args.cycle_phase,
             pitch_from=run,
             exclude=args.exclude_channel,
+            progress=report,
         )
     try:
         if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
@@ -751,15 +753,17 @@ def _run_compare(args: argparse.Namespace) -> int:
                     f"calibrated on {args.baseline} (store it with 'engine-monitor calibrate' to reuse it)",
                     file=sys.stderr,
                 )
-        diagnosis = diagnose(
-            recording,
-            engine,
-            baseline=baseline,
-            load=args.load,
-            transfer=args.transfer,
-            cycle_phase=args.cycle_phase,
-            exclude=args.exclude_channel,
-        )
+        with progress_bar(1.0, "diagnosing", unit="recording") as report:
+            diagnosis = diagnose(
+                recording,
+                engine,
+                baseline=baseline,
+                load=args.load,
+                transfer=args.transfer,
+                cycle_phase=args.cycle_phase,
+                exclude=args.exclude_channel,
+                progress=report,
+            )
     name = Path(args.recording).name
     table = diagnosis_table(diagnosis, recording=name)
     if args.json:
@@ -840,16 +844,18 @@ def _spectrum_of(recording: Recording, args: argparse.Namespace) -> int:
         revolutions = load_engine(source).cycle_revolutions
     if args.map_plot and not args.speed_map:
         raise ModelError("--map-plot needs --speed-map BINS")
-    result = spectra(
-        recording,
-        speed_bins=args.speed_map,
-        cycle_revolutions=revolutions,
-        channels=args.channel,
-        samples_per_cycle=args.samples_per_cycle,
-        max_order=args.max_order,
-        block_cycles=args.block_cycles,
-        cycle_phase=args.cycle_phase,
-    )
+    with progress_bar(1.0, "resampling", unit="recording") as report:
+        result = spectra(
+            recording,
+            speed_bins=args.speed_map,
+            cycle_revolutions=revolutions,
+            channels=args.channel,
+            samples_per_cycle=args.samples_per_cycle,
+            max_order=args.max_order,
+            block_cycles=args.block_cycles,
+            cycle_phase=args.cycle_phase,
+            progress=report,
+        )
     listed = None
     if args.orders:
         try:

@@ -36,6 +36,9 @@ from __future__ import annotations
 
 import math
 import os
+import threading
+import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Literal
@@ -71,6 +74,7 @@ from monitor.signal.toothwheel import (
     decode_tooth_signal,
     decode_tooth_wheel,
 )
+from monitor.timing import StageClock, stage
 
 __all__ = [
     "AngleReference",
@@ -202,6 +206,7 @@ def angle_reference(
     cycle_phase: float | None = None,
     pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
     kept_orders: list[int] | None = None,
+    clock: StageClock | None = None,
 ) -> AngleReference:
     """The crank (cycle) angle map of a recording.
 
@@ -220,6 +225,8 @@ def angle_reference(
     kept_orders : list of int, optional
         Integer orders left to the engine by the estimate (see
         :func:`monitor.signal.pitch.estimate_pitch_errors`).
+    clock : StageClock, optional
+        Adds the time of each stage (pulses and decoding, pitch errors, gap filling, cycle phase).
 
     Returns
     -------
@@ -238,31 +245,36 @@ def angle_reference(
     correction: PitchCorrection | None = None
     if teeth or encoders:
         channel = teeth[0] if teeth else encoders[0]
-        decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
+        with stage(clock, "angle reference: pulses and decoding"):
+            decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
         notes.extend(f"{channel.name}: {note}" for note in decoding.notes)
-        if isinstance(pitch_correction, PitchCorrection):
-            correction = pitch_correction
-        elif pitch_correction == "estimate":
-            try:
-                correction = _plausible(estimate_pitch_errors(decoding, kept_orders=kept_orders), decoding)
-            except SignalError as why:
-                notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
-        if correction is not None:
-            try:
-                decoding = correct_pitch(decoding, correction)
-            except SignalError as error:
-                raise SignalError(f"{channel.name}: {error}") from None
+        with stage(clock, "angle reference: pitch errors"):
+            if isinstance(pitch_correction, PitchCorrection):
+                correction = pitch_correction
+            elif pitch_correction == "estimate":
+                try:
+                    estimate = estimate_pitch_errors(decoding, kept_orders=kept_orders)
+                    correction = _plausible(estimate, decoding)
+                except SignalError as why:
+                    notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
+            if correction is not None:
+                try:
+                    decoding = correct_pitch(decoding, correction)
+                except SignalError as error:
+                    raise SignalError(f"{channel.name}: {error}") from None
         # the wheel's gap: the speed's shape inside it from the cycle's shape elsewhere (orders the
         # pulses determine, below half the pulses per cycle)
-        angle_map = AngleMap(decoding.times, decoding.angles).with_gaps_filled(
-            2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
-        )
+        with stage(clock, "angle reference: gap filling"):
+            angle_map = AngleMap(decoding.times, decoding.angles).with_gaps_filled(
+                2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
+            )
         repairs = int(decoding.inserted.size + decoding.removed.size)
         pulses = decoding.teeth - decoding.missing
     elif keyphasors:
         channel = keyphasors[0]
         try:
-            repaired = repair_keyphasor(_edges(channel, alike=True))
+            with stage(clock, "angle reference: pulses and decoding"):
+                repaired = repair_keyphasor(_edges(channel, alike=True))
         except SignalError as error:
             raise SignalError(f"keyphasor {channel.name!r}: {error}") from None
         angle_map = AngleMap.from_keyphasor(
@@ -276,6 +288,7 @@ def angle_reference(
         )
     how = ""
     if cycle_revolutions == 2:
+        start = time.perf_counter()
         firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
         if cycle_phase is not None:
             shift, how = float(cycle_phase), "given"
@@ -299,6 +312,8 @@ def angle_reference(
                 "state it as the recording's cycle_phase_deg"
             )
         angle_map = angle_map.shifted(shift)
+        if clock is not None:
+            clock.add("angle reference: cycle phase", time.perf_counter() - start)
     return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
 
 
@@ -423,6 +438,9 @@ class SpectrumResult:
         Order amplitudes against speed per channel (run-ups), when asked for.
     high_frequency : dict of str to HighFrequencyPower
         Crank-angle profiles of the vibration channels' high-frequency power, when asked for.
+    stage_seconds : dict of str to float
+        Seconds spent in each stage of the computation (those run per channel summed over the
+        threads that ran them) [s].
     """
 
     reference: AngleReference
@@ -432,6 +450,7 @@ class SpectrumResult:
     cycle_revolutions: int
     speed_maps: dict[str, OrderSpeedMap] = field(default_factory=dict)
     high_frequency: dict[str, HighFrequencyPower] = field(default_factory=dict)
+    stage_seconds: dict[str, float] = field(default_factory=dict)
 
 
 def spectra(
@@ -442,13 +461,14 @@ def spectra(
     samples_per_cycle: int | None = None,
     max_order: float = 24.0,
     block_cycles: int = 1,
-    interpolation_order: Literal[1, 3, 5] = 3,
+    interpolation_order: Literal[1, 3, 5] | None = None,
     cycle_phase: float | None = None,
     speed_bins: int | None = None,
     workers: int | None = None,
     high_frequency: bool = False,
     pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
     kept_orders: list[int] | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> SpectrumResult:
     """Order spectra of the waveform channels of a recording and of its crank speed.
 
@@ -466,7 +486,8 @@ def spectra(
     block_cycles : int, optional
         Cycles per averaged block.
     interpolation_order : int, optional
-        1, 3 or 5.
+        1, 3 or 5: B-spline resampling after an FFT filter instead of the fused band-limited kernel
+        (see :mod:`monitor.signal.angle_domain`).
     cycle_phase : float, optional
         Four-stroke phase shift if known [rad].
     speed_bins : int, optional
@@ -481,19 +502,25 @@ def spectra(
     kept_orders : list of int, optional
         Integer orders the engine excites, left to it by the pitch-error estimate (see
         :func:`angle_reference`) [-].
+    progress : callable, optional
+        Told the fraction of the resampling done (over all channels), from 0 to 1 [-].
 
     Returns
     -------
     SpectrumResult
+        With the seconds spent in each stage (``stage_seconds``; the channels' stages summed over
+        the threads that ran them).
     """
     if not (math.isfinite(max_order) and max_order > 0):
         raise SignalError(f"max_order = {max_order!r}: expected a positive order")
+    clock = StageClock()
     reference = angle_reference(
         recording,
         cycle_revolutions=cycle_revolutions,
         cycle_phase=cycle_phase,
         pitch_correction=pitch_correction,
         kept_orders=kept_orders,
+        clock=clock,
     )
     slowest, fastest = reference.angle_map.speed_range
     speed_ratio = fastest / slowest
@@ -534,12 +561,22 @@ def spectra(
         rate = _rate(channel)
         span = (channel.start_offset, channel.start_offset + (channel.data.shape[0] - 1) / rate)
         if span not in grids:  # channels sampled at the same times share the grid's times
-            grids[span] = angle_grid(
-                angle_map, *span, samples_per_cycle=samples_per_cycle, cycle_revolutions=cycle_revolutions
-            )
+            with clock.stage("grid times"):
+                grids[span] = angle_grid(
+                    angle_map, *span, samples_per_cycle=samples_per_cycle, cycle_revolutions=cycle_revolutions
+                )
         jobs[name] = (channel, grids[span])
 
     profiles: dict[str, HighFrequencyPower] = {}
+    done = dict.fromkeys(jobs, 0.0)
+    progress_lock = threading.Lock()
+
+    def report(name: str, fraction: float) -> None:
+        if progress is None:
+            return
+        with progress_lock:
+            done[name] = fraction
+            progress(sum(done.values()) / max(len(done), 1))
 
     def channel_spectrum(name: str) -> tuple[OrderSpectrum, OrderSpeedMap | None]:
         channel, grid = jobs[name]
@@ -551,15 +588,20 @@ def spectra(
             cycle_revolutions=cycle_revolutions,
             start_time=channel.start_offset,
             interpolation_order=interpolation_order,
+            max_order=max_order,
             grid=grid,
             high_frequency=high_frequency and channel.kind in ("acceleration", "velocity"),
+            progress=lambda fraction: report(name, fraction),
+            clock=clock,
         )
-        spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
+        with clock.stage("order spectra"):
+            spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
         if resampled.high_frequency is not None:
             profiles[name] = resampled.high_frequency
         if speed_bins is None:
             return spectrum, None
-        return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
+        with clock.stage("order against speed"):
+            return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
 
     def crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
         # crank speed: the angle map's derivative on a grid of its own whole cycles. The map holds orders
@@ -594,7 +636,7 @@ def spectra(
         resolvable = max(min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9), 0.0)
 
         def spectrum_of(values: np.ndarray) -> OrderSpectrum:
-            signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, 3)
+            signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, "angle map")
             spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
             if not stepped:
                 return spectrum
@@ -630,8 +672,12 @@ def spectra(
 
     # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
+    def timed_crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
+        with clock.stage("crank speed"):
+            return crank_spectra()
+
     with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
-        crank_job = pool.submit(crank_spectra)
+        crank_job = pool.submit(timed_crank_spectra)
         channel_jobs = {name: pool.submit(channel_spectrum, name) for name in jobs}
         outcomes = {name: job.result() for name, job in channel_jobs.items()}
         crank = crank_job.result()
@@ -643,7 +689,16 @@ def spectra(
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
     profiled = dict(sorted(profiles.items()))
     reference = replace(reference, notes=reference.notes + tuple(_pressure_peak_notes(recording, reference)))
-    return SpectrumResult(reference, result, units, angle_map.mean_speed, cycle_revolutions, maps, profiled)
+    return SpectrumResult(
+        reference,
+        result,
+        units,
+        angle_map.mean_speed,
+        cycle_revolutions,
+        maps,
+        profiled,
+        dict(clock.seconds),
+    )
 
 
 def _pressure_peak_notes(recording: Recording, reference: AngleReference) -> list[str]:

@@ -29,13 +29,14 @@ def progress_bar(
     unit: str = "it",
     stream: TextIO | None = None,
     redraw_s: float = 0.1,
+    delay_s: float = 1.0,
 ) -> Iterator[Report]:
     """A bar from 0 to ``total`` with the time left, drawn while the block runs.
 
     Parameters
     ----------
     total : float
-        The work to do, in ``unit`` (e.g. seconds of signal, recordings, chart rows).
+        The work to do [``unit``] (e.g. seconds of signal, recordings, chart rows).
     description : str
         What is being done, shown before the bar.
     unit : str
@@ -44,6 +45,8 @@ def progress_bar(
         Where to draw (default standard error); nothing is drawn unless it is a terminal.
     redraw_s : float
         Least time between two redraws [s]: reports in between only move the count.
+    delay_s : float
+        The bar appears only once the work has run this long [s]: quick work shows none.
 
     Yields
     ------
@@ -65,6 +68,7 @@ def progress_bar(
         dynamic_ncols=True,
         mininterval=redraw_s,
         miniters=1,
+        delay=delay_s,
     ) as bar:
 
         def report(done: float) -> None:
@@ -77,9 +81,27 @@ def progress_bar(
 
 @contextmanager
 def progress_counter(
-    description: str, *, unit: str = "it", stream: TextIO | None = None, redraw_s: float = 0.1
+    description: str,
+    *,
+    unit: str = "it",
+    stream: TextIO | None = None,
+    redraw_s: float = 0.1,
+    delay_s: float = 1.0,
 ) -> Iterator[Callable[[float, float], None]]:
     """:func:`progress_bar` for work that learns its total only once it has started (a batch's jobs).
+
+    Parameters
+    ----------
+    description : str
+        What is being done, shown before the bar.
+    unit : str
+        The unit of the totals, shown with the rate.
+    stream : text stream, optional
+        Where to draw (default standard error); nothing is drawn unless it is a terminal.
+    redraw_s : float
+        Least time between two redraws [s].
+    delay_s : float
+        The bar appears only once the work has run this long [s].
 
     Yields
     ------
@@ -91,7 +113,9 @@ def progress_counter(
 
         def report(done: float, total: float) -> None:
             if not opened:
-                bar = progress_bar(total, description, unit=unit, stream=stream, redraw_s=redraw_s)
+                bar = progress_bar(
+                    total, description, unit=unit, stream=stream, redraw_s=redraw_s, delay_s=delay_s
+                )
                 opened.append(stack.enter_context(bar))
             opened[0](done)
 

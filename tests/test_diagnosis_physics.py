@@ -104,7 +104,7 @@ def test_scatter_is_the_rms_complex_distance_over_more_blocks_than_one_chunk(
     z[:, 0] = z[:, 0].real  # order 0 of a real signal is real
     theta = 2 * np.pi * np.arange(n) / n
     values = np.real(z @ np.exp(1j * np.multiply.outer(orders, theta)))
-    spectrum = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, 3), max_order=top)
+    spectrum = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, "given"), max_order=top)
     direct = np.sqrt(np.sum(np.abs(z - z.mean(axis=0)) ** 2, axis=0) / (blocks - 1))
     assert spectrum.blocks == blocks
     np.testing.assert_allclose(spectrum.amplitude, z.mean(axis=0), rtol=1e-12)
@@ -123,7 +123,7 @@ def test_scatter_of_two_cycle_blocks_equals_numpy_on_the_blocks(rng: np.random.G
     """
     blocks, n = 8195, 16
     values = 0.7 * rng.standard_normal((2 * blocks, n)) + 2.0 * np.cos(2 * np.pi * 3 * np.arange(n) / n + 0.4)
-    spectrum = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, 3), block_cycles=2)
+    spectrum = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, "given"), block_cycles=2)
     z = _peak_scaled_rfft(values.reshape(blocks, 2 * n))
     np.testing.assert_allclose(spectrum.orders, np.arange(n + 1) / 2)
     np.testing.assert_allclose(spectrum.scatter, np.std(z, axis=0, ddof=1), rtol=1e-12)
@@ -154,8 +154,8 @@ def test_scatter_ignores_a_sinusoid_common_to_every_block(
     values = np.random.default_rng(seed).standard_normal((blocks, n))
     theta = 2 * np.pi * np.arange(n) / n
     shifted = values + constant + magnitude * np.cos(order * theta + phase)
-    before = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, 3))
-    after = order_spectrum(AngleDomainSignal(shifted, 0, n, 1, None, 3))
+    before = order_spectrum(AngleDomainSignal(values, 0, n, 1, None, "given"))
+    after = order_spectrum(AngleDomainSignal(shifted, 0, n, 1, None, "given"))
     size = 1.0 + magnitude + abs(constant)
     np.testing.assert_allclose(after.scatter, before.scatter, rtol=1e-9, atol=1e-12 * size)
     offset = np.zeros(n // 2 + 1, dtype=np.complex128)

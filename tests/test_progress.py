@@ -22,7 +22,7 @@ def test_nothing_is_drawn_when_the_stream_is_not_a_terminal() -> None:
 
 def test_a_terminal_gets_the_description_the_count_and_the_time_left() -> None:
     out = _Terminal()
-    with progress_bar(4, "diagnosing", unit="recording", stream=out, redraw_s=0) as report:
+    with progress_bar(4, "diagnosing", unit="recording", stream=out, redraw_s=0, delay_s=0) as report:
         report(1)
         report(2)
         drawn = out.getvalue()
@@ -33,9 +33,16 @@ def test_a_terminal_gets_the_description_the_count_and_the_time_left() -> None:
 
 def test_reports_that_go_backwards_or_beyond_the_total_are_held_to_the_range() -> None:
     out = _Terminal()
-    with progress_bar(3, "rows", stream=out, redraw_s=0) as report:
+    with progress_bar(3, "rows", stream=out, redraw_s=0, delay_s=0) as report:
         report(2)
         report(1)
         assert "2/3" in out.getvalue().rsplit("\r", 1)[-1]
         report(99)
         assert "3/3" in out.getvalue().rsplit("\r", 1)[-1]
+
+
+def test_quick_work_shows_no_bar() -> None:
+    out = _Terminal()
+    with progress_bar(3, "quick", stream=out, redraw_s=0, delay_s=60) as report:
+        report(3)
+    assert "quick" not in out.getvalue()

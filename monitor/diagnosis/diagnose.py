@@ -24,6 +24,7 @@ Steps (DESIGN.md, "Diagnosis: the sums behind it"):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal, TypeAlias
 
@@ -298,6 +299,7 @@ def _analyse(
     cycle_phase: CyclePhase = None,
     pitch: PitchCorrection | None = None,
     crank: CrankCalibration | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> _Analysis:
     if recording.engine_id and recording.engine_id != engine.id:
         raise DiagnosisError(
@@ -318,6 +320,7 @@ def _analyse(
         cycle_phase=phase,
         pitch_correction="estimate" if pitch is None else pitch,
         kept_orders=_engine_orders(engine, recording),
+        progress=progress,
     )
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
@@ -490,6 +493,7 @@ def calibrate(
     cycle_phase: float | None = None,
     pitch_from: Recording | None = None,
     exclude: tuple[str, ...] | list[str] = (),
+    progress: Callable[[float], None] | None = None,
 ) -> Baseline:
     """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
 
@@ -516,6 +520,8 @@ def calibrate(
         the firing harmonics left to the engine.
     exclude : sequence of str, optional
         Channels left out (not calibrated).
+    progress : callable, optional
+        Told the fraction of the resampling done, from 0 to 1 [-].
 
     Returns
     -------
@@ -556,6 +562,7 @@ def calibrate(
         max_order=max_order,
         cycle_phase=cycle_phase,
         pitch=pitch,
+        progress=progress,
     )
     if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
         faults = cylinder_findings(analysis.balance)
@@ -694,6 +701,7 @@ def diagnose(
     max_order: float = 24.0,
     cycle_phase: CyclePhase = None,
     exclude: tuple[str, ...] | list[str] = (),
+    progress: Callable[[float], None] | None = None,
 ) -> Diagnosis:
     """Diagnose a recording against the engine's model (see the module docstring).
 
@@ -716,6 +724,8 @@ def diagnose(
         with 0, and each cylinder named together with the one firing 360 deg from it.
     exclude : sequence of str, optional
         Channels left out of the diagnosis.
+    progress : callable, optional
+        Told the fraction of the resampling done, from 0 to 1 [-].
 
     Returns
     -------
@@ -763,6 +773,7 @@ def diagnose(
         cycle_phase=cycle_phase,
         pitch=_baseline_pitch(recording, baseline),
         crank=baseline.crank if baseline is not None else None,
+        progress=progress,
     )
     result = analysis.spectra
     notes = screen_notes + list(analysis.notes) + unrated

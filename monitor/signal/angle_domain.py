@@ -3,27 +3,40 @@
 Resampling.  A channel sampled in time is evaluated at a uniform crank-angle
 grid of ``N`` samples per cycle (per revolution on a two-stroke, per two
 revolutions on a four-stroke), whole cycles only, cycle angle 0 at (firing)
-TDC of cylinder 1.  Steps:
+TDC of cylinder 1.  The times of the grid angles come from the angle map's
+monotone inverse.  The angle-domain Nyquist order ``N / (2 R)`` (``R``
+revolutions per cycle) is reached in time at the lowest speed of the
+recording: that is the stopband edge of the anti-alias low-pass; its
+passband edge is the highest order wanted at the fastest speed (or
+``cutoff`` of the stopband edge).
 
-1. times of the grid angles from the angle map's monotone inverse;
-2. anti-alias filtering and decimation: the angle-domain Nyquist order
-   ``N / (2 R)`` (``R`` revolutions per cycle) is reached in time at the
-   lowest speed of the recording, the stopband edge; a linear-phase FIR low-pass
-   (Kaiser window, ripple and stopband 1e-5), applied centred (zero phase: the
-   orders' phases untouched) through FFTs, passes everything up to ``cutoff`` of
-   it and removes what would alias.  The filtered signal is kept at a rate
-   that is at least ``OVERSAMPLING`` (10) times the passband edge, an integer
-   fraction of the input rate: cheaper to interpolate, still accurate.  The
-   filter is skipped when its stopband would not be below the time-domain Nyquist;
-3. interpolation of the filtered samples at those times with B-splines of
-   order 1 (linear), 3 or 5 (prefilter and evaluation compiled with numba,
-   the splines of ``scipy.ndimage.map_coordinates``); at the
-   passband edge cubic splines are within 4e-4 of a sine's amplitude, at a
-   tenth of it within 1e-7.
+The default kernel does the anti-alias filtering and the interpolation in
+one step, computing only the output samples: each grid time's value is the
+channel convolved with a continuous windowed-sinc low-pass (Kaiser window,
+passband ripple and stopband 1e-5) evaluated at that time,
+
+    y(t) = sum_n x[n] h(t fs - n),
+
+so a sample is as many multiply-adds as the kernel is long (the filter's
+transition band sets its length), whatever the decimation.  ``h`` is
+tabulated at ``_PHASES`` (1024) fractions of a sample and each time rounded
+to the nearest; the loop is compiled with numba and runs in the samples'
+stored precision (float32 recordings in float32).  The filter is zero-phase:
+the orders' phases are untouched.
+
+The second kernel, for filters too long for the first (more than
+``_FUSED_TAPS_PER_INPUT`` taps per input sample between grid points: a narrow
+transition band at a high sampling rate), for comparison (``interpolation_order``
+1, 3 or 5), and without anti-aliasing: a linear-phase FIR low-pass applied through FFTs,
+decimation to at least ``OVERSAMPLING`` (10) times the passband edge, then
+B-spline interpolation of that order (prefilter and evaluation compiled with
+numba, the splines of ``scipy.ndimage.map_coordinates``); at the passband
+edge cubic splines are within 4e-4 of a sine's amplitude, at a tenth of it
+within 1e-7.  docs/accuracy-vs-time.md compares the two.
 
 The channel is processed in blocks of whole cycles (about 2^18 input
-samples and a margin on each side for the filter and the splines), read by
-slices: a channel in an HDF5 file is never held whole in memory.
+samples and a margin on each side for the kernel), read by slices: a
+channel in an HDF5 file is never held whole in memory.
 
 Order spectra.  The angle-domain signal is cut into blocks of whole cycles;
 each block's real FFT, scaled to peak amplitudes, gives complex order
@@ -36,19 +49,19 @@ blocks is reported beside it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any, Literal, Protocol
 
 import numba
 import numpy as np
 import numpy.typing as npt
-import scipy.fft as sp_fft
-from scipy.signal import firwin, kaiserord
 
 from monitor.orders import scaled_rfft
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.pulses import SignalError
+from monitor.timing import StageClock, stage
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -82,7 +95,9 @@ class AngleDomainSignal:
         1 two-stroke, 2 four-stroke.
     cutoff_hz : float or None
         Passband edge of the anti-alias filter applied [Hz]; None when no filter was needed.
-    interpolation_order : int
+    interpolation : str
+        How the samples were found: "band-limited" (the fused windowed-sinc kernel), "B-spline 1",
+        "B-spline 3" or "B-spline 5" (FFT filter, decimation, splines), or what made them otherwise.
     high_frequency : HighFrequencyPower or None
         The crank-angle profile of the channel's high-frequency power, when asked for.
     """
@@ -92,7 +107,7 @@ class AngleDomainSignal:
     samples_per_cycle: int
     cycle_revolutions: int
     cutoff_hz: float | None
-    interpolation_order: int
+    interpolation: str
     high_frequency: HighFrequencyPower | None = None
 
     @property
@@ -276,6 +291,88 @@ IMPACT_BAND_HZ = (1000.0, 10000.0)
 _IMPACT_BAND_DB = 80.0  # its stopband attenuation; the transition is half the lower edge wide
 
 
+# the fused kernel's windowed sinc, tabulated at this many fractions of a sample; a position is rounded to
+# the nearest, at most 1 / 2048 of a sample away: at the passband edge f_p that moves a sample's phase by at
+# most pi f_p / (fs _PHASES), 2e-4 rad when f_p is fs / 15, and averages out over a recording's cycles
+_PHASES = 1024
+# its design attenuation: 10 dB beyond the 1e-5 of ripple and stopband wanted, because sampled at a sample's
+# fraction the continuous kernel's images at multiples of the sampling rate add up in its passband (measured:
+# 2.5e-5 at a 100 dB design, below 1e-5 at 110 dB; tests/test_signal.py)
+_FUSED_DESIGN_DB = 110.0
+# a kernel longer than this many taps per input sample between grid points costs more than the FFT filter
+# and splines (whose cost per input sample hardly depends on the filter's length): a narrow transition
+# band at a high sampling rate, or a grid much finer than the samples, takes that route instead
+_FUSED_TAPS_PER_INPUT = 24.0
+
+
+@dataclass(frozen=True)
+class _BandLimited:
+    """A continuous windowed-sinc low-pass, tabulated for evaluation at fractional sample positions.
+
+    ``table[p, j]`` is ``h(p / phases + half - 1 - j)``, ``h`` in input samples, ``half`` the kernel's
+    half length: the value at position ``u = n0 + p / phases`` is
+    ``sum_j x[n0 - half + 1 + j] table[p, j]``.
+    """
+
+    table: FloatArray
+    passband_hz: float
+    stopband_hz: float
+
+    @property
+    def half(self) -> int:
+        """Input samples the kernel reaches on each side of a position."""
+        return int(self.table.shape[1] // 2)
+
+
+@lru_cache(maxsize=16)  # the channels of a recording share one kernel
+def _band_limited(passband_hz: float, stopband_hz: float, sample_rate: float) -> _BandLimited:
+    """The fused kernel passing up to ``passband_hz`` and stopping from ``stopband_hz`` (at most Nyquist).
+
+    Kaiser's design rules (Oppenheim & Schafer, Discrete-Time Signal Processing, 3rd ed., eqs. 7.62 and
+    7.63): for an attenuation of ``A`` dB (here :data:`_FUSED_DESIGN_DB`) the window's shape is
+    ``beta = 0.1102 (A - 8.7)`` and its length ``(A - 8) / (2.285 dw)`` samples, ``dw`` the transition
+    width in radians per sample.  Each row of the
+    table is scaled to a sum of one: a constant passes exactly at every fractional position.
+    """
+    beta = 0.1102 * (_FUSED_DESIGN_DB - 8.7)
+    half = _fused_taps(passband_hz, stopband_hz, sample_rate) // 2
+    cutoff = 0.5 * (passband_hz + stopband_hz) / sample_rate  # [cycles per sample]
+    offsets = np.arange(_PHASES + 1)[:, None] / _PHASES + (half - 1) - np.arange(2 * half)[None, :]
+    window = np.i0(beta * np.sqrt(np.clip(1.0 - (offsets / half) ** 2, 0.0, None))) / np.i0(beta)
+    table = 2 * cutoff * np.sinc(2 * cutoff * offsets) * window
+    table /= table.sum(axis=1, keepdims=True)
+    return _BandLimited(np.ascontiguousarray(table), passband_hz, stopband_hz)
+
+
+def _fused_taps(passband_hz: float, stopband_hz: float, sample_rate: float) -> int:
+    """The fused kernel's length for this design [samples]."""
+    width = 2 * math.pi * (stopband_hz - passband_hz) / sample_rate
+    return 2 * max(2, math.ceil((_FUSED_DESIGN_DB - 8.0) / (2.285 * width) / 2))
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _resample(x: FloatArray, positions: FloatArray, table: FloatArray, out: FloatArray) -> None:
+    """The band-limited value of ``x`` at each of ``positions`` (in samples of ``x``), into ``out``.
+
+    Every position needs ``half`` samples of ``x`` before it and ``half`` after (the caller's margins).
+    The sum runs in the precision of ``x`` and ``table`` (the same dtype).
+    """  # pragma: no cover - compiled
+    phases = table.shape[0] - 1
+    taps = table.shape[1]
+    half = taps // 2
+    for k in range(positions.size):
+        u = positions[k]
+        n0 = math.floor(u)
+        p = int((u - n0) * phases + 0.5)  # the nearest tabulated fraction (the last row is a whole sample)
+        base = int(n0) - half + 1
+        window = x[base : base + taps]  # a slice: indices known to be in range, so the loop vectorises
+        weights = table[p]
+        total = weights[0] * 0
+        for j in range(taps):
+            total += window[j] * weights[j]
+        out[k] = total
+
+
 @dataclass(frozen=True)
 class _AntiAlias:
     """Low-pass FIR (Kaiser window, linear phase, applied centred: zero phase) and the decimation after it.
@@ -306,7 +403,7 @@ class _AntiAlias:
         kernel[: half + 1] = self.taps[half:]
         kernel[self.segment - half :] = self.taps[:half]
         keep = self.segment // self.decimation // 2 + 1
-        return np.ascontiguousarray(sp_fft.rfft(kernel)[:keep].real)
+        return np.ascontiguousarray(np.fft.rfft(kernel)[:keep].real)
 
     def apply(self, x: FloatArray) -> FloatArray:
         """Filtered samples at input samples ``lead``, ``lead + decimation``, ... of ``x``.
@@ -317,6 +414,8 @@ class _AntiAlias:
         count = max(1, -(-(x.size - 2 * self.lead) // hop))
         padded = np.zeros(count * hop + 2 * self.lead, dtype=x.dtype)
         padded[: x.size] = x
+        import scipy.fft as sp_fft  # where it is used: scipy's FFTs transform float32 in float32
+
         rows = np.lib.stride_tricks.sliding_window_view(padded, self.segment)[::hop]
         spectra = sp_fft.rfft(rows, axis=-1)
         kept = spectra[:, : self.response.size] * self.response.astype(spectra.real.dtype)
@@ -328,6 +427,8 @@ class _AntiAlias:
 def _anti_alias(passband_hz: float, stopband_hz: float, sample_rate: float) -> _AntiAlias | None:
     if stopband_hz >= 0.5 * sample_rate:
         return None
+    from scipy.signal import firwin, kaiserord  # where it is used: scipy.signal is slow to import
+
     numtaps, beta = kaiserord(_RIPPLE_DB, (stopband_hz - passband_hz) / (0.5 * sample_rate))
     taps = firwin(numtaps | 1, 0.5 * (passband_hz + stopband_hz), window=("kaiser", beta), fs=sample_rate)
     decimation = max(1, int(sample_rate // (OVERSAMPLING * passband_hz)))
@@ -353,6 +454,8 @@ def impact_band(sample_rate: float) -> tuple[_AntiAlias, tuple[float, float]]:
     edges : tuple of float
         The pass band's edges [Hz].
     """
+    from scipy.signal import firwin, kaiserord  # where it is used: scipy.signal is slow to import
+
     low = min(IMPACT_BAND_HZ[0], sample_rate / 8)
     width = 0.5 * low
     numtaps, beta = kaiserord(_IMPACT_BAND_DB, width / (0.5 * sample_rate))
@@ -375,11 +478,14 @@ def to_angle_domain(
     samples_per_cycle: int,
     cycle_revolutions: int = 1,
     start_time: float = 0.0,
-    interpolation_order: Literal[1, 3, 5] = 3,
+    interpolation_order: Literal[1, 3, 5] | None = None,
     anti_alias: bool = True,
     cutoff: float = 0.8,
+    max_order: float | None = None,
     grid: AngleGrid | None = None,
     high_frequency: bool = False,
+    progress: Callable[[float], None] | None = None,
+    clock: StageClock | None = None,
 ) -> AngleDomainSignal:
     """Resample a time-domain channel to whole cycles of a uniform crank-angle grid.
 
@@ -402,17 +508,27 @@ def to_angle_domain(
     start_time : float, optional
         Time of the first sample [s].
     interpolation_order : {1, 3, 5}, optional
-        B-spline order of the interpolation in time.
+        Resample with the FFT filter and B-splines of this order instead of the fused band-limited
+        kernel (the default; see the module docstring).
     anti_alias : bool, optional
-        Low-pass before resampling (see the module docstring).
+        Low-pass before resampling; without it, cubic B-splines (or ``interpolation_order``).
     cutoff : float, optional
         Passband edge of the filter as a fraction of the angle-domain Nyquist
-        frequency at the lowest speed [-].
+        frequency at the lowest speed [-], unless ``max_order`` is given.
+    max_order : float, optional
+        The highest order wanted [per revolution]: the fused kernel's passband edge is this order at
+        the fastest speed (a shorter kernel than ``cutoff``'s when it is lower); orders above it, up
+        to the grid's Nyquist order, are attenuated but not aliased.
     grid : AngleGrid, optional
         The grid times, when several channels with the same sample times share them.
     high_frequency : bool, optional
         Also profile the high-frequency power over the cycle (:class:`HighFrequencyPower`),
         in the same pass over the samples.
+    progress : callable, optional
+        Told the fraction of the grid done after every block [-].
+    clock : StageClock, optional
+        Adds the time spent reading, resampling and profiling (stages "reading", "resampling",
+        "high-frequency profile").
 
     Returns
     -------
@@ -421,15 +537,16 @@ def to_angle_domain(
     Raises
     ------
     SignalError
-        For a bad grid, non-finite samples, or a recording shorter than one cycle.
+        For a bad grid, non-finite samples, a ``max_order`` the grid cannot hold, or a recording
+        shorter than one cycle.
     """
     source: Any = (
         signal if hasattr(signal, "shape") and hasattr(signal, "__getitem__") else np.asarray(signal)
     )
     if len(source.shape) != 1 or source.shape[0] < 4:
         raise SignalError(f"signal has shape {tuple(source.shape)}: expected a 1-D channel")
-    if interpolation_order not in (1, 3, 5):
-        raise SignalError(f"interpolation_order = {interpolation_order!r}: expected 1, 3 or 5")
+    if interpolation_order not in (None, 1, 3, 5):
+        raise SignalError(f"interpolation_order = {interpolation_order!r}: expected 1, 3, 5 or None")
     if not 0 < cutoff < 1:
         raise SignalError(f"cutoff = {cutoff!r}: expected a fraction between 0 and 1")
     n = int(source.shape[0])
@@ -444,16 +561,42 @@ def to_angle_domain(
         )
     elif (grid.samples_per_cycle, grid.cycle_revolutions) != (samples_per_cycle, cycle_revolutions):
         raise SignalError("the given grid has another number of samples per cycle or revolutions per cycle")
-    slowest = angle_map.speed_range[0] / (2 * math.pi)  # rev/s
+    slowest, fastest = (w / (2 * math.pi) for w in angle_map.speed_range)  # rev/s
     stopband = samples_per_cycle / (2 * cycle_revolutions) * slowest  # angle-domain Nyquist at the slowest
-    fir = _anti_alias(cutoff * stopband, stopband, sample_rate) if anti_alias else None
+    passband = cutoff * stopband
+    if max_order is not None:
+        if not max_order * fastest < stopband:
+            highest = stopband / fastest
+            raise SignalError(
+                f"max_order = {max_order!r}: at the fastest speed it lies at or above the grid's Nyquist "
+                f"order at the slowest ({highest:.3g}); use more samples per cycle or a lower max_order"
+            )
+        passband = max_order * fastest
+    kernel: _BandLimited | None = None
+    fir: _AntiAlias | None = None
+    edge = min(stopband, 0.5 * sample_rate)
+    # input samples per grid point at the mean speed
+    spacing = sample_rate * float(grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1)
+    if (
+        anti_alias
+        and interpolation_order is None
+        and passband < 0.9 * edge
+        and _fused_taps(passband, edge, sample_rate) <= _FUSED_TAPS_PER_INPUT * spacing
+    ):
+        kernel = _band_limited(passband, edge, sample_rate)
+    elif anti_alias:
+        # the splines lose up to 4e-4 of a sine at the passband's edge (see above): the wanted orders are
+        # kept well inside it, whatever max_order
+        fir = _anti_alias(cutoff * stopband, stopband, sample_rate)
+    order = interpolation_order if interpolation_order is not None else 3
     decimation = fir.decimation if fir is not None else 1
     lead = fir.lead if fir is not None else 0  # input sample of the first filtered sample
-    margin = lead + _SPLINE_MARGIN * decimation
+    margin = kernel.half + 1 if kernel is not None else lead + _SPLINE_MARGIN * decimation
     band, band_hz = impact_band(sample_rate) if high_frequency else (None, (math.nan, math.nan))
     if band is not None:
         margin = max(margin, band.lead + 2)
     values = np.empty(grid.times.size)
+    table = None
     cycle_seconds = (grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1) * grid.samples_per_cycle
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
@@ -473,19 +616,32 @@ def to_angle_domain(
         a = math.floor(where[0]) - margin
         b = math.ceil(edges[-1]) + margin + 2
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
-        x = _read(source, a, b, start_time, sample_rate)
+        with stage(clock, "reading"):
+            x = _read(source, a, b, start_time, sample_rate)
         if band is not None:
-            fine = edges - a - band.lead  # in samples of the band-passed block
-            if split > 1:
-                fine = np.interp(np.arange((fine.size - 1) * split + 1) / split, np.arange(fine.size), fine)
-            _bin_power(band.apply(x), fine, bins, power_sum, power_squares, power_counts)
-        y = fir.apply(x) if fir is not None else x
-        _interpolate(
-            _spline_coefficients(y, interpolation_order),
-            (where - a - lead) / decimation,
-            interpolation_order,
-            values[g0 : g0 + step],
-        )
+            with stage(clock, "high-frequency profile"):
+                fine = edges - a - band.lead  # in samples of the band-passed block
+                if split > 1:
+                    finer = np.arange((fine.size - 1) * split + 1) / split
+                    fine = np.interp(finer, np.arange(fine.size), fine)
+                _bin_power(band.apply(x), fine, bins, power_sum, power_squares, power_counts)
+        with stage(clock, "resampling"):
+            if kernel is not None:
+                if table is None or table.dtype != x.dtype:
+                    table = kernel.table.astype(x.dtype)
+                block = np.empty(where.size, dtype=x.dtype)
+                _resample(x, where - a, table, block)
+                values[g0 : g0 + step] = block
+            else:
+                y = fir.apply(x) if fir is not None else x
+                _interpolate(
+                    _spline_coefficients(y, order),
+                    (where - a - lead) / decimation,
+                    order,
+                    values[g0 : g0 + step],
+                )
+        if progress is not None:
+            progress(min(1.0, (g0 + step) / grid.times.size))
     profile = None
     if high_frequency:
         # each bin's cycles that held at least one sample (a grid finer than the samples leaves some
@@ -499,13 +655,19 @@ def to_angle_domain(
         profile = HighFrequencyPower(
             mean, np.sqrt(variance), grid.cycles, float(sample_rate), band_hz, speed_rpm
         )
+    if kernel is not None:
+        cutoff_hz: float | None = kernel.passband_hz
+        interpolation = "band-limited"
+    else:
+        cutoff_hz = fir.passband_hz if fir is not None else None
+        interpolation = f"B-spline {order}"
     return AngleDomainSignal(
         values.reshape(grid.cycles, grid.samples_per_cycle),
         grid.first_cycle,
         grid.samples_per_cycle,
         grid.cycle_revolutions,
-        fir.passband_hz if fir is not None else None,
-        interpolation_order,
+        cutoff_hz,
+        interpolation,
         profile,
     )
 
