@@ -492,8 +492,38 @@ class SampleReader:
         )
         return block
 
+    def read_into(self, start: int, out: np.ndarray) -> None:
+        """Samples ``start`` to ``start + out.size`` into ``out`` (a reused buffer), checked as a slice is.
+
+        Parameters
+        ----------
+        start : int
+            The first sample's index.
+        out : ndarray
+            Of the channel's dtype, filled whole.
+
+        Raises
+        ------
+        FormatError
+            For a span past the channel's end, or unusable samples.
+        """
+        stop = start + out.size
+        if not 0 <= start <= stop <= self._size:
+            raise FormatError(f"{self._where}: samples {start} to {stop} asked, the channel has {self._size}")
+        self._read_into(start, out)
+        refuse_unusable(
+            self._where,
+            out,
+            self._rate,
+            start_offset=self._offset + start / self._rate,
+            limits=self._limits,
+        )
+
     def _read(self, start: int, stop: int) -> np.ndarray:
         raise NotImplementedError
+
+    def _read_into(self, start: int, out: np.ndarray) -> None:
+        out[:] = self._read(start, start + out.size)
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
         whole = self[:]

@@ -359,3 +359,38 @@ def test_samples_that_are_not_floats_are_refused(tmp_path: Path, dtype: type) ->
 def test_absurd_pulse_counts_are_refused(kind: str, fields: dict, said: str) -> None:  # type: ignore[type-arg]
     with pytest.raises(FormatError, match=said):
         Channel("wheel", kind, "s", np.cumsum(np.full(10, 0.01)), None, fields=fields)
+
+
+def test_read_into_a_reused_buffer_gives_the_slices_samples_and_their_checks(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """The resampler's reads: straight into a buffer it keeps (HDF5: read_direct; MCAP: the slice
+    copied in), the same samples as slicing, unusable samples refused as a slice refuses them."""
+    from monitor.io.mcap_io import open_mcap, write_mcap
+
+    recording = _recording(rng)
+    expected = np.asarray(recording.channel("mb3-vertical").data)
+    for path, opener in (
+        (write_hdf5(recording, tmp_path / "r.h5"), open_hdf5),
+        (write_mcap(recording, tmp_path / "r.mcap"), open_mcap),
+    ):
+        with opener(path) as opened:
+            data = opened.channel("mb3-vertical").data
+            buffer = np.full(1000, np.nan, dtype=np.float32)
+            for start in (0, 1234, expected.size - 1000):
+                data.read_into(start, buffer)
+                np.testing.assert_array_equal(buffer, expected[start : start + 1000])  # copies, exact
+            with pytest.raises(FormatError, match="samples 5000 to 6000 asked"):
+                data.read_into(expected.size - 120, buffer)
+
+    def stored(f: h5py.File) -> None:
+        x = np.sin(np.linspace(0, 20, 1000)).astype(np.float32)
+        x[600] = np.nan
+        ds = f["channels"].create_dataset("bad", data=x)
+        ds.attrs.update({"kind": "acceleration", "unit": "g", "sample_rate_hz": 100.0})
+
+    with open_hdf5(_write_raw(tmp_path / "q.h5", stored)) as opened:
+        bad = opened.channel("bad").data
+        bad.read_into(0, np.empty(500, dtype=np.float32))  # the clean part reads
+        with pytest.raises(FormatError, match=r"unusable samples \(nan 6\.000"):
+            bad.read_into(500, np.empty(500, dtype=np.float32))

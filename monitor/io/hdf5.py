@@ -300,6 +300,17 @@ class Hdf5Samples(SampleReader):
                 f"{self._where}: checksum failure or damaged data ({error}); the file is corrupt"
             ) from None
 
+    def _read_into(self, start: int, out: np.ndarray) -> None:
+        if out.dtype != self._dtype or not out.flags.c_contiguous:
+            super()._read_into(start, out)
+            return
+        try:  # straight into the caller's buffer: no array made per slice
+            self._dataset.read_direct(out, np.s_[start : start + out.size], np.s_[0 : out.size])
+        except OSError as error:
+            raise FormatError(
+                f"{self._where}: checksum failure or damaged data ({error}); the file is corrupt"
+            ) from None
+
 
 def _refuse_links(f: h5py.File, source: Path) -> None:
     def visit(group: h5py.Group, prefix: str) -> None:

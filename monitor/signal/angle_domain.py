@@ -355,7 +355,7 @@ def _resample(x: FloatArray, positions: FloatArray, table: FloatArray, out: Floa
     """The band-limited value of ``x`` at each of ``positions`` (in samples of ``x``), into ``out``.
 
     Every position needs ``half`` samples of ``x`` before it and ``half`` after (the caller's margins).
-    The sum runs in the precision of ``x`` and ``table`` (the same dtype).
+    The sum runs in the precision of ``x`` and ``table`` (the same dtype); ``out`` may be wider.
     """  # pragma: no cover - compiled
     phases = table.shape[0] - 1
     taps = table.shape[1]
@@ -367,7 +367,7 @@ def _resample(x: FloatArray, positions: FloatArray, table: FloatArray, out: Floa
         base = int(n0) - half + 1
         window = x[base : base + taps]  # a slice: indices known to be in range, so the loop vectorises
         weights = table[p]
-        total = weights[0] * 0
+        total = weights[0] - weights[0]  # zero in the table's dtype (weights[0] * 0 would be float64)
         for j in range(taps):
             total += window[j] * weights[j]
         out[k] = total
@@ -597,6 +597,7 @@ def to_angle_domain(
         margin = max(margin, band.lead + 2)
     values = np.empty(grid.times.size)
     table = None
+    reuse: list[np.ndarray] = []  # the block buffer a file's reader fills
     cycle_seconds = (grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1) * grid.samples_per_cycle
     per_block = max(1, int(_BLOCK_SAMPLES / (sample_rate * cycle_seconds)))
     step = per_block * grid.samples_per_cycle
@@ -617,7 +618,7 @@ def to_angle_domain(
         b = math.ceil(edges[-1]) + margin + 2
         a -= a % decimation  # filtered samples on one lattice of input samples for every block
         with stage(clock, "reading"):
-            x = _read(source, a, b, start_time, sample_rate)
+            x = _read(source, a, b, start_time, sample_rate, reuse)
         if band is not None:
             with stage(clock, "high-frequency profile"):
                 fine = edges - a - band.lead  # in samples of the band-passed block
@@ -629,9 +630,7 @@ def to_angle_domain(
             if kernel is not None:
                 if table is None or table.dtype != x.dtype:
                     table = kernel.table.astype(x.dtype)
-                block = np.empty(where.size, dtype=x.dtype)
-                _resample(x, where - a, table, block)
-                values[g0 : g0 + step] = block
+                _resample(x, where - a, table, values[g0 : g0 + step])
             else:
                 y = fir.apply(x) if fir is not None else x
                 _interpolate(
@@ -770,18 +769,32 @@ def _interpolate(c: FloatArray, q: FloatArray, order: int, out: FloatArray) -> N
             out[p] = total
 
 
-def _read(source: Any, a: int, b: int, start_time: float, sample_rate: float) -> FloatArray:
-    """Samples ``a`` to ``b`` (may reach past either end: mirrored about the end sample, odd)."""
+def _read(
+    source: Any, a: int, b: int, start_time: float, sample_rate: float, reuse: list[np.ndarray] | None = None
+) -> FloatArray:
+    """Samples ``a`` to ``b`` (may reach past either end: mirrored about the end sample, odd).
+
+    A file's reader (one with ``read_into``, which refuses NaN, Inf and clipping itself) reads a span
+    inside the channel straight into the buffer held in ``reuse`` (made or grown as needed): the
+    returned samples are a view of it, valid until the next read.
+    """
     n = int(source.shape[0])
-    x = np.asarray(source[max(a, 0) : min(b, n)])
-    if x.dtype not in (np.float32, np.float64):
-        x = x.astype(np.float64)
-    if not np.all(np.isfinite(x)):
-        bad = max(a, 0) + int(np.flatnonzero(~np.isfinite(x))[0])
-        raise SignalError(
-            f"signal has NaN or Inf samples (the first at {start_time + bad / sample_rate:.6f} s): mask "
-            "them (see the reader's report) before resampling"
-        )
+    lo, hi = max(a, 0), min(b, n)
+    if reuse is not None and hasattr(source, "read_into") and source.dtype in (np.float32, np.float64):
+        if not reuse or reuse[0].size < hi - lo or reuse[0].dtype != source.dtype:
+            reuse[:] = [np.empty(max(hi - lo, 1), dtype=source.dtype)]
+        x = reuse[0][: hi - lo]
+        source.read_into(lo, x)
+    else:
+        x = np.asarray(source[lo:hi])
+        if x.dtype not in (np.float32, np.float64):
+            x = x.astype(np.float64)
+        if not np.all(np.isfinite(x)):
+            bad = lo + int(np.flatnonzero(~np.isfinite(x))[0])
+            raise SignalError(
+                f"signal has NaN or Inf samples (the first at {start_time + bad / sample_rate:.6f} s): "
+                "mask them (see the reader's report) before resampling"
+            )
     before, after = max(0, -a), max(0, b - n)
     if before or after:
         x = np.pad(x, (before, after), mode="reflect", reflect_type="odd")
