@@ -569,3 +569,18 @@ def test_max_order_beyond_the_grid_is_refused() -> None:
     angle_map = AngleMap(np.interp(teeth, alpha, t), teeth)
     with pytest.raises(SignalError, match=r"max_order = 40.*Nyquist"):
         to_angle_domain(np.cos(alpha), FS, angle_map, samples_per_cycle=64, max_order=40)
+
+
+def test_a_coarser_grid_of_the_same_cycles_is_every_kth_time_of_a_finer_one() -> None:
+    """The crank speed's grid reuses the channels' grid times: the same as computing them anew."""
+    from monitor.signal.angle_domain import angle_grid
+
+    t, alpha = _trajectory(3.0, 600.0, 0.1)
+    teeth = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * math.pi / 30
+    angle_map = AngleMap(np.interp(teeth, alpha, t), teeth)
+    span = (float(angle_map.times[0]), float(angle_map.times[-1]))
+    fine = angle_grid(angle_map, *span, samples_per_cycle=256)
+    reused = angle_grid(angle_map, *span, samples_per_cycle=64, known=[fine])
+    anew = angle_grid(angle_map, *span, samples_per_cycle=64)
+    assert (reused.first_cycle, reused.cycles) == (anew.first_cycle, anew.cycles)
+    np.testing.assert_allclose(reused.times, anew.times, rtol=0, atol=1e-12)  # the same inverse, clamped ends

@@ -236,7 +236,8 @@ def angle_grid(
     cycle_revolutions : int, optional
         1 or 2.
     known : list of AngleGrid, optional
-        Grids already computed with the same map: one with the same cycles is returned as it is.
+        Grids already computed with the same map: one with the same cycles is returned as it is, or
+        every k-th of its times taken when it is k times finer.
 
     Returns
     -------
@@ -259,13 +260,14 @@ def angle_grid(
     if last - first < 1:
         raise SignalError("the recording covers less than one whole cycle of the angle map")
     for other in known or []:
-        if (other.first_cycle, other.cycles, other.samples_per_cycle, other.cycle_revolutions) == (
-            first,
-            last - first,
-            samples_per_cycle,
-            cycle_revolutions,
-        ):
-            return other
+        cycles = (other.first_cycle, other.cycles, other.cycle_revolutions)
+        finer = other.samples_per_cycle % samples_per_cycle == 0
+        if cycles == (first, last - first, cycle_revolutions) and finer:  # as fine or finer: every k-th
+            if other.samples_per_cycle == samples_per_cycle:
+                return other
+            stride = other.samples_per_cycle // samples_per_cycle
+            times = np.ascontiguousarray(other.times[::stride])
+            return AngleGrid(first, samples_per_cycle, cycle_revolutions, times)
     grid = first * cycle + (cycle / samples_per_cycle) * np.arange((last - first) * samples_per_cycle)
     times = angle_map.time_at(grid)
     times[0] = max(times[0], start_time)  # guard the ends against round-off just outside the span
