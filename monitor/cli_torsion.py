@@ -393,9 +393,10 @@ def _axial(args: argparse.Namespace) -> None:
         )
 
 
-#: Chart work (cells x Magnus steps per period) above which a progress bar is shown: about 2 s at
-#: the few million cell-steps per second of the chart timings in docs/accuracy-vs-time.md.
-_PROGRESS_WORK = 5e6
+#: Chart work (cells x Magnus steps per period) above which a progress bar is shown: about 1 s at
+#: the ten million cell-steps per second of the chart timings in docs/accuracy-vs-time.md, so about
+#: 2 s on a machine half as fast or half as free.
+_PROGRESS_WORK = 1e7
 
 
 def _stability(args: argparse.Namespace) -> None:
