@@ -835,7 +835,7 @@ def stability_chart(
     steps : int, optional
         Magnus steps per period instead.
     progress : callable, optional
-        Told the number of rows (epsilon values) done after every block.
+        Told the number of rows (epsilon values) done after every block [rows].
 
     Returns
     -------
