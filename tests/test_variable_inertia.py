@@ -366,17 +366,23 @@ def test_narrow_ranges_near_one_over_k_are_found(eps: float, low: float, high: f
 def test_reported_ranges_are_unstable_and_complete(eps: float, low: float, span: float) -> None:
     """Invariants of the range search, checked by independent evaluations:
     - ranges are increasing, disjoint, of positive width and inside the window;
-    - the middle of every range is unstable at 1024 steps per period (margin < 0);
+    - every range holds a point unstable at 1024 steps per period (margin < 0) within the
+      tolerance (1e-6) of its ends: its middle where it is wider than twice the tolerance, else
+      one of 2001 points spread over it and the tolerance either side (a range narrower than the
+      tolerance, e.g. near r = 1/4, is only placed to within the tolerance);
     - every point of a scan with a spacing of 1e-3 that is unstable at 1024 steps by more than
       1e-9 in margin (clear of round-off and of the boundaries' 1e-6 tolerance) lies in a range."""
-    high = low + span
-    ranges = instability_ranges(eps, low, high)
+    high, tolerance = low + span, 1e-6
+    ranges = instability_ranges(eps, low, high, tolerance=tolerance)
     flat = [x for pair in ranges for x in pair]
     assert flat == sorted(flat) and all(b > a for a, b in ranges)
     assert all(low <= a and b <= high for a, b in ranges)
-    if ranges:
-        middles = np.array([0.5 * (a + b) for a, b in ranges])
-        assert np.all(monodromy(eps, middles, steps=1024).stability_margin < 0)
+    for a, b in ranges:
+        if b - a > 2 * tolerance:
+            points = np.array([0.5 * (a + b)])
+        else:
+            points = np.linspace(max(low, a - tolerance), min(high, b + tolerance), 2001)
+        assert np.any(monodromy(eps, points, steps=1024).stability_margin < 0), (a, b)
     scan = np.linspace(low, high, max(2, round(span / 1e-3)))
     clearly = scan[monodromy(eps, scan, steps=1024).stability_margin < -1e-9]
     for r in clearly:
