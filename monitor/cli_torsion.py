@@ -38,6 +38,17 @@ def _positive(text: str) -> float:
     return value
 
 
+def _count(text: str) -> int:
+    """A positive integer (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a positive whole number")
+    return value
+
+
 def add_torsion_parser(sub: Any) -> None:
     """Register the ``torsion`` subcommands on an argparse subparsers object.
 
@@ -124,6 +135,18 @@ def add_torsion_parser(sub: Any) -> None:
     stab.add_argument("--eps-max", type=_finite, default=0.6)
     stab.add_argument("--points", type=int, default=200, help="grid points per axis (default 200)")
     stab.add_argument("--zeta", type=_finite, default=0.0, help="damping ratio (default 0)")
+    stab.add_argument(
+        "--tolerance",
+        type=_positive,
+        default=1e-6,
+        help="accuracy of the stability boundaries in r; sets the Magnus step count (default 1e-6)",
+    )
+    stab.add_argument(
+        "--steps",
+        type=_count,
+        default=None,
+        help="Magnus steps per period instead of those --tolerance asks for",
+    )
     stab.add_argument(
         "--epsilon",
         type=_finite,
@@ -370,31 +393,53 @@ def _axial(args: argparse.Namespace) -> None:
         )
 
 
+#: Chart work (cells x Magnus steps per period) above which a progress bar is shown: about 1 s at
+#: the ten million cell-steps per second of the chart timings in docs/accuracy-vs-time.md, so about
+#: 2 s on a machine half as fast or half as free.
+_PROGRESS_WORK = 1e7
+
+
 def _stability(args: argparse.Namespace) -> None:
     from monitor.errors import ModelError
+    from monitor.progress import progress_bar
     from monitor.torsion.plots import plot_stability
-    from monitor.torsion.variable_inertia import instability_ranges, stability_chart
+    from monitor.torsion.variable_inertia import boundary_steps, instability_ranges, stability_chart
 
     if args.points < 2 or not (0 < args.r_min < args.r_max) or not (0 <= args.eps_min < args.eps_max < 1):
         raise ModelError("expected points >= 2, 0 < r-min < r-max and 0 <= eps-min < eps-max < 1")
+    if args.zeta < 0:
+        raise ModelError(f"--zeta {args.zeta!r}: expected a non-negative damping ratio")
     r = np.linspace(args.r_min, args.r_max, args.points)
     eps = np.linspace(args.eps_min, args.eps_max, args.points)
-    chart = stability_chart(r, eps, zeta=args.zeta)
-    ranges = {e: instability_ranges(e, args.r_min, args.r_max, zeta=args.zeta) for e in (args.epsilon or [])}
+    steps = args.steps or boundary_steps(args.tolerance, r_min=args.r_min, epsilon_max=args.eps_max)
+    if args.points * args.points * steps > _PROGRESS_WORK:
+        with progress_bar(args.points, "stability chart", unit="row") as report:
+            chart = stability_chart(r, eps, zeta=args.zeta, steps=steps, progress=report)
+    else:
+        chart = stability_chart(r, eps, zeta=args.zeta, steps=steps)
+    ranges = {
+        e: instability_ranges(
+            e, args.r_min, args.r_max, zeta=args.zeta, tolerance=args.tolerance, steps=args.steps
+        )
+        for e in (args.epsilon or [])
+    }
     lines = [
         f"Stability of the variable-inertia crank: r {args.r_min:g}..{args.r_max:g}, epsilon "
         f"{args.eps_min:g}..{args.eps_max:g}, {args.points} x {args.points} points, zeta {args.zeta:g}",
-        f"unstable share of the chart: {chart.unstable.mean():.1%} (Magnus steps per period: {chart.steps})",
+        f"unstable share of the chart: {chart.unstable.mean():.1%} (Magnus steps per period: {chart.steps}, "
+        f"boundaries within {chart.boundary_error:.1e} in r)",
     ]
     for e, found in ranges.items():
         lines.append(
             f"epsilon {e:g}: unstable for r in "
-            + (", ".join(f"[{a:.5f}, {b:.5f}]" for a, b in found) or "none")
+            + (", ".join(f"[{a:.7f}, {b:.7f}]" for a, b in found) or "none")
         )
     document = {
         "r": r.tolist(),
         "epsilon": eps.tolist(),
         "zeta": args.zeta,
+        "steps": chart.steps,
+        "boundary_error": None if math.isnan(chart.boundary_error) else chart.boundary_error,
         "unstable": chart.unstable.astype(int).tolist(),
         "growth_rate": chart.growth_rate.tolist(),
         "instability_ranges": {str(e): [list(x) for x in found] for e, found in ranges.items()},

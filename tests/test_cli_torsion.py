@@ -75,10 +75,43 @@ def test_axial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_stability_lists_the_table_1_ranges(capsys: pytest.CaptureFixture[str]) -> None:
+    """Paper 002 Table 1 (Gregory's analysis, 0.512..0.516 and 0.966..1.168 at epsilon 0.34): the ranges
+    near r = 1/2 and 1 within 0.006, beside the narrow one near r = 1/3 in the default window."""
     doc = _json(["torsion", "stability", "--points", "20", "--epsilon", "0.34", "--json"], capsys)
-    (low, _), (_, high) = doc["instability_ranges"]["0.34"]
-    assert abs(low - 0.512) < 0.006 and abs(high - 1.168) < 0.006
+    found = doc["instability_ranges"]["0.34"]
+    near_half = [x for x in found if 0.45 < x[0] < 0.55]
+    near_one = [x for x in found if 0.9 < x[0] < 1.1]
+    assert len(near_half) == len(near_one) == 1
+    assert abs(near_half[0][0] - 0.512) < 0.006 and abs(near_one[0][1] - 1.168) < 0.006
     assert np.array(doc["unstable"]).shape == (20, 20)
+    assert doc["steps"] >= 8 and 0 < doc["boundary_error"] <= 0.5e-6
+
+
+def test_stability_tolerance_sets_the_step_count(capsys: pytest.CaptureFixture[str]) -> None:
+    """A boundary tolerance 16 times looser takes about half the Magnus steps (fourth-order method);
+    --steps overrides it; the boundaries of a range move by less than the looser tolerance."""
+    argv = ["torsion", "stability", "--points", "8", "--epsilon", "0.5", "--json"]
+    fine = _json([*argv, "--tolerance", "1e-7"], capsys)
+    loose = _json([*argv, "--tolerance", "1.6e-6"], capsys)
+    fixed = _json([*argv, "--steps", "300"], capsys)
+    assert 1.8 < fine["steps"] / loose["steps"] < 2.2 and fixed["steps"] == 300
+    for a, b in zip(fine["instability_ranges"]["0.5"], loose["instability_ranges"]["0.5"], strict=True):
+        assert abs(a[0] - b[0]) < 1.6e-6 and abs(a[1] - b[1]) < 1.6e-6
+
+
+def test_stability_shows_a_progress_bar_for_a_long_chart(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """On a terminal a chart of much work draws a bar (rows done, time left); a small one draws none."""
+    import monitor.progress
+
+    monkeypatch.setattr(monitor.progress, "_is_terminal", lambda stream: True)
+    assert main(["torsion", "stability", "--points", "12", "--json"]) == 0
+    assert "stability chart" not in capsys.readouterr().err
+    monkeypatch.setattr("monitor.cli_torsion._PROGRESS_WORK", 100.0)
+    assert main(["torsion", "stability", "--points", "12", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "stability chart" in err and "row" in err
 
 
 def test_simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -111,6 +144,17 @@ def test_simulate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
             ["torsion", "simulate", "--epsilon", "0.3", "--r", "0"],
             "argument --r: '0': expected a positive number",
         ),
+        (
+            ["torsion", "stability", "--tolerance", "0"],
+            "argument --tolerance: '0': expected a positive number",
+        ),
+        (
+            ["torsion", "stability", "--tolerance", "nan"],
+            "argument --tolerance: 'nan': expected a finite number",
+        ),
+        (["torsion", "stability", "--steps", "0"], "argument --steps: '0': expected a positive whole number"),
+        (["torsion", "stability", "--zeta", "-0.1"], "--zeta -0.1: expected a non-negative damping ratio"),
+        (["torsion", "stability", "--eps-max", "0.99"], "measured up to epsilon 0.95 only"),
         (["torsion", "modes", "kluczyk-1cyl-4stroke"], "has no [shaft_line]"),
         (["torsion", "axial", "medium-speed-6l32"], "no [shaft_line.axial] data"),
         (["torsion", "response", "man-b-w-7k98mc", "--node", "nowhere"], "no node named 'nowhere'"),

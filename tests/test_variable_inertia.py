@@ -223,7 +223,7 @@ def test_epsilon_near_one(eps: float) -> None:
 def test_speed_ratio_exactly_on_a_boundary() -> None:
     """At a boundary the multipliers are double: the point is reported on the boundary, and the
     response grows linearly (Jordan block), not exponentially."""
-    (_, _), (r_low, _) = instability_ranges(0.34, 0.45, 1.3)
+    (_, _), (r_low, _) = instability_ranges(0.34, 0.45, 1.3, tolerance=1e-10)
     m = monodromy(0.34, r_low, tolerance=1e-12)
     assert bool(m.on_boundary) and not bool(m.unstable)
     tau = np.linspace(0, 2 * math.pi * 200, 20001)
@@ -320,3 +320,127 @@ def test_gas_excitation_of_an_engine_drives_the_equivalent_crank() -> None:
     for k, q in zip(excitation.orders, excitation.amplitudes, strict=True):
         steady = abs(2 * np.mean(out.gamma[last] * np.exp(-1j * k * tau[last])))
         assert steady == pytest.approx(q / math.hypot(1 / r**2 - k**2, 2 * zeta * k / r), rel=1e-5)
+
+
+# ------------------------------------------------------------------- range search and step count
+def _brute_force_ranges(eps: float, low: float, high: float, count: int) -> list[tuple[float, float]]:
+    """Unstable runs of a uniform scan (public monodromy, 256 steps): the reference of the range search.
+
+    Independent of the search's scan, golden section and bisection; a run's ends are within one
+    scan spacing of the true boundaries (plus the 256-step Magnus error, below 1e-9 here).
+    """
+    r = np.linspace(low, high, count)
+    unstable = monodromy(eps, r, steps=256).stability_margin < 0
+    runs, start = [], None
+    for i, flag in enumerate(unstable):
+        if flag and start is None:
+            start = i
+        if start is not None and (not flag or i == count - 1):
+            runs.append((float(r[start]), float(r[i - 1 if not flag else i])))
+            start = None
+    return runs
+
+
+@pytest.mark.parametrize(
+    ("eps", "low", "high"),
+    [(0.1, 0.49, 0.51), (0.001, 0.99, 1.01), (0.34, 0.32, 0.36)],
+    ids=["eps 0.1 near 1/2", "eps 0.001 near 1", "eps 0.34 near 1/3"],
+)
+def test_narrow_ranges_near_one_over_k_are_found(eps: float, low: float, high: float) -> None:
+    """The narrow ranges that a uniform 400-point scan of r 0.3..1.5 missed: a brute-force scan with a
+    spacing of 1e-6 around r = 1/k finds one range there, and the search over the whole window reports
+    it with both boundaries within two spacings plus the search's tolerance (1e-6). At the middle of the
+    range an independent integrator (DOP853 on the (gamma, gamma') form) gives |trace| > 2."""
+    spacing = 1e-6
+    brute = _brute_force_ranges(eps, low, high, round((high - low) / spacing) + 1)
+    assert len(brute) == 1 and brute[0][1] - brute[0][0] > 1e-5  # the claim: a range wider than 1e-5
+    found = [x for x in instability_ranges(eps, 0.3, 1.5) if x[1] > low and x[0] < high]
+    assert len(found) == 1
+    (a, b), (ref_a, ref_b) = found[0], brute[0]
+    assert abs(a - ref_a) < 2 * spacing + 1e-6 and abs(b - ref_b) < 2 * spacing + 1e-6, (found, brute)
+    assert abs(np.trace(_reference_monodromy(eps, 0.5 * (a + b)))) > 2.0
+
+
+@given(eps=st.floats(0.0, 0.9), low=st.floats(0.25, 0.8), span=st.floats(0.05, 1.0))
+@settings(max_examples=15, deadline=None)
+def test_reported_ranges_are_unstable_and_complete(eps: float, low: float, span: float) -> None:
+    """Invariants of the range search, checked by independent evaluations:
+    - ranges are increasing, disjoint, of positive width and inside the window;
+    - every range holds a point unstable at 1024 steps per period (margin < 0) within the
+      tolerance (1e-6) of its ends: its middle where it is wider than twice the tolerance, else
+      one of 2001 points spread over it and the tolerance either side (a range narrower than the
+      tolerance, e.g. near r = 1/4, is only placed to within the tolerance);
+    - every point of a scan with a spacing of 1e-3 that is unstable at 1024 steps by more than
+      1e-9 in margin (clear of round-off and of the boundaries' 1e-6 tolerance) lies in a range."""
+    high, tolerance = low + span, 1e-6
+    ranges = instability_ranges(eps, low, high, tolerance=tolerance)
+    flat = [x for pair in ranges for x in pair]
+    assert flat == sorted(flat) and all(b > a for a, b in ranges)
+    assert all(low <= a and b <= high for a, b in ranges)
+    for a, b in ranges:
+        if b - a > 2 * tolerance:
+            points = np.array([0.5 * (a + b)])
+        else:
+            points = np.linspace(max(low, a - tolerance), min(high, b + tolerance), 2001)
+        assert np.any(monodromy(eps, points, steps=1024).stability_margin < 0), (a, b)
+    scan = np.linspace(low, high, max(2, round(span / 1e-3)))
+    clearly = scan[monodromy(eps, scan, steps=1024).stability_margin < -1e-9]
+    for r in clearly:
+        assert any(a - 1e-6 <= r <= b + 1e-6 for a, b in ranges), (r, ranges)
+
+
+@pytest.mark.parametrize("eps", [0.15, 0.55, 0.85])
+def test_boundary_error_relation_bounds_the_measured_error(eps: float) -> None:
+    """The step-count relation (BOUNDARY_ERROR, measured by the benchmark at other inertia ratios and
+    over r 0.1..3) bounds the error of every boundary in r 0.3..1.5 bisected with 32 steps, against
+    1024 steps (whose own error, by the same relation, is 1024^4 / 32^4 = 10^6 times smaller)."""
+    from monitor.torsion.variable_inertia import boundary_error
+
+    located = instability_ranges(eps, 0.3, 1.5, steps=256, tolerance=1e-9)
+    bounds = np.array([x for pair in located for x in pair])
+    bounds = bounds[(bounds > 0.3) & (bounds < 1.5)]
+    assert bounds.size
+    gaps = np.abs(bounds[:, None] - bounds[None, :]) + np.diag(np.full(bounds.size, np.inf))
+    half = np.minimum(1e-4, 0.45 * gaps.min(axis=1))  # a bracket holds one boundary only
+
+    def bisect(steps: int) -> np.ndarray:
+        lo, hi = bounds - half, bounds + half
+        lo_unstable = monodromy(eps, lo, steps=steps).stability_margin < 0
+        assert np.all(lo_unstable != (monodromy(eps, hi, steps=steps).stability_margin < 0))
+        for _ in range(32):
+            mid = 0.5 * (lo + hi)
+            same = (monodromy(eps, mid, steps=steps).stability_margin < 0) == lo_unstable
+            lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+        return 0.5 * (lo + hi)
+
+    error = np.abs(bisect(32) - bisect(1024))
+    assert float(error.max()) <= boundary_error(32, epsilon_max=eps)
+
+
+def test_chart_step_count_follows_the_tolerance_and_reports_progress() -> None:
+    """A tighter boundary tolerance takes more steps (a quarter power: 16x tighter, about 2x steps); the
+    chart's traces are those of the monodromy at its step count; progress reports rise to the rows."""
+    r, eps = np.linspace(0.3, 1.5, 40), np.linspace(0.0, 0.6, 90)
+    reports: list[float] = []
+    chart = stability_chart(r, eps, tolerance=1e-6, progress=reports.append)
+    assert reports == sorted(reports) and reports[-1] == eps.size and len(reports) > 1
+    coarse = stability_chart(r, eps, tolerance=16e-6)
+    assert 1.8 < chart.steps / coarse.steps < 2.2
+    assert chart.boundary_error <= 0.5e-6
+    direct = monodromy(eps[:, None], r[None, :], steps=chart.steps)
+    np.testing.assert_allclose(chart.trace, direct.trace, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -1e-6, float("nan"), float("inf")])
+def test_bad_boundary_tolerance_is_refused(tolerance: float) -> None:
+    with pytest.raises(ModelError, match="expected a positive, finite boundary accuracy"):
+        stability_chart([0.5, 1.0], [0.1, 0.2], tolerance=tolerance)
+    with pytest.raises(ModelError, match="expected a positive, finite boundary accuracy"):
+        instability_ranges(0.3, 0.5, 1.0, tolerance=tolerance)
+
+
+def test_unmeasured_inertia_ratio_asks_for_a_step_count() -> None:
+    with pytest.raises(ModelError, match=r"measured up to epsilon 0\.95 only; give the Magnus steps"):
+        stability_chart([0.5, 1.0], [0.1, 0.99])
+    chart = stability_chart([0.5, 1.0], [0.1, 0.99], steps=256)
+    assert chart.steps == 256 and math.isnan(chart.boundary_error)
