@@ -301,10 +301,11 @@ _PHASES = 1024
 # fraction the continuous kernel's images at multiples of the sampling rate add up in its passband (measured:
 # 2.5e-5 at a 100 dB design, below 1e-5 at 110 dB; tests/test_signal.py)
 _FUSED_DESIGN_DB = 110.0
-# a kernel longer than this many taps per input sample between grid points costs more than the FFT filter
-# and splines (whose cost per input sample hardly depends on the filter's length): a narrow transition
-# band at a high sampling rate, or a grid much finer than the samples, takes that route instead
-_FUSED_TAPS_PER_INPUT = 24.0
+# a kernel longer than this many taps per input sample between grid points costs about as much as the FFT
+# filter and splines (whose cost per input sample hardly depends on the filter's length; the forced rows of
+# the angle-domain section of docs/accuracy-vs-time.md): a narrow transition band at a high sampling rate,
+# or a grid much finer than the samples, takes that route instead
+_FUSED_TAPS_PER_INPUT = 48.0
 
 
 @dataclass(frozen=True)
