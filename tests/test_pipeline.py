@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -286,3 +287,16 @@ def test_crank_angular_vibration_from_a_tooth_wheel() -> None:
     for k in (2, 7):
         assert abs(vibration.amplitude[k] - expected[k]) < 2e-3 * abs(expected[k])
     assert abs(vibration.amplitude[7]) == pytest.approx(0.02 / 7, rel=0.03)  # first order in 0.02
+
+
+def test_spectra_report_progress_and_the_time_of_each_stage(rng: np.random.Generator) -> None:
+    """Progress climbs to 1 without going back; every stage the pipeline runs has a time, and the
+    channels' resampling is among them."""
+    reports: list[float] = []
+    result = spectra(_synthetic(rng), cycle_revolutions=1, max_order=12, progress=reports.append)
+    assert reports and reports[-1] == pytest.approx(1.0)
+    assert all(b >= a for a, b in itertools.pairwise(reports))
+    stages = result.stage_seconds
+    for name in ("angle reference: pulses and decoding", "grid times", "reading", "resampling"):
+        assert name in stages and stages[name] >= 0.0, name
+    assert "order spectra" in stages
