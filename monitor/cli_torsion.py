@@ -413,7 +413,8 @@ def _stability(args: argparse.Namespace) -> None:
     eps = np.linspace(args.eps_min, args.eps_max, args.points)
     steps = args.steps or boundary_steps(args.tolerance, r_min=args.r_min, epsilon_max=args.eps_max)
     if args.points * args.points * steps > _PROGRESS_WORK:
-        with progress_bar(args.points, "stability chart", unit="row") as report:
+        # the work was estimated long: the bar is shown from the start
+        with progress_bar(args.points, "stability chart", unit="row", delay_s=0.0) as report:
             chart = stability_chart(r, eps, zeta=args.zeta, steps=steps, progress=report)
     else:
         chart = stability_chart(r, eps, zeta=args.zeta, steps=steps)
