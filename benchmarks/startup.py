@@ -84,7 +84,8 @@ def main() -> None:
         "",
         f"Written by `python -m benchmarks.startup --runs {args.runs}` on {stamp}, Python "
         f"{platform.python_version()}, {platform.machine()} (shared machine). Each command ran once to warm "
-        f"the caches, then {args.runs} times; the median and the slowest wall time are shown, with the "
+        f"the caches, then {args.runs} times, as `python -m monitor ...` (what the `engine-monitor` script "
+        "runs); the median and the slowest wall time are shown, with the "
         "interpreter's own start (`python -c pass`, the floor, measured the same way) and the time "
         "`python -X importtime` gives the command's imports in one more run.",
         "",
