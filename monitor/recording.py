@@ -483,13 +483,7 @@ class SampleReader:
             raise TypeError(f"{self._where}: samples are read by contiguous slices")
         start, stop, _ = index.indices(self._size)
         block = self._read(start, max(start, stop))
-        refuse_unusable(
-            self._where,
-            block,
-            self._rate,
-            start_offset=self._offset + start / self._rate,
-            limits=self._limits,
-        )
+        self._check(block, start)
         return block
 
     def read_into(self, start: int, out: np.ndarray) -> None:
@@ -511,9 +505,13 @@ class SampleReader:
         if not 0 <= start <= stop <= self._size:
             raise FormatError(f"{self._where}: samples {start} to {stop} asked, the channel has {self._size}")
         self._read_into(start, out)
+        self._check(out, start)
+
+    def _check(self, block: np.ndarray, start: int) -> None:
+        """Refuse the samples read from ``start`` on if any is unusable (:func:`refuse_unusable`)."""
         refuse_unusable(
             self._where,
-            out,
+            block,
             self._rate,
             start_offset=self._offset + start / self._rate,
             limits=self._limits,
