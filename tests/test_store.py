@@ -466,3 +466,24 @@ def test_keyset_pages_list_every_recording_once_in_order_even_at_equal_times(sto
     first = store.recordings(fleet, limit=5)[-1]
     views = store.recording_views(fleet, "1", after=(first.uploaded_at, first.id), limit=100)
     assert [v.recording.id for v in views] == whole[5:]
+
+
+def test_rows_are_read_by_position_in_the_order_the_store_declares() -> None:
+    """The store reads a recording's row by position (a listing page is read that way, several
+    times faster than by name): the table's columns are RecordingRow's fields, in order, and the
+    joined reads put the job's columns right after them."""
+    from dataclasses import fields
+
+    from monitor.store import RecordingRow
+    from monitor.store.queries import JOB_COLUMNS, STORED, VIEWS, listing
+    from monitor.store.schema import recordings
+
+    assert [c.name for c in recordings.c] == [f.name for f in fields(RecordingRow)]
+    jobs_at = len(recordings.c)
+    for query in (VIEWS, STORED, listing(True, True, True, True, True)):
+        names = [c.name for c in query.selected_columns]
+        assert names[:jobs_at] == [c.name for c in recordings.c]
+        assert names[jobs_at : jobs_at + len(JOB_COLUMNS)] == [c.name for c in JOB_COLUMNS]
+    assert [c.name for c in listing(False, False, False, False, False).selected_columns] == [
+        c.name for c in recordings.c
+    ]

@@ -226,16 +226,20 @@ def _utc(moment: datetime) -> datetime:
 
 
 def _recording(row: Any) -> RecordingRow:
+    """The recording in a row that begins with the ``recordings`` table's columns, in their order (the
+    fields of :class:`RecordingRow`): read by position, several times faster than by name, which
+    counts in a page of a listing."""
+    id_, fleet_id, content_hash, engine_id, filename, path, size_bytes, recorded_at, uploaded_at = row[:9]
     return RecordingRow(
-        row.id,
-        row.fleet_id,
-        row.content_hash,
-        row.engine_id,
-        row.filename,
-        row.path,
-        int(row.size_bytes),
-        row.recorded_at,
-        _utc(row.uploaded_at),
+        id_,
+        fleet_id,
+        content_hash,
+        engine_id,
+        filename,
+        path,
+        int(size_bytes),
+        recorded_at,
+        _utc(uploaded_at),
     )
 
 
@@ -253,18 +257,21 @@ def _job(row: Any) -> Job:
 
 
 def _view_job(row: Any, analysis_version: str) -> Job | None:
-    """The job in a row of a recording joined with its job (None where the join found none)."""
-    if row.job_id is None:
+    """The job in a row of a recording joined with its job (None where the join found none): the
+    recording's id first, the job's columns (:data:`monitor.store.queries.JOB_COLUMNS`) from the
+    tenth on, read by position as :func:`_recording` reads."""
+    job_id, state, attempts, error, not_before = row[9:14]
+    if job_id is None:
         return None
     return Job(
-        row.job_id,
-        row.id,
+        job_id,
+        row[0],
         analysis_version,
-        row.job_state,
-        int(row.job_attempts),
-        row.job_error,
+        state,
+        int(attempts),
+        error,
         "",  # a view never carries the taker's token
-        _utc(row.job_not_before) if row.job_not_before is not None else None,
+        _utc(not_before) if not_before is not None else None,
     )
 
 

@@ -7,6 +7,10 @@ and only their parameters change from call to call. Each is answered from an
 index: a key by its digest, a job or a result by its unique key, a page of
 recordings by ``ix_recordings_fleet_uploaded`` (fleet, upload time, id), in the
 order of the listing, so a page costs the same however deep it is.
+
+The rows of ``VIEWS``, ``ONE_VIEW``, ``STORED`` and of a listing begin with
+the ``recordings`` table's columns, in its order, then (but for the plain
+listing) :data:`JOB_COLUMNS`: the store reads them by position.
 """
 
 from __future__ import annotations
@@ -18,10 +22,11 @@ import sqlalchemy as sa
 
 from monitor.store.schema import api_keys, jobs, recordings, results
 
-__all__ = ["KEY_FLEET", "ONE_VIEW", "STORED", "VIEWS", "listing"]
+__all__ = ["JOB_COLUMNS", "KEY_FLEET", "ONE_VIEW", "STORED", "VIEWS", "listing"]
 
 _VERSION = sa.bindparam("version", type_=sa.String)
-_JOB_COLUMNS = (
+#: a recording's job at ``version`` (NULLs where it has none), after the recording's columns
+JOB_COLUMNS = (
     jobs.c.id.label("job_id"),
     jobs.c.state.label("job_state"),
     jobs.c.attempts.label("job_attempts"),
@@ -37,7 +42,7 @@ _ONE_RECORDING = (recordings.c.id == sa.bindparam("recording_id")) & (
 #: a key's fleet, by the key's digest
 KEY_FLEET = sa.select(api_keys.c.fleet_id).where(api_keys.c.digest == sa.bindparam("digest"))
 #: recordings with their job and their diagnosis' status (one row each)
-VIEWS = sa.select(recordings, *_JOB_COLUMNS, results.c.status.label("diagnosis_status")).select_from(
+VIEWS = sa.select(recordings, *JOB_COLUMNS, results.c.status.label("diagnosis_status")).select_from(
     _WITH_JOB.outerjoin(
         results,
         (results.c.recording_id == recordings.c.id)
@@ -49,8 +54,8 @@ ONE_VIEW = VIEWS.where(_ONE_RECORDING)
 #: one recording's job and stored result of one kind, its text as stored (never parsed)
 STORED = (
     sa.select(
-        recordings.c.id,
-        *_JOB_COLUMNS,
+        recordings,
+        *JOB_COLUMNS,
         results.c.id.label("result_id"),
         results.c.digest,
         sa.cast(results.c.document, sa.Text).label("text"),
