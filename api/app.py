@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import gc
 import hashlib
 import json
 import logging
@@ -363,6 +364,11 @@ def create_app(settings: Settings) -> FastAPI:
         state["worker"] = worker
         if worker is not None:
             worker.start()
+        # What the started service holds (modules, the app, the store) lives as long as it does: set
+        # apart from the garbage collector, a full collection scans only what requests made, in a few
+        # milliseconds, instead of ~100 ms (measured with this app loaded) during which no request
+        # is answered.
+        gc.freeze()
         try:
             yield
         finally:
