@@ -397,8 +397,9 @@ def _section(rows: list[tuple[str, dict[str, Any]]], seconds: float) -> list[str
         "",
         f"Written by `python -m benchmarks.service_load --seconds {seconds:g}` on {stamp}, Python "
         f"{platform.python_version()}, {os.cpu_count()} cores, shared (load average {loads}); the clients "
-        "run on the same machine as the server: one uvicorn process with one analysis process. Each store "
-        f"holds {rows[0][1]['seeded'] if rows else RECORDINGS} analysed recordings of one fleet before the "
+        "run on the same machine as the server: one uvicorn process with one analysis process; validations "
+        "and analyses run at niceness 10, below the server (docs/service.md, Priorities). Each store "
+        f"holds {rows[0][1]['seeded'] if rows else RECORDINGS:,} analysed recordings of one fleet before the "
         "run, seeded directly through the store's tables, not over HTTP (then, on PostgreSQL, `ANALYZE`, "
         "as autovacuum does within a minute of a bulk load). Then, for the stated time, "
         f"{READERS} readers (`wrk`, a load generator in C, {READERS} connections, each sending its next "
@@ -406,7 +407,7 @@ def _section(rows: list[tuple[str, dict[str, Any]]], seconds: float) -> list[str
         "diagnosis and its spectrum in turn, each of a recording drawn at random, while "
         f"{UPLOADERS} client threads upload distinct recordings (0.96 MB each, a new note in each file), "
         "each validated in a child process, stored, queued and analysed. Latencies in milliseconds; "
-        '"analysed" counts the analyses completed during the run.',
+        '"uploads" counts the uploads stored (201), "analysed" the analyses completed during the run.',
         "",
         "| store | reads | read p50 | p90 | p99 | max | reads/s | 2xx | 4xx | 5xx | uploads | upload p50 "
         "| p90 | p99 | max | uploads lost | analysed |",
