@@ -15,31 +15,47 @@ status; any other (a process killed, a disk full) is retried after a backoff
 that doubles with each attempt, then set aside
 (:data:`monitor.store.MAX_ATTEMPTS`). Every change of a job's state is one
 log line of ``key=value`` fields.
+
+Analyses run at a lower CPU priority than the server (:data:`NICE`): the
+server answers reads in milliseconds, an analysis takes seconds, so where
+both want the same core the reads go first and the analysis takes what is
+left; on an idle machine nothing changes.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, TimeoutError
 from concurrent.futures.process import BrokenProcessPool
 from datetime import timedelta
 from pathlib import Path
+from typing import Any
 
+from api.validate import NICE
 from monitor.batch import diagnose_file, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
 
-__all__ = ["HEARTBEAT", "LEASE", "Worker", "plot_path"]
+__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "plot_path"]
 
 log = logging.getLogger("engine_monitor.worker")
 
 HEARTBEAT = 5.0  # seconds between a running job's touches
 LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
 IDLE = 0.5  # seconds between looks at an empty queue
+
+
+def analyse(*args: Any) -> dict[str, tuple[str, dict[str, Any]]]:
+    """:func:`monitor.batch.diagnose_file` in an analysis process, at niceness :data:`NICE` (set on the
+    process's first analysis; a process can lower its own priority, never raise it again)."""
+    if hasattr(os, "setpriority") and os.getpriority(os.PRIO_PROCESS, 0) < NICE:
+        os.setpriority(os.PRIO_PROCESS, 0, NICE)
+    return diagnose_file(*args)
 
 
 class Worker:
@@ -136,7 +152,7 @@ class Worker:
         engine = self.store.engine(row.fleet_id, row.engine_id)
         # a pool broken by an earlier analysis is replaced before this one is submitted
         future = self._fresh_pool().submit(
-            diagnose_file, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+            analyse, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
         )
         while True:
             try:

@@ -50,7 +50,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     again = open_store(url)
     try:
         with again.db.connect() as c:
-            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0003"
+            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0004"
     finally:
         again.close()
 
@@ -324,3 +324,166 @@ def test_the_password_comes_from_a_secrets_file_when_the_url_has_none(
     monkeypatch.setenv(PASSWORD_FILE_ENV, str(tmp_path / "missing"))
     with pytest.raises(StoreError, match=r"ENGINE_MONITOR_DB_PASSWORD_FILE.*missing: cannot read"):
         _with_password_file(url)
+
+
+# --------------------------------------------------------------------------------------------- reads
+def test_the_reads_indexes_exist_and_the_listing_uses_its_own(store: Store) -> None:
+    """Migration 0004: the listing's index (fleet, upload time, id), in the order of GET /recordings,
+    and the plan of a listing page (keyset or not) reads it instead of sorting the fleet's rows. The
+    other reads are by unique keys (a key's digest; a job or a result by recording and version)."""
+    inspector = sa.inspect(store.db)
+    indexes = {i["name"]: i["column_names"] for i in inspector.get_indexes("recordings")}
+    assert indexes["ix_recordings_fleet_uploaded"] == ["fleet_id", "uploaded_at", "id"]
+    assert {"digest"} <= {c["name"] for c in inspector.get_columns("results")}
+    unique = {
+        table: [u["column_names"] for u in inspector.get_unique_constraints(table)]
+        for table in ("api_keys", "jobs", "results")
+    }
+    assert ["digest"] in unique["api_keys"]
+    assert ["recording_id", "analysis_version"] in unique["jobs"]
+    assert ["recording_id", "analysis_version", "kind"] in unique["results"]
+    fleet = store.create_fleet("a")
+    for i in range(20):
+        _recording(store, fleet, f"{i:064d}")
+    page = (
+        "SELECT id FROM recordings WHERE fleet_id = 1 AND (uploaded_at, id) < ({now}, 1000) "
+        "ORDER BY uploaded_at DESC, id DESC LIMIT 51"
+    )
+    with store.db.connect() as c:
+        if store.dialect == "sqlite":
+            plan = c.exec_driver_sql("EXPLAIN QUERY PLAN " + page.format(now="'9999-01-01'")).all()
+            text = " ".join(str(row[-1]) for row in plan)
+            assert "ix_recordings_fleet_uploaded" in text and "TEMP B-TREE" not in text, text
+        else:  # a table this small is scanned unless scans are off: the index must serve the query
+            c.exec_driver_sql("SET enable_seqscan = off")
+            plan = c.exec_driver_sql("EXPLAIN " + page.format(now="now()")).all()
+            text = " ".join(str(row[0]) for row in plan)
+            assert "ix_recordings_fleet_uploaded" in text and "Sort" not in text, text
+
+
+def test_a_result_is_read_as_the_text_stored_with_its_digest(store: Store) -> None:
+    """The text a read hands out is the column's own text, byte for byte (read back with plain SQL),
+    tagged by the SHA-256 written with it; the job comes in the same query; another fleet's recording
+    is not found."""
+    import hashlib
+
+    from monitor.store import document_text
+
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    recording = _recording(store, a)
+    job = store.enqueue(recording, "1")
+    pending = store.stored_result(a, recording, "1", "spectrum")
+    assert pending is not None and pending.result is None and pending.job is not None
+    assert pending.job.state == "queued"
+    document = {"status": "alarm", "orders": [0.5, 1.0, 1e-300], "name": "Zylinder 4 – Aussetzer", "n": None}
+    taken = store.claim_job(job.id)
+    assert taken is not None
+    store.complete(taken, {"spectrum": ("alarm", document)})
+    read = store.stored_result(a, recording, "1", "spectrum")
+    assert read is not None and read.result is not None and read.job is not None and read.job.state == "done"
+    with store.db.connect() as c:
+        stored = c.exec_driver_sql(
+            f"SELECT CAST(document AS TEXT), digest FROM results WHERE recording_id = {recording}"
+        ).one()
+    assert read.result.text == stored[0] == document_text(document)
+    assert read.result.digest == stored[1] == hashlib.sha256(stored[0].encode("utf-8")).hexdigest()
+    assert store.result(recording, "1", "spectrum") == document  # parsed, it is the document written
+    assert store.stored_result(b, recording, "1", "spectrum") is None
+    assert store.stored_result(a, recording + 1, "1", "spectrum") is None
+    view = store.recording_view(a, recording, "1")
+    assert view is not None and view.diagnosis_status == "" and view.job is not None
+    assert store.recording_view(b, recording, "1") is None
+    assert store.jobs_by_state("1") == {"done": 1}
+
+
+def test_the_migration_tags_results_stored_before_it_and_changes_none(store_url: str) -> None:
+    """A store at revision 0003 with a result in it: opening it migrates to 0004, which writes the
+    digest of the result's stored text and leaves the text as it was."""
+    import hashlib
+
+    from alembic import command
+    from alembic.config import Config
+
+    engine = sa.create_engine(store_url)
+    config = Config()
+    config.set_main_option("script_location", str(Path(__file__).parents[1] / "monitor/store/migrations"))
+    with engine.begin() as connection:
+        config.attributes["connection"] = connection
+        command.upgrade(config, "0003")
+    text = '{"status": "warning", "note": "stored before 0004"}'
+    now = datetime.now(UTC)
+    with engine.begin() as c:
+        c.execute(sa.text("INSERT INTO fleets (name, created_at) VALUES ('a', :t)"), {"t": now})
+        c.execute(
+            sa.text(
+                "INSERT INTO recordings (fleet_id, content_hash, engine_id, filename, path, size_bytes, "
+                "recorded_at, uploaded_at) VALUES (1, :h, 'e', 'r.h5', '/r.h5', 1, '', :t)"
+            ),
+            {"h": "a" * 64, "t": now},
+        )
+        c.execute(
+            sa.text(
+                "INSERT INTO results (recording_id, analysis_version, kind, status, document, created_at) "
+                "VALUES (1, '1', 'diagnosis', 'warning', :d, :t)"
+            ),
+            {"d": text, "t": now},
+        )
+    engine.dispose()
+    store = open_store(store_url)
+    try:
+        read = store.stored_result(1, 1, "1", "diagnosis")
+        assert read is not None and read.result is not None
+        assert read.result.text == text
+        with store.db.connect() as c:
+            assert (
+                c.exec_driver_sql("SELECT digest FROM results").scalar_one()
+                == hashlib.sha256(text.encode("utf-8")).hexdigest()
+            )
+    finally:
+        store.close()
+
+
+def test_keyset_pages_list_every_recording_once_in_order_even_at_equal_times(store: Store) -> None:
+    """Pages after the last row of the previous one give the same rows as the whole listing, in the
+    same order, each once; recordings uploaded at the same instant are ordered by id."""
+    from monitor.store.schema import recordings
+
+    fleet = store.create_fleet("a")
+    other = store.create_fleet("b")
+    ids = [_recording(store, fleet, f"{i:064d}") for i in range(12)]
+    _recording(store, other, "e" * 64)
+    with store.transaction() as c:  # a third of them at one instant
+        c.execute(
+            sa.update(recordings).where(recordings.c.id.in_(ids[3:7])).values(uploaded_at=datetime.now(UTC))
+        )
+    whole = [r.id for r in store.recordings(fleet, limit=100)]
+    paged: list[int] = []
+    after = None
+    while page := store.recordings(fleet, after=after, limit=5):
+        paged += [r.id for r in page]
+        after = (page[-1].uploaded_at, page[-1].id)
+    assert paged == whole and sorted(paged) == sorted(ids)
+    first = store.recordings(fleet, limit=5)[-1]
+    views = store.recording_views(fleet, "1", after=(first.uploaded_at, first.id), limit=100)
+    assert [v.recording.id for v in views] == whole[5:]
+
+
+def test_rows_are_read_by_position_in_the_order_the_store_declares() -> None:
+    """The store reads a recording's row by position (a listing page is read that way, several
+    times faster than by name): the table's columns are RecordingRow's fields, in order, and the
+    joined reads put the job's columns right after them."""
+    from dataclasses import fields
+
+    from monitor.store import RecordingRow
+    from monitor.store.queries import JOB_COLUMNS, STORED, VIEWS, listing
+    from monitor.store.schema import recordings
+
+    assert [c.name for c in recordings.c] == [f.name for f in fields(RecordingRow)]
+    jobs_at = len(recordings.c)
+    for query in (VIEWS, STORED, listing(True, True, True, True, True)):
+        names = [c.name for c in query.selected_columns]
+        assert names[:jobs_at] == [c.name for c in recordings.c]
+        assert names[jobs_at : jobs_at + len(JOB_COLUMNS)] == [c.name for c in JOB_COLUMNS]
+    assert [c.name for c in listing(False, False, False, False, False).selected_columns] == [
+        c.name for c in recordings.c
+    ]

@@ -12,6 +12,9 @@ One data layer (SQLAlchemy Core) over two databases:
 transaction: a result is stored whole or not at all, and the unique keys make
 a second write of the same result (same recording, analysis version and
 kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
+A result is written once and never changed: its JSON text is stored with the
+text's SHA-256, so a read hands out the stored text as it is
+(:meth:`Store.stored_result`), tagged by that digest, without parsing it.
 
 Jobs move ``queued -> running -> done``; a failure records why and puts the
 job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
@@ -25,6 +28,7 @@ long after each attempt (:data:`RETRY_BACKOFF`).
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import secrets
 import socket
@@ -39,19 +43,26 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, Engine
 
 from monitor.errors import MonitorError
+from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
 
 __all__ = [
     "DEFAULT_URL_ENV",
     "MAX_ATTEMPTS",
     "PASSWORD_FILE_ENV",
+    "POOL_OVERFLOW",
+    "POOL_SIZE",
     "RETRY_BACKOFF",
     "Job",
     "KeyRow",
     "RecordingRow",
+    "RecordingView",
+    "ResultRead",
     "Store",
     "StoreError",
+    "StoredResult",
     "default_url",
+    "document_text",
     "key_digest",
     "open_store",
 ]
@@ -63,6 +74,8 @@ PASSWORD_FILE_ENV = "ENGINE_MONITOR_DB_PASSWORD_FILE"
 MAX_ATTEMPTS = 3  # a job that failed this many times is set aside
 #: The wait before the first retry of a job that failed for a passing reason; doubled after each attempt.
 RETRY_BACKOFF = timedelta(seconds=10)
+#: Connections a store keeps open, and how many more it opens for a burst (closed after it).
+POOL_SIZE, POOL_OVERFLOW = 12, 20
 
 
 class StoreError(MonitorError):
@@ -94,6 +107,20 @@ def key_digest(key: str) -> str:
 
 def _now() -> datetime:
     return datetime.now(UTC)
+
+
+def document_text(document: dict[str, Any]) -> str:
+    """A result document's stored form: JSON text, written as the store always wrote its documents.
+
+    Parameters
+    ----------
+    document : dict
+    """
+    return json.dumps(document)
+
+
+def _text_digest(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -135,6 +162,33 @@ class Job:
     not_before: datetime | None = None
 
 
+@dataclass(frozen=True)
+class StoredResult:
+    """A result document as stored: its JSON text and the SHA-256 (hex) of that text's UTF-8 bytes."""
+
+    text: str
+    digest: str
+
+
+@dataclass(frozen=True)
+class RecordingView:
+    """A recording as a reader sees it: the row, its job at one analysis version (None before one is
+    queued), and the status stored with its diagnosis ("" before there is one)."""
+
+    recording: RecordingRow
+    job: Job | None
+    diagnosis_status: str
+
+
+@dataclass(frozen=True)
+class ResultRead:
+    """What a read of one result found for a fleet's recording: its job and the stored result (None
+    while the analysis has not written it)."""
+
+    job: Job | None
+    result: StoredResult | None
+
+
 def _process_start(pid: int) -> str:
     """When a process started, in clock ticks since boot (Linux), so a reused process id is told
     apart; "" where the system does not say."""
@@ -172,16 +226,20 @@ def _utc(moment: datetime) -> datetime:
 
 
 def _recording(row: Any) -> RecordingRow:
+    """The recording in a row that begins with the ``recordings`` table's columns, in their order (the
+    fields of :class:`RecordingRow`): read by position, several times faster than by name, which
+    counts in a page of a listing."""
+    id_, fleet_id, content_hash, engine_id, filename, path, size_bytes, recorded_at, uploaded_at = row[:9]
     return RecordingRow(
-        row.id,
-        row.fleet_id,
-        row.content_hash,
-        row.engine_id,
-        row.filename,
-        row.path,
-        int(row.size_bytes),
-        row.recorded_at,
-        _utc(row.uploaded_at),
+        id_,
+        fleet_id,
+        content_hash,
+        engine_id,
+        filename,
+        path,
+        int(size_bytes),
+        recorded_at,
+        _utc(uploaded_at),
     )
 
 
@@ -196,6 +254,32 @@ def _job(row: Any) -> Job:
         row.token,
         _utc(row.not_before) if row.not_before is not None else None,
     )
+
+
+def _view_job(row: Any, analysis_version: str) -> Job | None:
+    """The job in a row of a recording joined with its job (None where the join found none): the
+    recording's id first, the job's columns (:data:`monitor.store.queries.JOB_COLUMNS`) from the
+    tenth on, read by position as :func:`_recording` reads."""
+    job_id, state, attempts, error, not_before = row[9:14]
+    if job_id is None:
+        return None
+    return Job(
+        job_id,
+        row[0],
+        analysis_version,
+        state,
+        int(attempts),
+        error,
+        "",  # a view never carries the taker's token
+        _utc(not_before) if not_before is not None else None,
+    )
+
+
+def _document_value(c: Connection, text: str) -> Any:
+    """The stored JSON text as the value of a ``document`` column: as it is (SQLite keeps JSON as text;
+    PostgreSQL's ``json`` keeps the exact text it is given)."""
+    value = sa.literal(text, sa.Text)
+    return sa.cast(value, sa.JSON) if c.dialect.name == "postgresql" else value
 
 
 def _insert_new(c: Connection, table: sa.Table, values: dict[str, Any], keys: list[str]) -> bool:
@@ -302,9 +386,7 @@ class Store:
     def fleet_of_key(self, key: str) -> int | None:
         """The fleet a key belongs to, or None for an unknown key."""
         with self.db.connect() as c:
-            row = c.execute(
-                sa.select(api_keys.c.fleet_id).where(api_keys.c.digest == key_digest(key))
-            ).first()
+            row = c.execute(KEY_FLEET, {"digest": key_digest(key)}).first()
         return None if row is None else int(row.fleet_id)
 
     # -------------------------------------------------------------------------------------- engines
@@ -410,6 +492,36 @@ class Store:
             row = c.execute(sa.select(recordings).where(recordings.c.id == recording_id)).first()
         return None if row is None else _recording(row)
 
+    def _stored_time(self, moment: datetime) -> datetime:
+        """A time as the store compares it: UTC (a time without a zone is UTC), without a zone on SQLite,
+        which keeps none."""
+        moment = _utc(moment).astimezone(UTC)
+        return moment.replace(tzinfo=None) if self.dialect == "sqlite" else moment
+
+    def _page(
+        self,
+        views: bool,
+        fleet_id: int,
+        engine_id: str | None,
+        since: datetime | None,
+        until: datetime | None,
+        after: tuple[datetime, int] | None,
+        offset: int,
+        limit: int,
+        **more: Any,
+    ) -> list[Any]:
+        """The rows of one page of a fleet's listing (see :meth:`recordings`)."""
+        query = listing(views, engine_id is not None, since is not None, until is not None, after is not None)
+        values = {"fleet_id": fleet_id, "engine_id": engine_id, "offset": offset, "limit": limit, **more}
+        if since is not None:
+            values["since"] = self._stored_time(since)
+        if until is not None:
+            values["until"] = self._stored_time(until)
+        if after is not None:
+            values["after_time"], values["after_id"] = self._stored_time(after[0]), after[1]
+        with self.db.connect() as c:
+            return list(c.execute(query, values).all())
+
     def recordings(
         self,
         fleet_id: int,
@@ -417,30 +529,66 @@ class Store:
         engine_id: str | None = None,
         since: datetime | None = None,
         until: datetime | None = None,
+        after: tuple[datetime, int] | None = None,
         offset: int = 0,
         limit: int = 100,
     ) -> list[RecordingRow]:
-        """A fleet's recordings, newest first, filtered by engine and upload time, a page at a time."""
-        query = sa.select(recordings).where(recordings.c.fleet_id == fleet_id)
-        # stored times are UTC (SQLite keeps no zone): compare in UTC; a time without a zone is UTC
-        since = _utc(since).astimezone(UTC) if since is not None else None
-        until = _utc(until).astimezone(UTC) if until is not None else None
-        if self.dialect == "sqlite":
-            since = since.replace(tzinfo=None) if since is not None else None
-            until = until.replace(tzinfo=None) if until is not None else None
-        if engine_id is not None:
-            query = query.where(recordings.c.engine_id == engine_id)
-        if since is not None:
-            query = query.where(recordings.c.uploaded_at >= since)
-        if until is not None:
-            query = query.where(recordings.c.uploaded_at < until)
-        query = (
-            query.order_by(recordings.c.uploaded_at.desc(), recordings.c.id.desc())
-            .offset(offset)
-            .limit(limit)
-        )
+        """A fleet's recordings, newest first, filtered by engine and upload time, a page at a time.
+
+        Parameters
+        ----------
+        fleet_id : int
+        engine_id : str, optional
+        since, until : datetime, optional
+            Uploaded at or after ``since``, before ``until`` (UTC where they have no zone).
+        after : (datetime, int), optional
+            The upload time and id of the last recording of the previous page: the page after it
+            (keyset paging: read off the index however deep the page).
+        offset, limit : int, optional
+            Rows skipped (after ``after``), rows at most.
+        """
+        rows = self._page(False, fleet_id, engine_id, since, until, after, offset, limit)
+        return [_recording(r) for r in rows]
+
+    @staticmethod
+    def _view(row: Any, analysis_version: str) -> RecordingView:
+        job = _view_job(row, analysis_version)
+        status = row.diagnosis_status if job is not None and job.state == "done" else None
+        return RecordingView(_recording(row), job, status or "")
+
+    def recording_view(self, fleet_id: int, recording_id: int, analysis_version: str) -> RecordingView | None:
+        """A fleet's recording with its job and diagnosis status, in one query (another fleet's: None).
+
+        Parameters
+        ----------
+        fleet_id, recording_id : int
+        analysis_version : str
+        """
+        values = {"fleet_id": fleet_id, "recording_id": recording_id, "version": analysis_version}
         with self.db.connect() as c:
-            return [_recording(r) for r in c.execute(query)]
+            row = c.execute(ONE_VIEW, values).first()
+        return None if row is None else self._view(row, analysis_version)
+
+    def recording_views(
+        self,
+        fleet_id: int,
+        analysis_version: str,
+        *,
+        engine_id: str | None = None,
+        since: datetime | None = None,
+        until: datetime | None = None,
+        after: tuple[datetime, int] | None = None,
+        offset: int = 0,
+        limit: int = 100,
+    ) -> list[RecordingView]:
+        """A page of :meth:`recordings` with each one's job and diagnosis status, in one query.
+
+        Parameters are those of :meth:`recordings`, and the analysis version of the jobs.
+        """
+        rows = self._page(
+            True, fleet_id, engine_id, since, until, after, offset, limit, version=analysis_version
+        )
+        return [self._view(r, analysis_version) for r in rows]
 
     # ------------------------------------------------------------------------------- jobs, results
     def enqueue(self, recording_id: int, analysis_version: str) -> Job:
@@ -524,8 +672,9 @@ class Store:
         False if the job had been taken back from this taker meanwhile (its results are kept all the
         same: they are the analysis of the same recording at the same version).
         """
+        texts = {kind: document_text(document) for kind, (_, document) in documents.items()}
         with self.transaction() as c:
-            for kind, (status, document) in documents.items():
+            for kind, (status, _) in documents.items():
                 _insert_new(
                     c,
                     results,
@@ -534,7 +683,8 @@ class Store:
                         "analysis_version": job.analysis_version,
                         "kind": kind,
                         "status": status,
-                        "document": document,
+                        "document": _document_value(c, texts[kind]),
+                        "digest": _text_digest(texts[kind]),
                         "created_at": _now(),
                     },
                     ["recording_id", "analysis_version", "kind"],
@@ -641,6 +791,42 @@ class Store:
             ).first()
         return None if row is None else dict(row.document)
 
+    def stored_result(
+        self, fleet_id: int, recording_id: int, analysis_version: str, kind: str
+    ) -> ResultRead | None:
+        """A fleet's recording's result as stored (its JSON text, never parsed) and its job, in one
+        query; None for a recording the fleet does not have.
+
+        Parameters
+        ----------
+        fleet_id, recording_id : int
+        analysis_version, kind : str
+        """
+        values = {
+            "fleet_id": fleet_id,
+            "recording_id": recording_id,
+            "version": analysis_version,
+            "kind": kind,
+        }
+        with self.db.connect() as c:
+            row = c.execute(STORED, values).first()
+        if row is None:
+            return None
+        stored = None
+        if row.result_id is not None:
+            stored = StoredResult(row.text, row.digest or _text_digest(row.text))
+        return ResultRead(_view_job(row, analysis_version), stored)
+
+    def jobs_by_state(self, analysis_version: str) -> dict[str, int]:
+        """How many jobs of an analysis version are in each state (the states with none left out)."""
+        with self.db.connect() as c:
+            rows = c.execute(
+                sa.select(jobs.c.state, sa.func.count())
+                .where(jobs.c.analysis_version == analysis_version)
+                .group_by(jobs.c.state)
+            )
+            return {str(state): int(n) for state, n in rows}
+
     def result_status(self, recording_id: int, analysis_version: str, kind: str) -> str | None:
         """The status stored with a result (healthy, warning, alarm), or None."""
         with self.db.connect() as c:
@@ -697,6 +883,17 @@ def _with_password_file(url: str) -> str | sa.URL:
     return parsed.set(password=password)
 
 
+def _pool_options(url: sa.URL) -> dict[str, Any]:
+    """The connection pool: :data:`POOL_SIZE` connections kept open (a busy server's reads neither wait
+    for one nor open and close one each), more for a burst; each checked with a ping before use where a
+    server may have dropped it (PostgreSQL), not for an SQLite file, which no one can drop."""
+    if url.get_backend_name() == "sqlite":
+        if url.database in (None, "", ":memory:"):
+            return {}  # one connection per thread, kept by SQLAlchemy's own pool for memory databases
+        return {"pool_size": POOL_SIZE, "max_overflow": POOL_OVERFLOW}
+    return {"pool_size": POOL_SIZE, "max_overflow": POOL_OVERFLOW, "pool_pre_ping": True}
+
+
 def open_store(url: str | None = None) -> Store:
     """Open (and migrate to the newest schema) the store at ``url``.
 
@@ -716,7 +913,8 @@ def open_store(url: str | None = None) -> Store:
 
     target = url or default_url()
     try:
-        engine = sa.create_engine(_with_password_file(target), pool_pre_ping=True)
+        given = _with_password_file(target)
+        engine = sa.create_engine(given, **_pool_options(sa.make_url(given)))
     except (sa.exc.ArgumentError, ImportError) as error:
         shown = _without_password(target)
         raise StoreError(f"store URL {shown!r}: {str(error).replace(target, shown)}") from None

@@ -11,7 +11,12 @@
   the token and process of its current taker, and the time before which a
   retry waits;
 - ``results``: the documents an analysis wrote, at most one per recording,
-  analysis version and kind.
+  analysis version and kind, each with the SHA-256 of its stored JSON text
+  (the entity tag the service answers it with; a result is never rewritten).
+
+Each read of the service is one indexed query: a key by its digest (unique),
+a recording by id, its job and results by their unique keys, and a fleet's
+recordings newest first by ``ix_recordings_fleet_uploaded``.
 
 Changes to these tables go through migrations (``monitor/store/migrations``).
 """
@@ -70,6 +75,7 @@ recordings = sa.Table(
     sa.Column("uploaded_at", sa.DateTime(timezone=True), nullable=False),
     sa.UniqueConstraint("fleet_id", "content_hash", name="uq_recordings_fleet_content"),
     sa.Index("ix_recordings_fleet_engine_uploaded", "fleet_id", "engine_id", "uploaded_at"),
+    sa.Index("ix_recordings_fleet_uploaded", "fleet_id", "uploaded_at", "id"),
 )
 
 jobs = sa.Table(
@@ -101,5 +107,6 @@ results = sa.Table(
     sa.Column("status", sa.String(16), nullable=False, server_default=""),
     sa.Column("document", sa.JSON, nullable=False),
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("digest", sa.String(64), nullable=False, server_default=""),
     sa.UniqueConstraint("recording_id", "analysis_version", "kind", name="uq_results_recording_version_kind"),
 )
