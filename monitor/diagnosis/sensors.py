@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -83,23 +84,36 @@ class _Look:
 
 def _look(channel: Channel) -> _Look:
     """One pass over the channel by contiguous blocks (a channel in a file is read by slices, and a
-    block with clipped or non-finite samples is refused there)."""
+    block with clipped or non-finite samples is refused there).
+
+    A file's reader fills one reused buffer (``read_into``) and checks each block itself; samples held
+    in memory are checked here.  Sums are taken in float64 whatever the samples' dtype.
+    """
     look = _Look()
     if channel.mask is not None:
         look.unusable = _spans(channel)
         return look
     n = int(channel.data.shape[0])
     distinct: np.ndarray = np.empty(0)
+    data: Any = channel.data
+    reader = hasattr(data, "read_into") and data.dtype in (np.float32, np.float64)
+    buffer = np.empty(min(n, _BLOCK), dtype=data.dtype) if reader else None
+    rate = float(channel.sample_rate or 1.0)
     for start in range(0, n, _BLOCK):
         try:
-            block = np.asarray(channel.data[start : min(n, start + _BLOCK)], dtype=np.float64)
+            if buffer is not None:
+                block = buffer[: min(n, start + _BLOCK) - start]
+                data.read_into(start, block)
+            else:
+                block = np.asarray(channel.data[start : min(n, start + _BLOCK)], dtype=np.float64)
         except FormatError as error:  # a file's reader refuses the block
             look.unusable = str(error).split(": ", 1)[-1]
             return look
-        rate = float(channel.sample_rate or 1.0)
-        spans, _ = quality_spans(
-            block, rate, start_offset=channel.start_offset + start / rate, limits=channel.range
-        )
+        spans: list[Any] = []
+        if buffer is None or channel.range is not None:  # a reader checked its blocks, but not for this range
+            spans, _ = quality_spans(
+                block, rate, start_offset=channel.start_offset + start / rate, limits=channel.range
+            )
         if spans:
             first = spans[0]
             look.unusable = (
@@ -115,8 +129,8 @@ def _look(channel: Channel) -> _Look:
         if distinct.size < DEAD_STEPS:
             distinct = np.unique(np.concatenate([distinct, np.unique(block)[: DEAD_STEPS + 1]]))
         look.count += block.size
-        look.total += float(block.sum())
-        look.squares += float(np.square(block).sum())
+        look.total += float(np.add.reduce(block, dtype=np.float64))
+        look.squares += float(np.einsum("i,i->", block, block, dtype=np.float64))
     look.values = distinct
     return look
 
