@@ -483,15 +483,20 @@ def test_a_separate_worker_runs_the_analyses_of_a_server_without_one(server: Ser
 
 
 # ------------------------------------------------------------------------ property-based (OpenAPI)
-@pytest.fixture(scope="module")
-def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    folder = tmp_path_factory.mktemp("schemathesis")
+def two_fleet_server(folder: Path) -> Server:
+    """A started server over a new SQLite store in ``folder`` with fleets "a" and "b" and a key each."""
     url = f"sqlite:///{folder / 'store.db'}"
     store = open_store(url)
     keys = {name: store.create_key(store.create_fleet(name)) for name in ("a", "b")}
     store.close()
     server = Server("", url, folder / "data", keys)
     server.start()
+    return server
+
+
+@pytest.fixture(scope="module")
+def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    server = two_fleet_server(tmp_path_factory.mktemp("schemathesis"))
     with server.client() as client:  # something to read: a recording, analysed
         _wait_done(client, _upload(client, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"])
     try:

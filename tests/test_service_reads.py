@@ -18,18 +18,12 @@ import sqlalchemy as sa
 from api.reads import KEY_TTL_S, matches
 from monitor.store import open_store
 
-from .test_api import SAMPLES, Server, _upload, _wait_done
+from .test_api import SAMPLES, Server, _upload, _wait_done, two_fleet_server
 
 
 @pytest.fixture(scope="module")
 def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    folder = tmp_path_factory.mktemp("reads")
-    url = f"sqlite:///{folder / 'store.db'}"
-    store = open_store(url)
-    keys = {name: store.create_key(store.create_fleet(name)) for name in ("a", "b")}
-    store.close()
-    server = Server("", url, folder / "data", keys)
-    server.start()
+    server = two_fleet_server(tmp_path_factory.mktemp("reads"))
     with server.client() as client:
         for path in sorted(SAMPLES.glob("*.h5")):
             assert _upload(client, path).status_code == 201
