@@ -475,6 +475,11 @@ class SampleReader:
     def dtype(self) -> np.dtype[Any]:
         return self._dtype
 
+    @property
+    def limits(self) -> tuple[float, float] | None:
+        """The measuring range every read is checked against for clipping (None: not judged)."""
+        return self._limits
+
     def __len__(self) -> int:
         return self._size
 

@@ -86,8 +86,9 @@ def _look(channel: Channel) -> _Look:
     """One pass over the channel by contiguous blocks (a channel in a file is read by slices, and a
     block with clipped or non-finite samples is refused there).
 
-    A file's reader fills one reused buffer (``read_into``) and checks each block itself; samples held
-    in memory are checked here.  Sums are taken in float64 whatever the samples' dtype.
+    A file's reader fills one reused buffer (``read_into``) and checks each block itself (against the
+    channel's range when it is the reader's); samples held in memory are checked here.  Sums are
+    taken in float64 whatever the samples' dtype.
     """
     look = _Look()
     if channel.mask is not None:
@@ -110,7 +111,7 @@ def _look(channel: Channel) -> _Look:
             look.unusable = str(error).split(": ", 1)[-1]
             return look
         spans: list[Any] = []
-        if buffer is None or channel.range is not None:  # a reader checked its blocks, but not for this range
+        if buffer is None or data.limits != channel.range:  # the reader's own check did not judge this range
             spans, _ = quality_spans(
                 block, rate, start_offset=channel.start_offset + start / rate, limits=channel.range
             )
