@@ -49,7 +49,6 @@ from monitor.engine import Engine
 from monitor.io import open_recording, read_recording
 from monitor.recording import Channel, Recording
 from monitor.signal.angle_domain import (
-    AngleDomainSignal,
     AngleGrid,
     HighFrequencyPower,
     OrderSpectrum,
@@ -60,6 +59,7 @@ from monitor.signal.angle_domain import (
     to_angle_domain,
 )
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.crank_speed import crank_speed_spectra
 from monitor.signal.pitch import (
     PitchCorrection,
     correct_pitch,
@@ -92,7 +92,6 @@ SPEED_CHANNEL = "crank speed"
 # machining (hundredths of a degree): it is the engine's own speed fluctuation at orders above those
 # left to it (a single cylinder's sharp firing pulse); correcting it would take that motion away [-]
 PLAUSIBLE_PITCH_ERROR = 0.1
-_SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
 ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
 
 
@@ -603,78 +602,18 @@ def spectra(
         with clock.stage("order against speed"):
             return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
 
-    def crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
-        # crank speed: the angle map's derivative on a grid of its own whole cycles. The map holds orders
-        # below pulses / 2 per revolution: a grid of at least 2 R pulses per cycle (a power of two) has
-        # its Nyquist order above them, whatever max_order and the channels' grid are
-        m = 2 ** math.ceil(math.log2(max(16, 2 * cycle_revolutions * reference.pulses_per_revolution)))
-        # an encoder of hundreds of pulses would need thousands of points a cycle: the grid is capped,
-        # and the speed taken as its mean over each grid step (below) so that nothing aliases
-        stepped = m > _SPEED_GRID_CAP
-        m = min(m, _SPEED_GRID_CAP)
-        try:
-            grid = angle_grid(
-                angle_map,
-                float(angle_map.times[0]),
-                float(angle_map.times[-1]),
-                samples_per_cycle=m,
-                cycle_revolutions=cycle_revolutions,
-                known=list(grids.values()),
-            )
-        except SignalError:
-            return None
-        step = 2 * math.pi * cycle_revolutions / m  # crank angle between grid points [rad]
-        if stepped:
-            # the mean over each step, step / (time across it): the slowness averaged over the step in
-            # angle, exactly; its orders come back scaled by sinc(k step / 2), delayed by half a step
-            end = angle_map.time_at(np.array([(grid.first_cycle + grid.cycles) * step * m]))
-            speed = (step / np.diff(np.concatenate([grid.times, end]))).reshape(grid.cycles, m)
-        else:
-            speed = angle_map.speed_at(grid.times).reshape(grid.cycles, m)
-        # the map holds pulses_per_revolution samples of the speed per revolution: orders from
-        # half of that up are not in it (a keyphasor gives the mean speed only)
-        resolvable = max(min(max_order, 0.5 * reference.pulses_per_revolution - 1e-9), 0.0)
-
-        def spectrum_of(values: np.ndarray) -> OrderSpectrum:
-            signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, "angle map")
-            spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
-            if not stepped:
-                return spectrum
-            x = 0.5 * spectrum.orders * step
-            gain = np.ones(x.size)
-            gain[1:] = x[1:] / np.sin(x[1:])  # 1 / sinc: the steps' mean undone, order by order
-            return OrderSpectrum(
-                spectrum.orders,
-                spectrum.amplitude * gain * np.exp(-1j * x),
-                spectrum.magnitude_mean * gain,
-                spectrum.magnitude_std * gain,
-                spectrum.scatter * gain,
-                spectrum.blocks,
-                spectrum.block_cycles,
-            )
-
-        # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
-        # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k)
-        slowness = 1.0 / speed
-        g = spectrum_of(1.0 - slowness / slowness.mean(axis=1, keepdims=True))
-        factor = np.zeros(g.orders.size)
-        factor[1:] = 1.0 / g.orders[1:]
-        lead = OrderSpectrum(
-            g.orders,
-            -1j * factor * g.amplitude,
-            factor * g.magnitude_mean,
-            factor * g.magnitude_std,
-            factor * g.scatter,
-            g.blocks,
-            g.block_cycles,
-        )
-        return spectrum_of(speed), lead
-
     # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
     def timed_crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
         with clock.stage("crank speed"):
-            return crank_spectra()
+            return crank_speed_spectra(
+                angle_map,
+                reference.pulses_per_revolution,
+                cycle_revolutions=cycle_revolutions,
+                block_cycles=block_cycles,
+                max_order=max_order,
+                known=list(grids.values()),
+            )
 
     with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
         crank_job = pool.submit(timed_crank_spectra)

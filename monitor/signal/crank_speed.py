@@ -1,0 +1,130 @@
+"""The crank speed's and the crank's angular vibration's order spectra, from an angle map.
+
+The speed is the angle map's derivative on a crank-angle grid of its own whole
+cycles, at least twice as fine as the pulses (a 60-2 wheel: 128 points a
+revolution), whatever the grid of the other channels: the map interpolates
+between the pulses, so nothing above half the pulse rate is in it to alias.
+An encoder of hundreds of pulses would need thousands of points a cycle: the
+grid is capped at ``_SPEED_GRID_CAP`` and the speed taken as its mean over each
+grid step, whose sinc is undone order by order.  The angular vibration is the
+crank's angle lead over a uniform rotation at each cycle's own mean speed (see
+:mod:`monitor.pipeline`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from monitor.signal.angle_domain import (
+    AngleDomainSignal,
+    AngleGrid,
+    OrderSpectrum,
+    angle_grid,
+    order_spectrum,
+)
+from monitor.signal.anglemap import AngleMap
+from monitor.signal.pulses import SignalError
+
+__all__ = ["crank_speed_spectra"]
+
+_SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
+
+
+def crank_speed_spectra(
+    angle_map: AngleMap,
+    pulses_per_revolution: int,
+    *,
+    cycle_revolutions: int,
+    block_cycles: int,
+    max_order: float,
+    known: Sequence[AngleGrid] = (),
+) -> tuple[OrderSpectrum, OrderSpectrum] | None:
+    """The crank speed's order spectrum [rad/s] and the angular vibration's [rad].
+
+    Parameters
+    ----------
+    angle_map : AngleMap
+    pulses_per_revolution : int
+        Pulses the map is built from per revolution: it resolves speed orders below half of it.
+    cycle_revolutions : int
+        1 or 2.
+    block_cycles : int
+        Cycles per averaged block.
+    max_order : float
+        Highest order reported [-].
+    known : sequence of AngleGrid, optional
+        Grids of the same map already computed (their times are reused where they fit).
+
+    Returns
+    -------
+    (OrderSpectrum, OrderSpectrum) or None
+        None when the map covers less than one whole cycle.
+    """
+    # crank speed: the angle map's derivative on a grid of its own whole cycles. The map holds orders
+    # below pulses / 2 per revolution: a grid of at least 2 R pulses per cycle (a power of two) has
+    # its Nyquist order above them, whatever max_order and the channels' grid are
+    m = 2 ** math.ceil(math.log2(max(16, 2 * cycle_revolutions * pulses_per_revolution)))
+    # an encoder of hundreds of pulses would need thousands of points a cycle: the grid is capped,
+    # and the speed taken as its mean over each grid step (below) so that nothing aliases
+    stepped = m > _SPEED_GRID_CAP
+    m = min(m, _SPEED_GRID_CAP)
+    try:
+        grid = angle_grid(
+            angle_map,
+            float(angle_map.times[0]),
+            float(angle_map.times[-1]),
+            samples_per_cycle=m,
+            cycle_revolutions=cycle_revolutions,
+            known=list(known),
+        )
+    except SignalError:
+        return None
+    step = 2 * math.pi * cycle_revolutions / m  # crank angle between grid points [rad]
+    if stepped:
+        # the mean over each step, step / (time across it): the slowness averaged over the step in
+        # angle, exactly; its orders come back scaled by sinc(k step / 2), delayed by half a step
+        end = angle_map.time_at(np.array([(grid.first_cycle + grid.cycles) * step * m]))
+        speed = (step / np.diff(np.concatenate([grid.times, end]))).reshape(grid.cycles, m)
+    else:
+        speed = angle_map.speed_at(grid.times).reshape(grid.cycles, m)
+    # the map holds pulses_per_revolution samples of the speed per revolution: orders from
+    # half of that up are not in it (a keyphasor gives the mean speed only)
+    resolvable = max(min(max_order, 0.5 * pulses_per_revolution - 1e-9), 0.0)
+
+    def spectrum_of(values: np.ndarray) -> OrderSpectrum:
+        signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, "angle map")
+        spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
+        if not stepped:
+            return spectrum
+        x = 0.5 * spectrum.orders * step
+        gain = np.ones(x.size)
+        gain[1:] = x[1:] / np.sin(x[1:])  # 1 / sinc: the steps' mean undone, order by order
+        return OrderSpectrum(
+            spectrum.orders,
+            spectrum.amplitude * gain * np.exp(-1j * x),
+            spectrum.magnitude_mean * gain,
+            spectrum.magnitude_std * gain,
+            spectrum.scatter * gain,
+            spectrum.blocks,
+            spectrum.block_cycles,
+        )
+
+    # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
+    # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k)
+    slowness = 1.0 / speed
+    g = spectrum_of(1.0 - slowness / slowness.mean(axis=1, keepdims=True))
+    factor = np.zeros(g.orders.size)
+    factor[1:] = 1.0 / g.orders[1:]
+    lead = OrderSpectrum(
+        g.orders,
+        -1j * factor * g.amplitude,
+        factor * g.magnitude_mean,
+        factor * g.magnitude_std,
+        factor * g.scatter,
+        g.blocks,
+        g.block_cycles,
+    )
+    return spectrum_of(speed), lead
