@@ -41,7 +41,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -53,6 +53,7 @@ from monitor.signal.angle_domain import (
     HighFrequencyPower,
     OrderSpectrum,
     OrderSpeedMap,
+    angle_domain_spectrum,
     angle_grid,
     order_spectrum,
     order_speed_map,
@@ -579,31 +580,39 @@ def spectra(
 
     def channel_spectrum(name: str) -> tuple[OrderSpectrum, OrderSpeedMap | None]:
         channel, grid = jobs[name]
-        resampled = to_angle_domain(
-            channel.data,
-            _rate(channel),
-            angle_map,
-            samples_per_cycle=samples_per_cycle,
-            cycle_revolutions=cycle_revolutions,
-            start_time=channel.start_offset,
-            interpolation_order=interpolation_order,
-            max_order=max_order,
-            grid=grid,
-            high_frequency=high_frequency and channel.kind in ("acceleration", "velocity"),
-            progress=lambda fraction: report(name, fraction),
-            clock=clock,
-        )
+        options: dict[str, Any] = {
+            "samples_per_cycle": samples_per_cycle,
+            "cycle_revolutions": cycle_revolutions,
+            "start_time": channel.start_offset,
+            "interpolation_order": interpolation_order,
+            "grid": grid,
+            "high_frequency": high_frequency and channel.kind in ("acceleration", "velocity"),
+            "progress": lambda fraction: report(name, fraction),
+            "clock": clock,
+        }
+        if speed_bins is None:  # the spectrum only: each block transformed as it is resampled
+            spectrum, profile = angle_domain_spectrum(
+                channel.data,
+                _rate(channel),
+                angle_map,
+                block_cycles=block_cycles,
+                max_order=max_order,
+                **options,
+            )
+            if profile is not None:
+                profiles[name] = profile
+            return spectrum, None
+        resampled = to_angle_domain(channel.data, _rate(channel), angle_map, max_order=max_order, **options)
         with clock.stage("order spectra"):
             spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
         if resampled.high_frequency is not None:
             profiles[name] = resampled.high_frequency
-        if speed_bins is None:
-            return spectrum, None
         with clock.stage("order against speed"):
             return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
 
     # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
+
     def timed_crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
         with clock.stage("crank speed"):
             return crank_speed_spectra(

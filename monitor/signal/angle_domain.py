@@ -70,8 +70,10 @@ __all__ = [
     "AngleGrid",
     "HighFrequencyPower",
     "OrderSpectrum",
+    "OrderSpectrumStream",
     "OrderSpeedMap",
     "Samples",
+    "angle_domain_spectrum",
     "angle_grid",
     "impact_band",
     "order_spectrum",
@@ -537,12 +539,176 @@ def to_angle_domain(
     -------
     AngleDomainSignal
 
+    See Also
+    --------
+    angle_domain_spectrum : The order spectrum of the same samples, without holding them.
+
     Raises
     ------
     SignalError
         For a bad grid, non-finite samples, a ``max_order`` the grid cannot hold, or a recording
         shorter than one cycle.
     """
+    source, grid = _source_and_grid(
+        signal,
+        sample_rate,
+        angle_map,
+        samples_per_cycle,
+        cycle_revolutions,
+        start_time,
+        interpolation_order,
+        cutoff,
+        grid,
+    )
+    values = np.empty(grid.times.size)
+    cutoff_hz, interpolation, profile = _resample_channel(
+        source,
+        sample_rate,
+        angle_map,
+        grid,
+        start_time=start_time,
+        interpolation_order=interpolation_order,
+        anti_alias=anti_alias,
+        cutoff=cutoff,
+        max_order=max_order,
+        high_frequency=high_frequency,
+        progress=progress,
+        clock=clock,
+        output=lambda g0, count: values[g0 : g0 + count],
+    )
+    return AngleDomainSignal(
+        values.reshape(grid.cycles, grid.samples_per_cycle),
+        grid.first_cycle,
+        grid.samples_per_cycle,
+        grid.cycle_revolutions,
+        cutoff_hz,
+        interpolation,
+        profile,
+    )
+
+
+def angle_domain_spectrum(
+    signal: npt.ArrayLike | Samples,
+    sample_rate: float,
+    angle_map: AngleMap,
+    *,
+    samples_per_cycle: int,
+    max_order: float,
+    cycle_revolutions: int = 1,
+    start_time: float = 0.0,
+    block_cycles: int = 1,
+    interpolation_order: Literal[1, 3, 5] | None = None,
+    grid: AngleGrid | None = None,
+    high_frequency: bool = False,
+    progress: Callable[[float], None] | None = None,
+    clock: StageClock | None = None,
+) -> tuple[OrderSpectrum, HighFrequencyPower | None]:
+    """The order spectrum of a channel resampled to the crank-angle domain, its samples never held.
+
+    What :func:`to_angle_domain` then :func:`order_spectrum` give (equal to
+    round-off), with each block of cycles transformed and averaged as soon as
+    it is resampled, while it is still in the processor's cache: the memory
+    is a block's, not the recording's.
+
+    Parameters
+    ----------
+    signal : array_like or sliceable, shape (n,)
+        Samples [the channel's unit] (see :func:`to_angle_domain`).
+    sample_rate : float
+        [Hz].
+    angle_map : AngleMap
+    samples_per_cycle : int
+        Grid points per cycle, even.
+    max_order : float
+        The highest order wanted and reported [per revolution] (see :func:`to_angle_domain`).
+    cycle_revolutions : int, optional
+        1 or 2.
+    start_time : float, optional
+        Time of the first sample [s].
+    block_cycles : int, optional
+        Cycles per averaged block.
+    interpolation_order : {1, 3, 5}, optional
+        The FFT filter and B-splines instead of the fused kernel (see :func:`to_angle_domain`).
+    grid : AngleGrid, optional
+        The grid times, shared by channels sampled at the same times.
+    high_frequency : bool, optional
+        Also profile the high-frequency power over the cycle, in the same pass.
+    progress : callable, optional
+        Told the fraction of the grid done after every block [-].
+    clock : StageClock, optional
+        Adds the time spent reading, resampling, profiling and transforming ("order spectra").
+
+    Returns
+    -------
+    spectrum : OrderSpectrum
+    high_frequency : HighFrequencyPower or None
+        When asked for.
+
+    Raises
+    ------
+    SignalError
+        As :func:`to_angle_domain` and :func:`order_spectrum` do.
+    """
+    source, grid = _source_and_grid(
+        signal,
+        sample_rate,
+        angle_map,
+        samples_per_cycle,
+        cycle_revolutions,
+        start_time,
+        interpolation_order,
+        0.8,
+        grid,
+    )
+    stream = OrderSpectrumStream(
+        samples_per_cycle, cycle_revolutions, block_cycles=block_cycles, max_order=max_order
+    )
+    buffer: list[FloatArray] = []  # one block's samples, reused
+
+    def output(g0: int, count: int) -> FloatArray:
+        if not buffer or buffer[0].size < count:
+            buffer[:] = [np.empty(count)]
+        return buffer[0][:count]
+
+    def filled(block: FloatArray) -> None:
+        with stage(clock, "order spectra"):
+            stream.add(block.reshape(-1, samples_per_cycle))
+
+    _, _, profile = _resample_channel(
+        source,
+        sample_rate,
+        angle_map,
+        grid,
+        start_time=start_time,
+        interpolation_order=interpolation_order,
+        anti_alias=True,
+        cutoff=0.8,
+        max_order=max_order,
+        high_frequency=high_frequency,
+        progress=progress,
+        clock=clock,
+        output=output,
+        filled=filled,
+    )
+    if stream.blocks == 0:
+        raise SignalError(
+            f"block_cycles = {block_cycles!r}: expected 1..{grid.cycles} (cycles in the signal)"
+        )
+    return stream.result(), profile
+
+
+def _source_and_grid(
+    signal: npt.ArrayLike | Samples,
+    sample_rate: float,
+    angle_map: AngleMap,
+    samples_per_cycle: int,
+    cycle_revolutions: int,
+    start_time: float,
+    interpolation_order: int | None,
+    cutoff: float,
+    grid: AngleGrid | None,
+) -> tuple[Any, AngleGrid]:
+    """The samples as something sliceable, checked, and the grid (made, or the given one checked)."""
     source: Any = (
         signal if hasattr(signal, "shape") and hasattr(signal, "__getitem__") else np.asarray(signal)
     )
@@ -564,6 +730,33 @@ def to_angle_domain(
         )
     elif (grid.samples_per_cycle, grid.cycle_revolutions) != (samples_per_cycle, cycle_revolutions):
         raise SignalError("the given grid has another number of samples per cycle or revolutions per cycle")
+    return source, grid
+
+
+def _resample_channel(
+    source: Any,
+    sample_rate: float,
+    angle_map: AngleMap,
+    grid: AngleGrid,
+    *,
+    start_time: float,
+    interpolation_order: int | None,
+    anti_alias: bool,
+    cutoff: float,
+    max_order: float | None,
+    high_frequency: bool,
+    progress: Callable[[float], None] | None,
+    clock: StageClock | None,
+    output: Callable[[int, int], FloatArray],
+    filled: Callable[[FloatArray], None] | None = None,
+) -> tuple[float | None, str, HighFrequencyPower | None]:
+    """Resample ``source`` at ``grid`` block by block (whole cycles each).
+
+    ``output(g0, count)`` gives the array to fill with the values at grid points ``g0`` to
+    ``g0 + count``; ``filled`` is told each filled block. Returns the filter's passband edge [Hz], the
+    interpolation's name and the high-frequency profile (when asked for).
+    """
+    samples_per_cycle, cycle_revolutions = grid.samples_per_cycle, grid.cycle_revolutions
     slowest, fastest = (w / (2 * math.pi) for w in angle_map.speed_range)  # rev/s
     stopband = samples_per_cycle / (2 * cycle_revolutions) * slowest  # angle-domain Nyquist at the slowest
     passband = cutoff * stopband
@@ -598,7 +791,6 @@ def to_angle_domain(
     band, band_hz = impact_band(sample_rate) if high_frequency else (None, (math.nan, math.nan))
     if band is not None:
         margin = max(margin, band.lead + 2)
-    values = np.empty(grid.times.size)
     table = None
     reuse: list[np.ndarray] = []  # the block buffer a file's reader fills
     cycle_seconds = (grid.times[-1] - grid.times[0]) / max(grid.times.size - 1, 1) * grid.samples_per_cycle
@@ -629,19 +821,22 @@ def to_angle_domain(
                     finer = np.arange((fine.size - 1) * split + 1) / split
                     fine = np.interp(finer, np.arange(fine.size), fine)
                 _bin_power(band.apply(x), fine, bins, power_sum, power_squares, power_counts)
+        out = output(g0, where.size)
         with stage(clock, "resampling"):
             if kernel is not None:
                 if table is None or table.dtype != x.dtype:
                     table = kernel.table.astype(x.dtype)
-                _resample(x, where - a, table, values[g0 : g0 + step])
+                _resample(x, where - a, table, out)
             else:
                 y = fir.apply(x) if fir is not None else x
                 _interpolate(
                     _spline_coefficients(y, order),
                     (where - a - lead) / decimation,
                     order,
-                    values[g0 : g0 + step],
+                    out,
                 )
+        if filled is not None:
+            filled(out)
         if progress is not None:
             progress(min(1.0, (g0 + step) / grid.times.size))
     profile = None
@@ -663,15 +858,7 @@ def to_angle_domain(
     else:
         cutoff_hz = fir.passband_hz if fir is not None else None
         interpolation = f"B-spline {order}"
-    return AngleDomainSignal(
-        values.reshape(grid.cycles, grid.samples_per_cycle),
-        grid.first_cycle,
-        grid.samples_per_cycle,
-        grid.cycle_revolutions,
-        cutoff_hz,
-        interpolation,
-        profile,
-    )
+    return cutoff_hz, interpolation, profile
 
 
 @numba.njit(cache=True, nogil=True)
@@ -868,44 +1055,117 @@ def order_spectrum(
     -------
     OrderSpectrum
     """
-    n_cycles, n = signal.values.shape
+    n_cycles = signal.values.shape[0]
     if not 1 <= block_cycles <= n_cycles:
         raise SignalError(f"block_cycles = {block_cycles!r}: expected 1..{n_cycles} (cycles in the signal)")
-    blocks = n_cycles // block_cycles
-    data = signal.values[: blocks * block_cycles].reshape(blocks, block_cycles * n)
-    resolution = 1.0 / (block_cycles * signal.cycle_revolutions)
-    orders = resolution * np.arange(block_cycles * n // 2 + 1, dtype=np.float64)
-    keep = int(np.count_nonzero(orders <= (max_order if max_order is not None else orders[-1]) + 1e-12))
-    # a few thousand blocks at a time (bounded memory): means of the complex amplitudes and of the
-    # magnitudes, and their squared deviations, combined by Chan's rule
-    average = np.zeros(keep, dtype=np.complex128)
-    spread = np.zeros(keep)  # squared distances of the complex amplitudes from their mean
-    mean, squares, count = np.zeros(keep), np.zeros(keep), 0
-    for b0 in range(0, blocks, 4096):
-        spectra = scaled_rfft(data[b0 : b0 + 4096])[:, :keep]
+    stream = OrderSpectrumStream(
+        signal.samples_per_cycle, signal.cycle_revolutions, block_cycles=block_cycles, max_order=max_order
+    )
+    stream.add(signal.values)
+    return stream.result()
+
+
+class OrderSpectrumStream:
+    """An order spectrum averaged over blocks of whole cycles given a few at a time, in order.
+
+    Each block's scaled real FFT gives complex order amplitudes; the means of
+    the amplitudes and of their magnitudes, and the squared deviations from
+    them, are combined part by part by Chan's rule (Chan, Golub & LeVeque,
+    "Updating formulae and a pairwise algorithm for computing sample
+    variances", 1979): the same as over all blocks at once, to round-off.
+    Cycles that do not yet fill a block wait for the next part; those left at
+    the end are not used.
+
+    Parameters
+    ----------
+    samples_per_cycle : int
+    cycle_revolutions : int
+        1 or 2.
+    block_cycles : int, optional
+        Cycles per block.
+    max_order : float, optional
+        Highest order kept [-].
+    """
+
+    _PART_BLOCKS = 4096  # blocks transformed at once: bounded memory for a long signal given whole
+
+    def __init__(
+        self,
+        samples_per_cycle: int,
+        cycle_revolutions: int,
+        *,
+        block_cycles: int = 1,
+        max_order: float | None = None,
+    ) -> None:
+        if block_cycles < 1:
+            raise SignalError(f"block_cycles = {block_cycles!r}: expected at least 1")
+        self.samples_per_cycle = samples_per_cycle
+        self.block_cycles = block_cycles
+        self._length = block_cycles * samples_per_cycle
+        resolution = 1.0 / (block_cycles * cycle_revolutions)
+        orders = resolution * np.arange(self._length // 2 + 1, dtype=np.float64)
+        limit = max_order if max_order is not None else orders[-1]
+        self._keep = int(np.count_nonzero(orders <= limit + 1e-12))
+        self.orders = orders[: self._keep]
+        self._average = np.zeros(self._keep, dtype=np.complex128)
+        self._spread = np.zeros(self._keep)  # squared distances of the complex amplitudes from their mean
+        self._mean = np.zeros(self._keep)
+        self._squares = np.zeros(self._keep)
+        self.blocks = 0
+        self._waiting = np.empty((0, samples_per_cycle))  # cycles short of a whole block
+
+    def add(self, cycles: FloatArray) -> None:
+        """The next cycles, shape ``(k, samples_per_cycle)``."""
+        if cycles.ndim != 2 or cycles.shape[1] != self.samples_per_cycle:
+            raise SignalError(
+                f"cycles of shape {cycles.shape}: expected (k, {self.samples_per_cycle}) samples"
+            )
+        if self._waiting.shape[0]:
+            cycles = np.concatenate([self._waiting, cycles])
+        whole = cycles.shape[0] // self.block_cycles
+        data = cycles[: whole * self.block_cycles].reshape(whole, self._length)
+        for b0 in range(0, whole, self._PART_BLOCKS):
+            self._combine(scaled_rfft(data[b0 : b0 + self._PART_BLOCKS])[:, : self._keep])
+        self._waiting = np.array(cycles[whole * self.block_cycles :])
+
+    def _combine(self, spectra: ComplexArray) -> None:
         magnitudes = np.abs(spectra)
         part = magnitudes.shape[0]
-        weight = part / (count + part)
+        weight = part / (self.blocks + part)
         part_average = spectra.mean(axis=0)
         part_spread = (np.abs(spectra - part_average) ** 2).sum(axis=0)
-        shift = part_average - average
-        spread += part_spread + np.abs(shift) ** 2 * count * weight
-        average += shift * weight
+        shift = part_average - self._average
+        self._spread += part_spread + np.abs(shift) ** 2 * self.blocks * weight
+        self._average += shift * weight
         part_mean = magnitudes.mean(axis=0)
         part_squares = ((magnitudes - part_mean) ** 2).sum(axis=0)
-        delta = part_mean - mean
-        squares += part_squares + delta**2 * count * weight
-        mean += delta * weight
-        count += part
-    return OrderSpectrum(
-        orders=orders[:keep],
-        amplitude=average,
-        magnitude_mean=mean,
-        magnitude_std=np.sqrt(squares / (blocks - 1)) if blocks > 1 else np.zeros(keep),
-        scatter=np.sqrt(spread / (blocks - 1)) if blocks > 1 else np.zeros(keep),
-        blocks=blocks,
-        block_cycles=block_cycles,
-    )
+        delta = part_mean - self._mean
+        self._squares += part_squares + delta**2 * self.blocks * weight
+        self._mean += delta * weight
+        self.blocks += part
+
+    def result(self) -> OrderSpectrum:
+        """The spectrum of the blocks given so far.
+
+        Raises
+        ------
+        SignalError
+            Before a whole block.
+        """
+        blocks = self.blocks
+        if blocks == 0:
+            raise SignalError(f"no whole block of {self.block_cycles} cycles: no order spectrum")
+        spread = np.sqrt(self._spread / (blocks - 1)) if blocks > 1 else np.zeros(self._keep)
+        std = np.sqrt(self._squares / (blocks - 1)) if blocks > 1 else np.zeros(self._keep)
+        return OrderSpectrum(
+            orders=self.orders.copy(),
+            amplitude=self._average.copy(),
+            magnitude_mean=self._mean.copy(),
+            magnitude_std=std,
+            scatter=spread,
+            blocks=blocks,
+            block_cycles=self.block_cycles,
+        )
 
 
 @dataclass(frozen=True)
