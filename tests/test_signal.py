@@ -589,20 +589,25 @@ def test_a_coarser_grid_of_the_same_cycles_is_every_kth_time_of_a_finer_one() ->
 @given(
     cuts=st.lists(st.integers(0, 61), max_size=6),
     block_cycles=st.integers(1, 4),
+    gather=st.integers(1, 70),
     seed=st.integers(0, 2**16),
 )
 def test_an_order_spectrum_fed_in_parts_equals_the_one_of_all_cycles(
-    cuts: list[int], block_cycles: int, seed: int
+    cuts: list[int], block_cycles: int, gather: int, seed: int
 ) -> None:
-    """Cycles given a few at a time (parts that split blocks, empty parts) give the spectrum of all the
-    cycles given at once: the same blocks, their statistics combined by Chan's rule (round-off only:
-    a relative 1e-12 on sums of some 60 terms of order one)."""
+    """Cycles given a few at a time (parts that split blocks, empty parts, parts longer and shorter than
+    the cycles gathered before a transform) give the spectrum of all the cycles given at once: the same
+    blocks, their statistics combined by Chan's rule (round-off only: a relative 1e-12 on sums of some
+    60 terms of order one)."""
     from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrumStream
+
+    class Gathering(OrderSpectrumStream):
+        _GATHER_CYCLES = gather
 
     rng = np.random.default_rng(seed)
     values = rng.standard_normal((61, 16)) + 2 * np.cos(2 * np.pi * 3 * np.arange(16) / 16)
     whole = order_spectrum(AngleDomainSignal(values, 0, 16, 2, None, "given"), block_cycles=block_cycles)
-    stream = OrderSpectrumStream(16, 2, block_cycles=block_cycles)
+    stream = Gathering(16, 2, block_cycles=block_cycles)
     bounds = [0, *sorted(cuts), 61]
     for a, b in itertools.pairwise(bounds):
         stream.add(values[a:b])

@@ -660,6 +660,10 @@ def angle_domain_spectrum(
         0.8,
         grid,
     )
+    if not 1 <= block_cycles <= grid.cycles:
+        raise SignalError(
+            f"block_cycles = {block_cycles!r}: expected 1..{grid.cycles} (cycles in the signal)"
+        )
     stream = OrderSpectrumStream(
         samples_per_cycle, cycle_revolutions, block_cycles=block_cycles, max_order=max_order
     )
@@ -690,10 +694,6 @@ def angle_domain_spectrum(
         output=output,
         filled=filled,
     )
-    if stream.blocks == 0:
-        raise SignalError(
-            f"block_cycles = {block_cycles!r}: expected 1..{grid.cycles} (cycles in the signal)"
-        )
     return stream.result(), profile
 
 
@@ -1088,6 +1088,7 @@ class OrderSpectrumStream:
     """
 
     _PART_BLOCKS = 4096  # blocks transformed at once: bounded memory for a long signal given whole
+    _GATHER_CYCLES = 1024  # cycles given in smaller parts are gathered to about this many first
 
     def __init__(
         self,
@@ -1112,7 +1113,11 @@ class OrderSpectrumStream:
         self._mean = np.zeros(self._keep)
         self._squares = np.zeros(self._keep)
         self.blocks = 0
-        self._waiting = np.empty((0, samples_per_cycle))  # cycles short of a whole block
+        # cycles waiting: short of a whole block, or gathered so that each transform is worth its
+        # overhead (whole blocks of about _GATHER_CYCLES)
+        gather = -(-self._GATHER_CYCLES // block_cycles) * block_cycles
+        self._waiting = np.empty((gather, samples_per_cycle))
+        self._count = 0
 
     def add(self, cycles: FloatArray) -> None:
         """The next cycles, shape ``(k, samples_per_cycle)``."""
@@ -1120,13 +1125,30 @@ class OrderSpectrumStream:
             raise SignalError(
                 f"cycles of shape {cycles.shape}: expected (k, {self.samples_per_cycle}) samples"
             )
-        if self._waiting.shape[0]:
-            cycles = np.concatenate([self._waiting, cycles])
-        whole = cycles.shape[0] // self.block_cycles
-        data = cycles[: whole * self.block_cycles].reshape(whole, self._length)
-        for b0 in range(0, whole, self._PART_BLOCKS):
+        room = self._waiting.shape[0]
+        start = 0
+        if self._count:  # fill the waiting cycles up first
+            take = min(room - self._count, cycles.shape[0])
+            self._waiting[self._count : self._count + take] = cycles[:take]
+            self._count += take
+            start = take
+            if self._count < room:
+                return
+            self._transform(self._waiting)
+            self._count = 0
+        rest = cycles[start:]
+        whole = rest.shape[0] // self.block_cycles * self.block_cycles
+        if whole >= room:  # a long part: its whole blocks at once
+            self._transform(rest[:whole])
+            rest = rest[whole:]
+        self._waiting[: rest.shape[0]] = rest
+        self._count = rest.shape[0]
+
+    def _transform(self, cycles: FloatArray) -> None:
+        """Whole blocks of cycles (a multiple of ``block_cycles`` of them) into the statistics."""
+        data = cycles.reshape(-1, self._length)
+        for b0 in range(0, data.shape[0], self._PART_BLOCKS):
             self._combine(scaled_rfft(data[b0 : b0 + self._PART_BLOCKS])[:, : self._keep])
-        self._waiting = np.array(cycles[whole * self.block_cycles :])
 
     def _combine(self, spectra: ComplexArray) -> None:
         magnitudes = np.abs(spectra)
@@ -1152,6 +1174,11 @@ class OrderSpectrumStream:
         SignalError
             Before a whole block.
         """
+        whole = self._count // self.block_cycles * self.block_cycles
+        if whole:  # the whole blocks still waiting
+            self._transform(self._waiting[:whole])
+            self._waiting[: self._count - whole] = self._waiting[whole : self._count]
+            self._count -= whole
         blocks = self.blocks
         if blocks == 0:
             raise SignalError(f"no whole block of {self.block_cycles} cycles: no order spectrum")

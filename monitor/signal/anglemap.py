@@ -247,13 +247,10 @@ class AngleMap:
         the same windows of pulses as :meth:`speed_at`'s, and each crossing found by bisection.
         """
         out = np.empty(targets.size)
-        n = self.times.size
         window = np.asarray(gaps, dtype=np.int64) // _SPEED_WINDOW
         for w in np.unique(window):
             chosen = np.flatnonzero(window == w)
-            lo = max(0, int(w) * _SPEED_WINDOW - _SPEED_OVERLAP)
-            hi = min(n, (int(w) + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
-            spline = make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
+            spline = self._window_spline(int(w))
             g = np.asarray(gaps, dtype=np.int64)[chosen]
             out[chosen] = _crossing(spline, targets[chosen], self.times[g], self.times[g + 1])
         return out
@@ -310,29 +307,38 @@ class AngleMap:
         t = np.asarray(time, dtype=np.float64)
         flat = t.ravel()
         out = np.full(flat.shape, np.nan)
-        inside = np.flatnonzero((flat >= self.times[0]) & (flat <= self.times[-1]))
         n = self.times.size
         if n <= 5:
+            inside = (flat >= self.times[0]) & (flat <= self.times[-1])
             out[inside] = (self.angles[-1] - self.angles[0]) / (self.times[-1] - self.times[0])
             return out.reshape(t.shape)
-        queried = flat[inside]
         starts = self.times[::_SPEED_WINDOW][1:]  # first pulse of every window but the first
-        if np.all(queried[1:] >= queried[:-1]):  # sorted (a grid): each window's queries are one run
-            order = np.arange(queried.size)
-            bounds = np.concatenate([[0], np.searchsorted(queried, starts, side="right"), [queried.size]])
-        else:
-            window = np.searchsorted(starts, queried, side="right")
-            order = np.argsort(window, kind="stable")
-            bounds = np.searchsorted(window[order], np.arange(starts.size + 2))
+        if flat.size < 2 or np.all(flat[1:] >= flat[:-1]):
+            # sorted (a grid): each window's queries are one run, written in place
+            first = int(np.searchsorted(flat, self.times[0], side="left"))
+            last = int(np.searchsorted(flat, self.times[-1], side="right"))
+            bounds = np.concatenate([[first], np.searchsorted(flat, starts, side="right"), [last]])
+            bounds = np.clip(bounds, first, last)
+            for w in range(bounds.size - 1):
+                if bounds[w + 1] > bounds[w]:
+                    run = slice(int(bounds[w]), int(bounds[w + 1]))
+                    out[run] = self._window_spline(w).derivative()(flat[run])
+            return out.reshape(t.shape)
+        inside = np.flatnonzero((flat >= self.times[0]) & (flat <= self.times[-1]))
+        window = np.searchsorted(starts, flat[inside], side="right")
+        order = np.argsort(window, kind="stable")
+        bounds = np.searchsorted(window[order], np.arange(starts.size + 2))
         for w in range(bounds.size - 1):
             chosen = inside[order[bounds[w] : bounds[w + 1]]]
-            if chosen.size == 0:
-                continue
-            lo = max(0, w * _SPEED_WINDOW - _SPEED_OVERLAP)
-            hi = min(n, (w + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
-            spline = make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
-            out[chosen] = spline.derivative()(flat[chosen])
+            if chosen.size:
+                out[chosen] = self._window_spline(w).derivative()(flat[chosen])
         return out.reshape(t.shape)
+
+    def _window_spline(self, w: int) -> Any:
+        """The quintic interpolating spline over window ``w`` of the pulses and its overlaps."""
+        lo = max(0, w * _SPEED_WINDOW - _SPEED_OVERLAP)
+        hi = min(self.times.size, (w + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
+        return make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
 
     def time_at(self, angle: npt.ArrayLike) -> FloatArray:
         """Time at which the crank reaches each angle: the exact inverse of :meth:`angle_at` [s].

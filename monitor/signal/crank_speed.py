@@ -19,11 +19,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from monitor.signal.angle_domain import (
-    AngleDomainSignal,
     AngleGrid,
     OrderSpectrum,
+    OrderSpectrumStream,
     angle_grid,
-    order_spectrum,
 )
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.pulses import SignalError
@@ -31,6 +30,7 @@ from monitor.signal.pulses import SignalError
 __all__ = ["crank_speed_spectra"]
 
 _SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
+_PART_CYCLES = 4096  # cycles transformed at a time
 
 
 def crank_speed_spectra(
@@ -62,6 +62,11 @@ def crank_speed_spectra(
     -------
     (OrderSpectrum, OrderSpectrum) or None
         None when the map covers less than one whole cycle.
+
+    Raises
+    ------
+    SignalError
+        When the map covers fewer cycles than a block.
     """
     # crank speed: the angle map's derivative on a grid of its own whole cycles. The map holds orders
     # below pulses / 2 per revolution: a grid of at least 2 R pulses per cycle (a power of two) has
@@ -82,6 +87,10 @@ def crank_speed_spectra(
         )
     except SignalError:
         return None
+    if block_cycles > grid.cycles:
+        raise SignalError(
+            f"block_cycles = {block_cycles!r}: expected 1..{grid.cycles} (cycles in the crank speed)"
+        )
     step = 2 * math.pi * cycle_revolutions / m  # crank angle between grid points [rad]
     if stepped:
         # the mean over each step, step / (time across it): the slowness averaged over the step in
@@ -93,10 +102,20 @@ def crank_speed_spectra(
     # the map holds pulses_per_revolution samples of the speed per revolution: orders from
     # half of that up are not in it (a keyphasor gives the mean speed only)
     resolvable = max(min(max_order, 0.5 * pulses_per_revolution - 1e-9), 0.0)
+    speed_stream, g_stream = (
+        OrderSpectrumStream(m, cycle_revolutions, block_cycles=block_cycles, max_order=resolvable)
+        for _ in range(2)
+    )
+    # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
+    # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k). Both
+    # spectra are fed a part of the cycles at a time (no hour-long temporaries)
+    for c0 in range(0, grid.cycles, _PART_CYCLES):
+        part = speed[c0 : c0 + _PART_CYCLES]
+        speed_stream.add(part)
+        slowness = 1.0 / part
+        g_stream.add(1.0 - slowness / slowness.mean(axis=1, keepdims=True))
 
-    def spectrum_of(values: np.ndarray) -> OrderSpectrum:
-        signal = AngleDomainSignal(values, grid.first_cycle, m, cycle_revolutions, None, "angle map")
-        spectrum = order_spectrum(signal, block_cycles=block_cycles, max_order=resolvable)
+    def unstepped(spectrum: OrderSpectrum) -> OrderSpectrum:
         if not stepped:
             return spectrum
         x = 0.5 * spectrum.orders * step
@@ -112,10 +131,7 @@ def crank_speed_spectra(
             spectrum.block_cycles,
         )
 
-    # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
-    # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k)
-    slowness = 1.0 / speed
-    g = spectrum_of(1.0 - slowness / slowness.mean(axis=1, keepdims=True))
+    g = unstepped(g_stream.result())
     factor = np.zeros(g.orders.size)
     factor[1:] = 1.0 / g.orders[1:]
     lead = OrderSpectrum(
@@ -127,4 +143,4 @@ def crank_speed_spectra(
         g.blocks,
         g.block_cycles,
     )
-    return spectrum_of(speed), lead
+    return unstepped(speed_stream.result()), lead
