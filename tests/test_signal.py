@@ -674,3 +674,48 @@ def test_the_streamed_spectrum_is_the_spectrum_of_the_resampled_channel(
     cycles = resampled.values.shape[0]
     with pytest.raises(SignalError, match=rf"block_cycles = {cycles + 1}: expected 1\.\.{cycles}"):
         angle_domain_spectrum(x, FS, angle_map, max_order=16, block_cycles=cycles + 1, **options)  # type: ignore[arg-type]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    steps=st.lists(st.floats(0.2, 5.0), min_size=5, max_size=80),
+    seed=st.integers(0, 2**16),
+)
+def test_the_compiled_quintic_spline_is_scipys_interpolating_spline(steps: list[float], seed: int) -> None:
+    """Same knots (not-a-knot), same coefficients: values and slopes equal make_interp_spline(k=5)'s at
+    any point inside, to round-off grown by the collocation matrix's condition (sites up to 25 times
+    closer than their neighbours: a relative 1e-9 bounds it with margin), and the data passed through."""
+    from scipy.interpolate import make_interp_spline
+
+    from monitor.signal.quintic import QuinticSpline
+
+    rng = np.random.default_rng(seed)
+    x = 10.0 + np.concatenate([[0.0], np.cumsum(steps)])
+    y = rng.standard_normal(x.size)
+    at = np.sort(np.concatenate([rng.uniform(x[0], x[-1], 200), x]))
+    ours, theirs = QuinticSpline(x, y), make_interp_spline(x, y, k=5)
+    scale = np.max(np.abs(theirs(at)))
+    np.testing.assert_allclose(ours(at), theirs(at), rtol=0, atol=1e-9 * scale)
+    slope = theirs.derivative()(at)
+    np.testing.assert_allclose(ours.slope(at), slope, rtol=0, atol=1e-9 * np.max(np.abs(slope)))
+    np.testing.assert_allclose(ours(x), y, rtol=0, atol=1e-9 * scale)
+
+
+def test_the_quintic_spline_reproduces_a_quintic_and_refuses_bad_sites() -> None:
+    """A spline of degree 5 through a polynomial of degree 5 is that polynomial: its values and slopes at
+    any point, whatever the spacing (checked without scipy)."""
+    from monitor.signal.quintic import QuinticSpline
+
+    rng = np.random.default_rng(3)
+    x = np.cumsum(rng.uniform(0.5, 1.5, 40))
+    poly = np.polynomial.Polynomial([0.3, -1.0, 0.5, 0.2, -0.01, 2e-4])
+    spline = QuinticSpline(x, poly(x))
+    at = rng.uniform(x[0], x[-1], 500)
+    np.testing.assert_allclose(spline(at), poly(at), rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(spline.slope(at), poly.deriv()(at), rtol=1e-9, atol=1e-9)
+    with pytest.raises(SignalError, match="at least 6 sites"):
+        QuinticSpline(x[:5], x[:5])
+    with pytest.raises(SignalError, match="increase strictly"):
+        QuinticSpline(np.r_[x[:3], x[2], x[3:10]], np.zeros(11))
+    with pytest.raises(SignalError, match="finite"):
+        QuinticSpline(x, np.r_[np.nan, x[1:]])

@@ -22,14 +22,14 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
 
 import numba
 import numpy as np
 import numpy.typing as npt
-from scipy.interpolate import PchipInterpolator, make_interp_spline
+from scipy.interpolate import PchipInterpolator
 
 from monitor.signal.pulses import SignalError
+from monitor.signal.quintic import QuinticSpline
 from monitor.types import FloatArray
 
 __all__ = ["AngleMap", "cycle_phase_from_cam", "cycle_phase_from_pressure"]
@@ -219,7 +219,7 @@ class AngleMap:
             alike = chosen[inside[chosen] == g]
             lo, hi = max(0, g - _FILL_NEIGHBOURS), min(self.angles.size, g + _FILL_NEIGHBOURS + 2)
             shape_times = elapsed(self.angles[lo:hi])
-            spline = make_interp_spline(shape_times, self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
+            spline = QuinticSpline(shape_times, self.angles[lo:hi])
             target = missing[alike]
             low = np.full(target.size, shape_times[g - lo])
             high = np.full(target.size, shape_times[g + 1 - lo])
@@ -322,7 +322,7 @@ class AngleMap:
             for w in range(bounds.size - 1):
                 if bounds[w + 1] > bounds[w]:
                     run = slice(int(bounds[w]), int(bounds[w + 1]))
-                    out[run] = self._window_spline(w).derivative()(flat[run])
+                    out[run] = self._window_spline(w).slope(flat[run])
             return out.reshape(t.shape)
         inside = np.flatnonzero((flat >= self.times[0]) & (flat <= self.times[-1]))
         window = np.searchsorted(starts, flat[inside], side="right")
@@ -331,14 +331,14 @@ class AngleMap:
         for w in range(bounds.size - 1):
             chosen = inside[order[bounds[w] : bounds[w + 1]]]
             if chosen.size:
-                out[chosen] = self._window_spline(w).derivative()(flat[chosen])
+                out[chosen] = self._window_spline(w).slope(flat[chosen])
         return out.reshape(t.shape)
 
-    def _window_spline(self, w: int) -> Any:
+    def _window_spline(self, w: int) -> QuinticSpline:
         """The quintic interpolating spline over window ``w`` of the pulses and its overlaps."""
         lo = max(0, w * _SPEED_WINDOW - _SPEED_OVERLAP)
         hi = min(self.times.size, (w + 1) * _SPEED_WINDOW + 1 + _SPEED_OVERLAP)
-        return make_interp_spline(self.times[lo:hi], self.angles[lo:hi], k=5 if hi - lo > 5 else 1)
+        return QuinticSpline(self.times[lo:hi], self.angles[lo:hi])
 
     def time_at(self, angle: npt.ArrayLike) -> FloatArray:
         """Time at which the crank reaches each angle: the exact inverse of :meth:`angle_at` [s].
@@ -452,7 +452,7 @@ def _interval_means(start: FloatArray, end: FloatArray, w: FloatArray) -> FloatA
     )
 
 
-def _crossing(spline: Any, target: FloatArray, low: FloatArray, high: FloatArray) -> FloatArray:
+def _crossing(spline: QuinticSpline, target: FloatArray, low: FloatArray, high: FloatArray) -> FloatArray:
     """Where a spline increasing over ``[low, high]`` reaches ``target``, by bisection to round-off."""
     low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
     for _ in range(60):
