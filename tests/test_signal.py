@@ -719,3 +719,22 @@ def test_the_quintic_spline_reproduces_a_quintic_and_refuses_bad_sites() -> None
         QuinticSpline(np.r_[x[:3], x[2], x[3:10]], np.zeros(11))
     with pytest.raises(SignalError, match="finite"):
         QuinticSpline(x, np.r_[np.nan, x[1:]])
+
+
+@pytest.mark.parametrize("per_cycle", [64, 1024])
+def test_times_of_uniform_steps_are_the_times_of_the_angles_made(per_cycle: int) -> None:
+    """time_at_steps (the grid's angles never made, in parallel parts) against time_at of the same
+    angles: the same Newton solution of the same cubic, equal to round-off of the times (1e-12 s over a
+    few seconds); an empty grid is empty."""
+    t, alpha = _trajectory(3.0, 600.0, 0.1)
+    teeth = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * math.pi / 30
+    angle_map = AngleMap(np.interp(teeth, alpha, t), teeth)
+    first, step, count = 2 * math.pi, 2 * math.pi / per_cycle, 25 * per_cycle
+    np.testing.assert_allclose(
+        angle_map.time_at_steps(first, step, count),
+        angle_map.time_at(first + step * np.arange(count)),
+        rtol=0,
+        atol=1e-12,
+    )
+    assert angle_map.time_at_steps(first, step, 0).shape == (0,)
+    assert np.isnan(angle_map.time_at_steps(-1.0, step, 2)).all()  # before the map: NaN

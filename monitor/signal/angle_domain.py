@@ -270,8 +270,9 @@ def angle_grid(
             stride = other.samples_per_cycle // samples_per_cycle
             times = np.ascontiguousarray(other.times[::stride])
             return AngleGrid(first, samples_per_cycle, cycle_revolutions, times)
-    grid = first * cycle + (cycle / samples_per_cycle) * np.arange((last - first) * samples_per_cycle)
-    times = angle_map.time_at(grid)
+    times = angle_map.time_at_steps(
+        first * cycle, cycle / samples_per_cycle, (last - first) * samples_per_cycle
+    )
     times[0] = max(times[0], start_time)  # guard the ends against round-off just outside the span
     times[-1] = min(times[-1], end_time)
     return AngleGrid(first, samples_per_cycle, cycle_revolutions, times)

@@ -358,18 +358,53 @@ class AngleMap:
         """
         target = np.asarray(angle, dtype=np.float64)
         flat = np.ascontiguousarray(target.ravel())
+        if flat.size == 0:
+            return np.empty(target.shape)
         out = np.empty(flat.shape)
+        self._solve(flat, 0.0, 0.0, out)
+        return out.reshape(target.shape)
+
+    def time_at_steps(self, first: float, step: float, count: int) -> FloatArray:
+        """:meth:`time_at` of the angles ``first + step * k``, ``k = 0 .. count - 1``, never made [s].
+
+        Parameters
+        ----------
+        first, step : float
+            [rad].
+        count : int
+
+        Returns
+        -------
+        ndarray, shape (count,)
+        """
+        out = np.empty(count)
+        if count:
+            self._solve(np.empty(0), first, step, out)
+        return out
+
+    def _solve(self, target: FloatArray, first: float, step: float, out: FloatArray) -> None:
+        """The compiled inverse into ``out``, in parallel threads over parts of it."""
         slack = 1e-12 * (abs(self.angles[0]) + abs(self.angles[-1]))  # round-off at the span's ends
         coefficients = self._forward.c  # the cubic of each piece, powers of (t - t0): shape (4, pieces)
-        workers = min(os.cpu_count() or 1, max(1, flat.size // (1 << 20)))
-        bounds = np.linspace(0, flat.size, workers + 1).astype(np.int64)
+        workers = min(os.cpu_count() or 1, max(1, out.size // (1 << 20)))
+        bounds = np.linspace(0, out.size, workers + 1).astype(np.int64)
         with ThreadPoolExecutor(max_workers=workers) as pool:  # the compiled loop releases the GIL
             for job in [
-                pool.submit(_invert, coefficients, self.times, self.angles, flat[a:b], slack, out[a:b])
+                pool.submit(
+                    _invert,
+                    coefficients,
+                    self.times,
+                    self.angles,
+                    target[a:b] if target.size else target,
+                    first,
+                    step,
+                    int(a),
+                    slack,
+                    out[a:b],
+                )
                 for a, b in itertools.pairwise(bounds)
             ]:
                 job.result()
-        return out.reshape(target.shape)
 
     @cached_property
     def speed_range(self) -> tuple[float, float]:
@@ -496,14 +531,27 @@ def cycle_phase_from_cam(angle_map: AngleMap, cam_times: npt.ArrayLike, *, cam_a
 
 @numba.njit(cache=True, nogil=True)
 def _invert(
-    c: FloatArray, times: FloatArray, angles: FloatArray, target: FloatArray, slack: float, out: FloatArray
+    c: FloatArray,
+    times: FloatArray,
+    angles: FloatArray,
+    target: FloatArray,
+    first: float,
+    increment: float,
+    offset: int,
+    slack: float,
+    out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
-    """Solve ``c[:, i] (t - t_i) = angle`` on the piece ``i`` of each angle (monotone cubic); NaN outside."""
+    """Solve ``c[:, i] (t - t_i) = angle`` on the piece ``i`` of each angle (monotone cubic); NaN outside.
+
+    The angles are ``target``, or, when it is empty, ``first + increment * (offset + p)`` for each ``p`` of
+    ``out`` (a uniform grid, never made).
+    """
     last = angles.size - 1
     i, solved = 0, -1  # the piece, and the one of the last solution (its angle, offset and slope)
     a_before = s_before = slope_before = 0.0
-    for p in range(target.size):
-        a = target[p]
+    given = target.size > 0
+    for p in range(out.size):
+        a = target[p] if given else first + increment * float(offset + p)
         if not (angles[0] - slack <= a <= angles[last] + slack):
             out[p] = np.nan
             continue
