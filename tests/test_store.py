@@ -487,3 +487,33 @@ def test_rows_are_read_by_position_in_the_order_the_store_declares() -> None:
     assert [c.name for c in listing(False, False, False, False, False).selected_columns] == [
         c.name for c in recordings.c
     ]
+
+
+def test_reads_on_kept_connections_see_every_write_and_outlive_a_dropped_connection(store: Store) -> None:
+    """The reads' kept connections (monitor.store.readers) hold no snapshot between reads: a key
+    revoked and a job's new state are seen by the next read on the same connection. On PostgreSQL, a
+    kept connection the server ends (as a restart would) costs that read one retry, not an error."""
+    fleet = store.create_fleet("a")
+    key = store.create_key(fleet)
+    recording, _ = store.add_recording(
+        fleet, content_hash="c" * 64, engine_id="e", filename="f.h5", path="p", size_bytes=1, recorded_at=""
+    )
+    assert store.fleet_of_key(key) == fleet
+    view = store.recording_view(fleet, recording.id, "v1")
+    assert view is not None and view.job is None
+    store.enqueue(recording.id, "v1")
+    view = store.recording_view(fleet, recording.id, "v1")
+    assert view is not None and view.job is not None and view.job.state == "queued"
+    assert store.revoke_key(max(k.id for k in store.list_keys("a")))
+    assert store.fleet_of_key(key) is None
+    if store.dialect == "postgresql":
+        with store.db.connect() as admin:
+            ended = admin.execute(
+                sa.text(
+                    "SELECT count(*) FROM (SELECT pg_terminate_backend(pid) FROM pg_stat_activity "
+                    "WHERE datname = current_database() AND pid <> pg_backend_pid()) AS ended"
+                )
+            ).scalar_one()
+        assert ended >= 1  # the kept reader, at least
+    assert [v.recording.id for v in store.recording_views(fleet, "v1")] == [recording.id]
+    assert store.recording_view(fleet, recording.id, "v1") is not None

@@ -40,10 +40,11 @@ from pathlib import Path
 from typing import Any
 
 import sqlalchemy as sa
-from sqlalchemy.engine import Connection, Engine
+from sqlalchemy.engine import Connection, CursorResult, Engine
 
 from monitor.errors import MonitorError
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
+from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
 
 __all__ = [
@@ -304,6 +305,7 @@ class Store:
 
     def __init__(self, engine: Engine) -> None:
         self.db = engine
+        self.readers = Readers(engine, POOL_SIZE)  # the reads the service answers most
 
     @property
     def dialect(self) -> str:
@@ -318,6 +320,7 @@ class Store:
 
     def close(self) -> None:
         """Release the connections."""
+        self.readers.close()
         self.db.dispose()
 
     # ------------------------------------------------------------------------------- fleets, keys
@@ -385,8 +388,7 @@ class Store:
 
     def fleet_of_key(self, key: str) -> int | None:
         """The fleet a key belongs to, or None for an unknown key."""
-        with self.db.connect() as c:
-            row = c.execute(KEY_FLEET, {"digest": key_digest(key)}).first()
+        row = self.readers.read(KEY_FLEET, {"digest": key_digest(key)}, CursorResult.first)
         return None if row is None else int(row.fleet_id)
 
     # -------------------------------------------------------------------------------------- engines
@@ -519,8 +521,7 @@ class Store:
             values["until"] = self._stored_time(until)
         if after is not None:
             values["after_time"], values["after_id"] = self._stored_time(after[0]), after[1]
-        with self.db.connect() as c:
-            return list(c.execute(query, values).all())
+        return list(self.readers.read(query, values, CursorResult.all))
 
     def recordings(
         self,
@@ -565,8 +566,7 @@ class Store:
         analysis_version : str
         """
         values = {"fleet_id": fleet_id, "recording_id": recording_id, "version": analysis_version}
-        with self.db.connect() as c:
-            row = c.execute(ONE_VIEW, values).first()
+        row = self.readers.read(ONE_VIEW, values, CursorResult.first)
         return None if row is None else self._view(row, analysis_version)
 
     def recording_views(
@@ -808,8 +808,7 @@ class Store:
             "version": analysis_version,
             "kind": kind,
         }
-        with self.db.connect() as c:
-            row = c.execute(STORED, values).first()
+        row = self.readers.read(STORED, values, CursorResult.first)
         if row is None:
             return None
         stored = None
