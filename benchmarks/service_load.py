@@ -12,7 +12,9 @@ when a server answers at the URL):
    (on PostgreSQL then ``ANALYZE``, as autovacuum does within a minute of a
    bulk load, so the plans are those of a store in service);
 2. ``engine-monitor serve`` starts in its own process on a free loopback port,
-   with one analysis process, warmed by one upload analysed before the run;
+   with one analysis process and without its access log (``--no-access-log``,
+   as a server under load would run), warmed by one upload analysed before
+   the run;
 3. for ``--seconds``, at once:
 
    - 50 readers: ``wrk`` (a load generator in C, installed with apt-get if
@@ -246,7 +248,7 @@ def run(
     log = open(folder / "server.log", "wb")
     server = subprocess.Popen(
         [sys.executable, "-m", "monitor", "serve", "--port", str(port), "--store", store_url,
-         "--data", str(folder / "data"), "--workers", "1"],
+         "--data", str(folder / "data"), "--workers", "1", "--no-access-log"],
         stdout=log, stderr=subprocess.STDOUT, start_new_session=True, cwd=ROOT,
     )  # fmt: skip
     try:
@@ -397,7 +399,8 @@ def _section(rows: list[tuple[str, dict[str, Any]]], seconds: float) -> list[str
         "",
         f"Written by `python -m benchmarks.service_load --seconds {seconds:g}` on {stamp}, Python "
         f"{platform.python_version()}, {os.cpu_count()} cores, shared (load average {loads}); the clients "
-        "run on the same machine as the server: one uvicorn process with one analysis process; validations "
+        "run on the same machine as the server: one uvicorn process (`serve --no-access-log`) with one "
+        "analysis process; validations "
         "and analyses run at niceness 10, below the server (docs/service.md, Priorities). Each store "
         f"holds {rows[0][1]['seeded'] if rows else RECORDINGS:,} analysed recordings of one fleet before the "
         "run, seeded directly through the store's tables, not over HTTP (then, on PostgreSQL, `ANALYZE`, "

@@ -308,6 +308,30 @@ def test_a_key_sees_only_its_fleet(server: Server) -> None:
         assert a.get("/recordings/999999").status_code == 404
 
 
+@pytest.mark.parametrize("access_log", [True, False])
+def test_the_access_log_is_one_line_per_request_unless_turned_off(tmp_path: Path, access_log: bool) -> None:
+    """``serve`` logs each request by default; ``--no-access-log`` leaves those lines out and nothing
+    else: the start-up is logged, and answers (a read, a 404, a 401) are the same."""
+    url = f"sqlite:///{tmp_path / 'store.db'}"
+    store = open_store(url)
+    keys = {"a": store.create_key(store.create_fleet("a"))}
+    store.close()
+    extra = () if access_log else ("--no-access-log",)
+    quiet = Server("", url, tmp_path / "data", keys, workers=0, extra=extra)
+    quiet.start()
+    try:
+        with quiet.client() as client:
+            assert client.get("/recordings").json()["items"] == []
+            assert client.get("/recordings/7").json()["error"]["code"] == "not_found"
+        assert httpx.get(f"{quiet.url}/recordings").status_code == 401
+    finally:
+        quiet.kill()
+    log = quiet.log.read_text()
+    assert "Application startup complete" in log
+    lines = [line for line in log.splitlines() if '"GET /recordings' in line]
+    assert len(lines) == (3 if access_log else 0), log
+
+
 def test_recordings_are_paged_and_filtered(server: Server) -> None:
     with server.client() as client:
         for path in sorted(SAMPLES.glob("*.h5")):

@@ -487,3 +487,82 @@ def test_rows_are_read_by_position_in_the_order_the_store_declares() -> None:
     assert [c.name for c in listing(False, False, False, False, False).selected_columns] == [
         c.name for c in recordings.c
     ]
+
+
+def test_reads_on_kept_connections_see_every_write_and_outlive_a_dropped_connection(store: Store) -> None:
+    """The reads' kept connections (monitor.store.readers) hold no snapshot between reads: a key
+    revoked and a job's new state are seen by the next read on the same connection. On PostgreSQL, a
+    kept connection the server ends (as a restart would) costs that read one retry, not an error."""
+    fleet = store.create_fleet("a")
+    key = store.create_key(fleet)
+    recording, _ = store.add_recording(
+        fleet, content_hash="c" * 64, engine_id="e", filename="f.h5", path="p", size_bytes=1, recorded_at=""
+    )
+    assert store.fleet_of_key(key) == fleet
+    view = store.recording_view(fleet, recording.id, "v1")
+    assert view is not None and view.job is None
+    store.enqueue(recording.id, "v1")
+    view = store.recording_view(fleet, recording.id, "v1")
+    assert view is not None and view.job is not None and view.job.state == "queued"
+    assert store.revoke_key(max(k.id for k in store.list_keys("a")))
+    assert store.fleet_of_key(key) is None
+    if store.dialect == "postgresql":
+        with store.db.connect() as admin:
+            ended = admin.execute(
+                sa.text(
+                    "SELECT count(*) FROM (SELECT pg_terminate_backend(pid) FROM pg_stat_activity "
+                    "WHERE datname = current_database() AND pid <> pg_backend_pid()) AS ended"
+                )
+            ).scalar_one()
+        assert ended >= 1  # the kept reader, at least
+    assert [v.recording.id for v in store.recording_views(fleet, "v1")] == [recording.id]
+    assert store.recording_view(fleet, recording.id, "v1") is not None
+
+
+def test_a_summary_says_what_a_view_says_in_every_state_of_the_analysis(store: Store) -> None:
+    """The listing's flat summaries (RecordingSummary) against the views they stand in for: no job,
+    queued, queued again after a passing failure (a retry time), running, done (the diagnosis'
+    status), set aside; one by id and a page, newest first."""
+    fleet = store.create_fleet("a")
+    ids = [_recording(store, fleet, content * 64) for content in "abcdef"]
+    for recording in ids[1:]:
+        store.enqueue(recording, "1")
+    for recording in ids[2:]:  # ids[1] stays queued
+        job = store.claim_job(store.job(recording, "1").id)  # type: ignore[union-attr]
+        assert job is not None
+        if recording == ids[2]:
+            store.fail(job, "OSError: disk full", backoff=timedelta(hours=1))
+        elif recording == ids[4]:
+            store.complete(job, {"diagnosis": ("warning", {"status": "warning"})})
+        elif recording == ids[5]:
+            store.fail(job, "MonitorError: not a recording", permanent=True)
+    views = store.recording_views(fleet, "1")
+    summaries = store.recording_summaries(fleet, "1")
+    assert [s.id for s in summaries] == [v.recording.id for v in views] == ids[::-1]
+    for view, summary in zip(views, summaries, strict=True):
+        row, job = view.recording, view.job
+        assert summary == (
+            row.id,
+            row.engine_id,
+            row.filename,
+            row.content_hash,
+            row.size_bytes,
+            row.recorded_at,
+            row.uploaded_at,
+            job.state if job is not None else "none",
+            job.attempts if job is not None else 0,
+            job.error if job is not None else "",
+            job.not_before if job is not None and job.state == "queued" else None,
+            view.diagnosis_status,
+        )
+        assert store.recording_summary(fleet, row.id, "1") == summary
+    states = {s.id: (s.status, s.diagnosis_status, s.retry_after is not None) for s in summaries}
+    assert states == {
+        ids[0]: ("none", "", False),
+        ids[1]: ("queued", "", False),
+        ids[2]: ("queued", "", True),
+        ids[3]: ("running", "", False),
+        ids[4]: ("done", "warning", False),
+        ids[5]: ("set_aside", "", False),
+    }
+    assert store.recording_summary(store.create_fleet("b"), ids[0], "1") is None
