@@ -46,11 +46,21 @@ def test_the_migrated_schema_is_the_declared_one(store: Store) -> None:
 
 
 def test_opening_twice_migrates_once(store: Store) -> None:
+    """A second opening finds the store at the newest revision (the migrations' head) and leaves it."""
+    from alembic.config import Config
+    from alembic.script import ScriptDirectory
+
+    import monitor.store
+
+    config = Config()
+    config.set_main_option("script_location", str(Path(monitor.store.__file__).parent / "migrations"))
+    head = ScriptDirectory.from_config(config).get_current_head()
     url = store.db.url.render_as_string(hide_password=False)
     again = open_store(url)
     try:
         with again.db.connect() as c:
-            assert c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one() == "0004"
+            version = c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one()
+        assert version == head == "0005"
     finally:
         again.close()
 

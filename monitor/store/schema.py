@@ -12,7 +12,11 @@
   retry waits;
 - ``results``: the documents an analysis wrote, at most one per recording,
   analysis version and kind, each with the SHA-256 of its stored JSON text
-  (the entity tag the service answers it with; a result is never rewritten).
+  (the entity tag the service answers it with; a result is never rewritten);
+- ``trend_points``: the quantities of each stored diagnosis an engine's
+  condition is followed by (speed, load, each cylinder's strength, each bearing
+  sensor's order deviations, impact score and rms velocity), one row each, at
+  the recording's time (:mod:`monitor.trends`), written with the result.
 
 Each read of the service is one indexed query: a key by its digest (unique),
 a recording by id, its job and results by their unique keys, and a fleet's
@@ -25,7 +29,17 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-__all__ = ["JOB_STATES", "api_keys", "engines", "fleets", "jobs", "metadata", "recordings", "results"]
+__all__ = [
+    "JOB_STATES",
+    "api_keys",
+    "engines",
+    "fleets",
+    "jobs",
+    "metadata",
+    "recordings",
+    "results",
+    "trend_points",
+]
 
 JOB_STATES = ("queued", "running", "done", "failed", "set_aside")
 
@@ -109,4 +123,23 @@ results = sa.Table(
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     sa.Column("digest", sa.String(64), nullable=False, server_default=""),
     sa.UniqueConstraint("recording_id", "analysis_version", "kind", name="uq_results_recording_version_kind"),
+)
+
+trend_points = sa.Table(
+    "trend_points",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer, sa.ForeignKey("recordings.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("analysis_version", sa.String(32), nullable=False),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("engine_id", sa.String(200), nullable=False),
+    sa.Column("recorded_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("quantity", sa.String(200), nullable=False),
+    sa.Column("value", sa.Float, nullable=False),
+    sa.Column("standard_error", sa.Float, nullable=True),
+    sa.Column("unit", sa.String(32), nullable=False, server_default=""),
+    sa.UniqueConstraint(
+        "recording_id", "analysis_version", "quantity", name="uq_trend_points_recording_version_quantity"
+    ),
+    sa.Index("ix_trend_points_engine_quantity_time", "fleet_id", "engine_id", "quantity", "recorded_at"),
 )
