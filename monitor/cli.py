@@ -7,6 +7,8 @@ Subcommands:
 - ``torsion ...``: shaft-line modes, Campbell data and forced response of an
   engine, and the stability chart and time response of the variable-inertia
   crank (see :mod:`monitor.cli_torsion`).
+- ``trend``: an engine's quantities over time from the results store, and the
+  drift found in them (see :mod:`monitor.cli_trend`).
 - ``spectrum``, ``import``, ``simulate``: order spectra of a recording,
   test-bench imports, scenes.
 - ``compare``: a recording's measured orders against the model, and the
@@ -33,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 from monitor import __version__
 from monitor.cli_torsion import add_torsion_parser, run_torsion
+from monitor.cli_trend import add_trend_parser, run_trend
 from monitor.errors import MonitorError
 from monitor.progress import progress_bar, progress_counter
 
@@ -428,6 +431,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("engines", help="list the bundled engine descriptions")
     add_torsion_parser(sub)
+    add_trend_parser(sub)
     return parser
 
 
@@ -1164,6 +1168,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "engines": _run_engines,
         "tdc": _run_tdc,
         "torsion": run_torsion,
+        "trend": run_trend,
         "spectrum": _run_spectrum,
         "import": _run_import,
         "simulate": _run_simulate,

@@ -46,6 +46,7 @@ from monitor.errors import MonitorError
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
+from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
 
 __all__ = [
     "DEFAULT_URL_ENV",
@@ -769,6 +770,8 @@ class Store:
                     },
                     ["recording_id", "analysis_version", "kind"],
                 )
+            if DIAGNOSIS_KIND in documents:  # its quantities, for the engine's trends
+                write_trend_points(c, job.recording_id, job.analysis_version, documents[DIAGNOSIS_KIND][1])
             mine = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))

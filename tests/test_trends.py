@@ -1,0 +1,219 @@
+"""Trends: the quantities of each diagnosis, the CUSUM drift rule, and the store's trend points."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sqlalchemy as sa
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from monitor.trends import DECISION, REFERENCE, cusum, drift, judged, trend_points
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = ROOT / "recordings" / "samples"
+NIGHTS = [datetime(2026, 1, 1, 2, tzinfo=UTC) + timedelta(days=n) for n in range(400)]
+
+
+def _siegmund(shift: float) -> float:
+    """One side's average run length after a shift of ``shift`` sigmas (Siegmund's approximation)."""
+    d, b = shift - REFERENCE, DECISION + 1.166
+    return (math.exp(-2 * d * b) + 2 * d * b - 1) / (2 * d * d)
+
+
+def _run_length(z: np.ndarray) -> int:
+    upper, lower = cusum(z)
+    crossed = np.flatnonzero((upper > DECISION) | (lower > DECISION))
+    return int(crossed[0]) + 1 if crossed.size else z.size + 1
+
+
+def test_the_sums_by_hand() -> None:
+    """S+ and S- after each value, K = 0.5, worked by hand: all exact binary fractions."""
+    upper, lower = cusum([0.0, 1.0, 2.0, -1.0, -3.0])
+    np.testing.assert_array_equal(upper, [0.0, 0.5, 2.0, 0.5, 0.0])
+    np.testing.assert_array_equal(lower, [0.0, 0.0, 0.0, 0.5, 3.0])
+
+
+def test_one_false_finding_in_about_a_thousand_recordings_in_control() -> None:
+    """Independent standard normal values (mean and spread known): the mean run length to a false
+    finding is Siegmund's 1000 for the two sides. 300 runs: the mean's standard error is about 6 % (run
+    lengths are nearly exponential), so 0.75 to 1.3 of it holds at more than four of them."""
+    rng = np.random.default_rng(20261126)
+    lengths = [_run_length(rng.standard_normal(8000)) for _ in range(300)]
+    expected = 1.0 / (2.0 / _siegmund(0.0))
+    assert 0.75 * expected < np.mean(lengths) < 1.3 * expected
+
+
+@pytest.mark.parametrize("shift", [1.0, 2.0, 3.0])
+def test_a_shift_is_found_after_the_delay_the_rule_states(shift: float) -> None:
+    """A shift of 1, 2, 3 sigmas from the first value: found after Siegmund's 11.8, 4.4, 2.7 recordings
+    on average (2000 runs: the mean's standard error is under 2 %; the approximation itself is good to a
+    few per cent at these shifts, so within 10 %)."""
+    rng = np.random.default_rng(int(10 * shift))
+    lengths = [_run_length(shift + rng.standard_normal(200)) for _ in range(2000)]
+    assert np.mean(lengths) == pytest.approx(_siegmund(shift), rel=0.1)
+
+
+def test_a_step_is_found_with_when_it_began_and_its_size() -> None:
+    """Ten baseline nights at 1.00 +- 0.02, then a step down to 0.90 (five sigmas): found within three
+    nights of the step, dated from the step (the night after the last zero of the sum, give or take
+    one), the shift within two standard errors of the mean of the nights since (0.02 / sqrt(n))."""
+    rng = np.random.default_rng(7)
+    values = np.r_[1.0 + 0.02 * rng.standard_normal(10), 0.9 + 0.02 * rng.standard_normal(10)]
+    found = drift(NIGHTS[:20], values, quantity="cylinder 4 strength", unit="-")
+    assert found is not None and found.direction == "down"
+    assert NIGHTS[10] <= found.found_at <= NIGHTS[13]
+    assert abs((found.since - NIGHTS[10]).days) <= 1
+    nights = (found.found_at - found.since).days + 1
+    assert abs(found.shift - (-0.1)) < 2 * 0.02 * math.sqrt(2 / nights) + 0.02
+    assert "cylinder 4 strength fell by" in found.summary and "since" in found.summary
+
+
+def test_no_drift_without_a_change_or_after_the_baseline_period_alone() -> None:
+    rng = np.random.default_rng(3)
+    steady = 5.0 + 0.1 * rng.standard_normal(40)
+    assert drift(NIGHTS[:40], steady) is None
+    assert drift(NIGHTS[:10], steady[:10]) is None  # nothing after the baseline period
+    # a baseline that did not move at all: the spread's floor (1 % of the mean) keeps noise of 0.1 % quiet
+    flat = np.r_[np.full(10, 2.0), 2.0 + 0.002 * rng.standard_normal(30)]
+    assert drift(NIGHTS[:40], flat) is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**16), scale=st.floats(1e-3, 1e3), step=st.floats(-6.0, 6.0))
+def test_the_rule_does_not_depend_on_the_unit_and_a_mirror_swaps_the_direction(
+    seed: int, scale: float, step: float
+) -> None:
+    """Values scaled by any positive factor give the same finding (the spread and its floor scale
+    alike); values negated give the same nights, the other direction."""
+    rng = np.random.default_rng(seed)
+    values = np.r_[3.0 + 0.1 * rng.standard_normal(10), 3.0 + 0.1 * step + 0.1 * rng.standard_normal(15)]
+    found = drift(NIGHTS[:25], values)
+    scaled = drift(NIGHTS[:25], scale * values)
+    mirrored = drift(NIGHTS[:25], -values)
+    if found is None:
+        assert scaled is None and mirrored is None
+        return
+    assert scaled is not None and mirrored is not None
+    assert (scaled.found_at, scaled.since, scaled.direction) == (found.found_at, found.since, found.direction)
+    assert scaled.shift == pytest.approx(scale * found.shift, rel=1e-9)
+    assert (mirrored.found_at, mirrored.since) == (found.found_at, found.since)
+    assert {mirrored.direction, found.direction} == {"up", "down"}
+
+
+def test_the_quantities_of_a_document() -> None:
+    """Each quantity from its place in the document; the operating point is not judged, the crank speed's
+    channel is summed up by the cylinders, missing and non-finite values are left out."""
+    document = {
+        "speed_rpm": 104.0,
+        "load": 0.75,
+        "cylinder_balance": {
+            "relative": [1.01, float("nan"), 0.5],
+            "relative_standard_error": [0.06, 0.05, 0.07],
+        },
+        "channels": {
+            "crank speed": {"deviation_of_largest": [3.0]},
+            "mb2-vertical": {"deviation_of_largest": [0.01, 0.2, 0.05]},
+        },
+        "impacts": {
+            "mb2-vertical": [{"score": 1.2, "standard_error": 0.1}, {"score": 1.9, "standard_error": 0.2}]
+        },
+        "velocity_rms": {"mb2-vertical": {"value_mm_s": 0.34, "standard_error_mm_s": 0.001}},
+    }
+    points = {p.quantity: p for p in trend_points(document)}
+    assert set(points) == {
+        "speed",
+        "load",
+        "cylinder 1 strength",
+        "cylinder 3 strength",
+        "mb2-vertical order deviation",
+        "mb2-vertical impact",
+        "mb2-vertical rms velocity",
+    }
+    assert (points["cylinder 3 strength"].value, points["cylinder 3 strength"].standard_error) == (0.5, 0.07)
+    assert points["mb2-vertical order deviation"].value == 0.2
+    assert (points["mb2-vertical impact"].value, points["mb2-vertical impact"].standard_error) == (1.9, 0.2)
+    assert points["mb2-vertical rms velocity"].unit == "mm/s"
+    assert not judged("speed") and not judged("load") and judged("cylinder 1 strength")
+    assert trend_points({}) == []
+
+
+def test_the_store_keeps_each_diagnosis_quantities_per_fleet_and_fills_in_older_results(
+    tmp_path: Path, store_url: str
+) -> None:
+    """A batch writes each diagnosis's quantities with its result; another fleet's trend is empty; points
+    lost (results stored before the table) are filled in again, the same."""
+    from monitor.batch import run_batch
+    from monitor.diagnosis import ANALYSIS_VERSION
+    from monitor.store import open_store
+    from monitor.store.schema import trend_points as table
+    from monitor.store.trends import fill_trend_points, read_trend
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    for name in ("7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5"):
+        shutil.copy(SAMPLES / name, folder / name)
+    store = open_store(store_url)
+    try:
+        ships, others = store.create_fleet("ships"), store.create_fleet("others")
+        run_batch(store, ships, path=folder, workers=1)
+        with store.transaction() as c:
+            rows = read_trend(c, ships, "man-b-w-7k98mc", analysis_version=ANALYSIS_VERSION)
+            assert read_trend(c, others, "man-b-w-7k98mc", analysis_version=ANALYSIS_VERSION) == []
+        by_recording: dict[int, dict[str, float]] = {}
+        for row in rows:
+            by_recording.setdefault(row.recording_id, {})[row.quantity] = row.value
+        assert len(by_recording) == 2
+        misfire = next(r for r in store.recordings(ships) if r.filename == "7k98mc-misfire-cyl4.h5")
+        document = store.result(misfire.id, ANALYSIS_VERSION, "diagnosis")
+        assert document is not None
+        assert by_recording[misfire.id]["cylinder 4 strength"] == document["cylinder_balance"]["relative"][3]
+        assert rows[0].recorded_at.tzinfo is not None
+        with store.transaction() as c:
+            c.execute(sa.delete(table))
+            assert fill_trend_points(c, ships) == 2 and fill_trend_points(c, ships) == 0
+            again = read_trend(c, ships, "man-b-w-7k98mc", analysis_version=ANALYSIS_VERSION)
+        assert [(r.recording_id, r.quantity, r.value) for r in again] == [
+            (r.recording_id, r.quantity, r.value) for r in rows
+        ]
+    finally:
+        store.close()
+
+
+def test_the_trend_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The summary table, --json, --quantity, --plot, and a clear error for an engine without diagnoses."""
+    from monitor.cli import main
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    for name in ("7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5"):
+        shutil.copy(SAMPLES / name, folder / name)
+    data = str(tmp_path / "data")
+    assert main(["batch", str(folder), "--data", data, "--workers", "1"]) in (0, 1, 2)
+    capsys.readouterr()
+    assert main(["trend", "man-b-w-7k98mc", "--data", data]) == 0
+    text = capsys.readouterr().out
+    assert (
+        "2 diagnosed recordings" in text and "cylinder 4 strength" in text and "trend findings: none" in text
+    )
+    plot = tmp_path / "trend.png"
+    assert (
+        main(
+            ["trend", "man-b-w-7k98mc", "--data", data, "--json", "--quantity", "speed", "--plot", str(plot)]
+        )
+        == 0
+    )
+    document = json.loads(capsys.readouterr().out)
+    assert list(document["quantities"]) == ["speed"] and len(document["quantities"]["speed"]["points"]) == 2
+    assert document["rule"]["decision_sigmas"] == DECISION
+    assert plot.stat().st_size > 10_000
+    assert main(["trend", "no-such-engine", "--data", data]) == 2
+    assert "no diagnosis of engine 'no-such-engine' in fleet 'local'" in capsys.readouterr().err
+    assert main(["trend", "man-b-w-7k98mc", "--data", data, "--since", "yesterday"]) == 2
+    assert "--since 'yesterday': expected a date" in capsys.readouterr().err
