@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto bench-kill bench-startup
+	wheelhouse check-container proto bench-kill bench-startup bench-trends
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -39,6 +39,11 @@ bench: $(STAMP)
 ## temporary disk; installs the peer rota-order into .venv-peers/ on first use); rewrites docs/performance.md
 bench-performance: $(STAMP)
 	$(BIN)/python -m benchmarks.performance --minutes 60
+
+## bench-trends: the drift rule's false findings and delays with its baseline estimated; rewrites its
+## section of docs/trends.md
+bench-trends: $(STAMP)
+	$(BIN)/python -m benchmarks.trends
 
 ## bench-startup: the quick commands' start-up, warm (fails when one takes 1 s or more); rewrites its section
 ## of docs/performance.md

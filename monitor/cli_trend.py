@@ -25,15 +25,21 @@ _PLOTTED = 12  # panels at most in a figure of the judged quantities
 
 
 def add_trend_parser(sub: Any) -> None:
-    """Add the ``trend`` command to the CLI's subparsers."""
+    """Add the ``trend`` command to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse subparsers
+        The CLI's ``add_subparsers()`` action.
+    """
     trend = sub.add_parser(
         "trend",
         help="an engine's quantities over time and the drift found in them, from the store",
         description="Each diagnosis in the results store (from 'batch' or the HTTP service) of ENGINE, at "
         "its recording's time: speed, load, each cylinder's strength, each bearing sensor's order "
-        "deviation, impact score and rms velocity. Each judged quantity is followed against its baseline "
-        "period (the engine's first 10 recordings) by a two-sided CUSUM (docs/trends.md): a trend finding "
-        "says what moved, since when and by how much.",
+        "deviation, impact score and rms velocity. After the baseline period (the engine's first 10 "
+        "recordings) each judged quantity is followed by a two-sided CUSUM of its values standardised by its "
+        "own history (docs/trends.md): a trend finding says what moved, since when and by how much.",
     )
     trend.add_argument("engine", metavar="ENGINE", help="the engine's id (as its recordings name it)")
     trend.add_argument(
@@ -68,12 +74,23 @@ def _since(text: str | None) -> datetime | None:
 
 
 def run_trend(args: argparse.Namespace) -> int:
-    """Run ``engine-monitor trend`` (see the module docstring); 0, or 2 on an error said on stderr."""
+    """Run ``engine-monitor trend`` (see the module docstring).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 (an error is raised as :class:`monitor.errors.MonitorError`, which the CLI reports with 2).
+    """
     from monitor.diagnosis import ANALYSIS_VERSION
     from monitor.errors import MonitorError
     from monitor.store import default_url, open_store
     from monitor.store.trends import fill_trend_points, read_trend
-    from monitor.trends import BASELINE_RECORDINGS, DECISION, REFERENCE, drift, judged
+    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, drift, judged
 
     since = _since(args.since)
     store = open_store(args.store or default_url(Path(args.data)))
@@ -108,7 +125,8 @@ def run_trend(args: argparse.Namespace) -> int:
         "analysis_version": ANALYSIS_VERSION,
         "since": since.isoformat() if since else None,
         "rule": {
-            "method": "two-sided CUSUM against the baseline period",
+            "method": "two-sided CUSUM, each value standardised by the values up to lag recordings before it",
+            "lag_recordings": LAG,
             "baseline_recordings": BASELINE_RECORDINGS,
             "reference_sigmas": REFERENCE,
             "decision_sigmas": DECISION,
@@ -122,7 +140,6 @@ def run_trend(args: argparse.Namespace) -> int:
             drift(
                 [p.recorded_at for p in points],
                 [p.value for p in points],
-                [p.standard_error for p in points],
                 quantity=quantity,
                 unit=points[0].unit,
             )

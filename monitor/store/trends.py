@@ -78,6 +78,15 @@ def write_trend_points(
 ) -> int:
     """Store a diagnosis document's quantities for its recording (in the caller's transaction).
 
+    Parameters
+    ----------
+    c : Connection
+        In the transaction that stores the result.
+    recording_id : int
+    analysis_version : str
+    document : dict
+        The diagnosis document.
+
     Returns
     -------
     int
@@ -114,6 +123,12 @@ def write_trend_points(
 
 def fill_trend_points(c: Connection, fleet_id: int) -> int:
     """Fill in the trend points of a fleet's diagnosis results that have none (stored before them).
+
+    Parameters
+    ----------
+    c : Connection
+        In a transaction.
+    fleet_id : int
 
     Returns
     -------
