@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto bench-kill bench-startup bench-trends
+	wheelhouse check-container proto bench-kill bench-startup bench-trends browser
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -25,8 +25,19 @@ demo: $(STAMP)
 		--baseline $(OUT)/7k98mc-baseline.json --plot $(OUT)/7k98mc-misfire-cyl4.png; \
 		status=$$?; test $$status -le 2
 
+## browser: Debian's chromium and its driver for the web pages' tests, installed when missing and the
+## machine allows it (root, apt-get); elsewhere those tests skip and say why
+browser:
+	@if command -v chromedriver >/dev/null 2>&1 && { command -v chromium >/dev/null 2>&1 || \
+		command -v chromium-browser >/dev/null 2>&1; }; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing chromium and chromium-driver (Debian) for the web pages' tests ..."; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver \
+			>/dev/null || echo "chromium could not be installed: the browser tests will skip"; \
+	else echo "no chromium and no root apt-get: the browser tests will skip"; fi
+
 ## test: lint, type check and the whole test suite
-test: $(STAMP)
+test: $(STAMP) browser
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/pytest -n 2
