@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections import defaultdict
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -89,8 +88,7 @@ def run_trend(args: argparse.Namespace) -> int:
     from monitor.diagnosis import ANALYSIS_VERSION
     from monitor.errors import MonitorError
     from monitor.store import default_url, open_store
-    from monitor.store.trends import fill_trend_points, read_trend
-    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, drift, judged
+    from monitor.store.trends import fill_trend_points, read_trend, trend_document
 
     since = _since(args.since)
     store = open_store(args.store or default_url(Path(args.data)))
@@ -116,65 +114,9 @@ def run_trend(args: argparse.Namespace) -> int:
             + " in the store: run 'engine-monitor batch' on its recordings first (quantity names as "
             "'engine-monitor trend ENGINE' lists them)"
         )
-    series: dict[str, list[Any]] = defaultdict(list)
-    for row in rows:
-        series[row.quantity].append(row)
-    document: dict[str, Any] = {
-        "engine_id": args.engine,
-        "fleet": args.fleet,
-        "analysis_version": ANALYSIS_VERSION,
-        "since": since.isoformat() if since else None,
-        "rule": {
-            "method": "two-sided CUSUM, each value standardised by the values up to lag recordings before it",
-            "lag_recordings": LAG,
-            "baseline_recordings": BASELINE_RECORDINGS,
-            "reference_sigmas": REFERENCE,
-            "decision_sigmas": DECISION,
-        },
-        "quantities": {},
-        "findings": [],
-    }
-    findings = []
-    for quantity, points in series.items():
-        found = (
-            drift(
-                [p.recorded_at for p in points],
-                [p.value for p in points],
-                quantity=quantity,
-                unit=points[0].unit,
-            )
-            if judged(quantity)
-            else None
-        )
-        if found is not None:
-            findings.append(found)
-        document["quantities"][quantity] = {
-            "unit": points[0].unit,
-            "judged": judged(quantity),
-            "points": [
-                {
-                    "recording_id": p.recording_id,
-                    "recorded_at": p.recorded_at.isoformat(),
-                    "value": p.value,
-                    "standard_error": p.standard_error,
-                }
-                for p in points
-            ],
-            "drift": None
-            if found is None
-            else {
-                "direction": found.direction,
-                "since": found.since.isoformat(),
-                "found_at": found.found_at.isoformat(),
-                "shift": found.shift,
-                "shift_sigmas": found.shift_sigmas,
-                "baseline_mean": found.baseline_mean,
-                "baseline_sigma": found.baseline_sigma,
-                "summary": found.summary,
-            },
-        }
-    findings.sort(key=lambda f: (f.found_at, f.quantity))
-    document["findings"] = [f.summary for f in findings]
+    document, series, findings = trend_document(
+        rows, engine_id=args.engine, fleet=args.fleet, analysis_version=ANALYSIS_VERSION, since=since
+    )
     if args.plot:
         _plot(series, {f.quantity: f for f in findings}, args.plot, args.engine)
     if args.json:

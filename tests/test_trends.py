@@ -230,3 +230,33 @@ def test_the_trend_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "no diagnosis of engine 'no-such-engine' in fleet 'local'" in capsys.readouterr().err
     assert main(["trend", "man-b-w-7k98mc", "--data", data, "--since", "yesterday"]) == 2
     assert "--since 'yesterday': expected a date" in capsys.readouterr().err
+
+
+def test_the_fleet_summary_gives_each_engine_its_latest_verdict(tmp_path: Path, store_url: str) -> None:
+    """Each engine with a diagnosis, its latest recording by recording time (not upload order), the counts
+    of alarms and warnings; another fleet sees none of it."""
+    from monitor.batch import run_batch
+    from monitor.diagnosis import ANALYSIS_VERSION
+    from monitor.store import open_store
+    from monitor.store.trends import fleet_summary
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    for path in SAMPLES.glob("*.h5"):
+        shutil.copy(path, folder / path.name)
+    store = open_store(store_url)
+    try:
+        ships, others = store.create_fleet("ships"), store.create_fleet("others")
+        run_batch(store, ships, path=folder, workers=2)
+        with store.transaction() as c:
+            summary = {s.engine_id: s for s in fleet_summary(c, ships, analysis_version=ANALYSIS_VERSION)}
+            assert fleet_summary(c, others, analysis_version=ANALYSIS_VERSION) == []
+    finally:
+        store.close()
+    assert set(summary) == {"man-b-w-7k98mc", "medium-speed-6l32"}
+    big = summary["man-b-w-7k98mc"]
+    assert (big.recordings, big.alarms) == (2, 1)
+    # the two 7K98MC samples start at the same time: the later stored (higher id) is the latest
+    assert big.latest_filename in ("7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5")
+    assert big.latest_status == ("alarm" if big.latest_filename.startswith("7k98mc-misfire") else "healthy")
+    assert summary["medium-speed-6l32"].latest_status == "alarm"

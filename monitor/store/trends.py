@@ -19,9 +19,19 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection
 
 from monitor.store.schema import recordings, results, trend_points
+from monitor.trends import Drift
 from monitor.trends import trend_points as quantities_of
 
-__all__ = ["DIAGNOSIS_KIND", "TrendRow", "fill_trend_points", "read_trend", "write_trend_points"]
+__all__ = [
+    "DIAGNOSIS_KIND",
+    "EngineSummary",
+    "TrendRow",
+    "fill_trend_points",
+    "fleet_summary",
+    "read_trend",
+    "trend_document",
+    "write_trend_points",
+]
 
 DIAGNOSIS_KIND = "diagnosis"  # the result kind whose document the quantities come from
 _FILL_BATCH = 200  # results read at a time when filling in
@@ -218,3 +228,174 @@ def read_trend(
         )
         for r in rows
     ]
+
+
+def trend_document(
+    rows: list[TrendRow],
+    *,
+    engine_id: str,
+    fleet: str,
+    analysis_version: str,
+    since: datetime | None = None,
+) -> tuple[dict[str, Any], dict[str, list[TrendRow]], list[Drift]]:
+    """An engine's trend as a document (``trend --json`` and ``GET /engines/{id}/trend``).
+
+    Parameters
+    ----------
+    rows : list of TrendRow
+        From :func:`read_trend`.
+    engine_id, fleet, analysis_version : str
+    since : datetime, optional
+        The start of the span read, if any.
+
+    Returns
+    -------
+    document : dict
+        ``rule``, each quantity's ``unit``, ``judged``, ``points`` and ``drift``, and the ``findings``
+        in words in the order they were found.
+    series : dict of str to list of TrendRow
+        The rows by quantity.
+    findings : list of Drift
+        In the order they were found.
+    """
+    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, drift, judged
+
+    series: dict[str, list[TrendRow]] = {}
+    for row in rows:
+        series.setdefault(row.quantity, []).append(row)
+    document: dict[str, Any] = {
+        "engine_id": engine_id,
+        "fleet": fleet,
+        "analysis_version": analysis_version,
+        "since": since.isoformat() if since else None,
+        "rule": {
+            "method": "two-sided CUSUM, each value standardised by the values up to lag recordings before it",
+            "lag_recordings": LAG,
+            "baseline_recordings": BASELINE_RECORDINGS,
+            "reference_sigmas": REFERENCE,
+            "decision_sigmas": DECISION,
+        },
+        "quantities": {},
+        "findings": [],
+    }
+    findings: list[Drift] = []
+    for quantity, points in series.items():
+        found = (
+            drift(
+                [p.recorded_at for p in points],
+                [p.value for p in points],
+                quantity=quantity,
+                unit=points[0].unit,
+            )
+            if judged(quantity)
+            else None
+        )
+        if found is not None:
+            findings.append(found)
+        document["quantities"][quantity] = {
+            "unit": points[0].unit,
+            "judged": judged(quantity),
+            "points": [
+                {
+                    "recording_id": p.recording_id,
+                    "recorded_at": p.recorded_at.isoformat(),
+                    "value": p.value,
+                    "standard_error": p.standard_error,
+                }
+                for p in points
+            ],
+            "drift": None
+            if found is None
+            else {
+                "direction": found.direction,
+                "since": found.since.isoformat(),
+                "found_at": found.found_at.isoformat(),
+                "shift": found.shift,
+                "shift_sigmas": found.shift_sigmas,
+                "baseline_mean": found.baseline_mean,
+                "baseline_sigma": found.baseline_sigma,
+                "summary": found.summary,
+            },
+        }
+    findings.sort(key=lambda f: (f.found_at, f.quantity))
+    document["findings"] = [f.summary for f in findings]
+    return document, series, findings
+
+
+@dataclass(frozen=True)
+class EngineSummary:
+    """An engine of a fleet at a glance: its diagnosed recordings and the latest one's verdict.
+
+    Attributes
+    ----------
+    engine_id : str
+    recordings : int
+        Recordings with a diagnosis at this analysis version.
+    alarms, warnings : int
+        Of those, the ones whose diagnosis raised an alarm, a warning.
+    latest_recording_id : int
+    latest_recorded_at : datetime
+        The latest recording's time (its start, else its upload).
+    latest_status : str
+        Its diagnosis's status.
+    latest_filename : str
+    """
+
+    engine_id: str
+    recordings: int
+    alarms: int
+    warnings: int
+    latest_recording_id: int
+    latest_recorded_at: datetime
+    latest_status: str
+    latest_filename: str
+
+
+def fleet_summary(c: Connection, fleet_id: int, *, analysis_version: str) -> list[EngineSummary]:
+    """Each engine of a fleet with a diagnosed recording, by engine id.
+
+    Parameters
+    ----------
+    c : Connection
+    fleet_id : int
+    analysis_version : str
+
+    Returns
+    -------
+    list of EngineSummary
+    """
+    rows = c.execute(
+        sa.select(
+            recordings.c.id,
+            recordings.c.engine_id,
+            recordings.c.filename,
+            recordings.c.recorded_at,
+            recordings.c.uploaded_at,
+            results.c.status,
+        )
+        .join(results, results.c.recording_id == recordings.c.id)
+        .where(
+            (recordings.c.fleet_id == fleet_id)
+            & (results.c.kind == DIAGNOSIS_KIND)
+            & (results.c.analysis_version == analysis_version)
+        )
+    ).all()
+    by_engine: dict[str, list[Any]] = {}
+    for r in rows:
+        by_engine.setdefault(r.engine_id, []).append(r)
+    summaries = []
+    for engine_id, found in sorted(by_engine.items()):
+        latest = max(found, key=lambda r: (_recording_time(r.recorded_at, r.uploaded_at), r.id))
+        summaries.append(
+            EngineSummary(
+                engine_id,
+                len(found),
+                sum(1 for r in found if r.status == "alarm"),
+                sum(1 for r in found if r.status == "warning"),
+                int(latest.id),
+                _recording_time(latest.recorded_at, latest.uploaded_at),
+                str(latest.status),
+                str(latest.filename),
+            )
+        )
+    return summaries
