@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STATIC", "recording_page"]
+__all__ = ["STATIC", "engine_page", "fleet_page", "login_page", "recording_page"]
 
 STATIC = Path(__file__).parent / "static"
 _UPLOT = "vendor/uplot-1.6.32"
@@ -148,4 +148,145 @@ def recording_page(
         + "</section>\n"
         + '<section id="charts"><noscript>The charts need JavaScript; the findings above do not.</noscript>'
         "</section>\n" + _data_script(data) + _scripts(assets) + "\n</body></html>\n"
+    )
+
+
+def _when(value: Any) -> str:
+    """A time as the pages show it (UTC, to the minute)."""
+    return value.strftime("%Y-%m-%d %H:%M") if hasattr(value, "strftime") else html.escape(str(value))[:16]
+
+
+def fleet_page(fleet: str, engines: list[Any], *, links: Any, assets: str) -> str:
+    """The fleet view: each engine's latest verdict at a glance, coloured, worst first.
+
+    Parameters
+    ----------
+    fleet : str
+        The fleet's name.
+    engines : list of EngineSummary
+        :func:`monitor.store.trends.fleet_summary`.
+    links : object
+        ``engine(engine_id)`` and ``recording(recording_id)``: the URLs of those views; ``logout``: the
+        URL that ends the session.
+    assets : str
+        The URL prefix of the served ``static/`` folder.
+
+    Returns
+    -------
+    str
+    """
+    rank = {"alarm": 0, "warning": 1, "inconclusive": 2, "healthy": 3}
+    ordered = sorted(engines, key=lambda e: (rank.get(e.latest_status, 2), e.engine_id))
+    rows = "".join(
+        f'<tr class="engine-row" data-engine="{html.escape(e.engine_id)}" '
+        f'data-status="{html.escape(e.latest_status)}">'
+        f'<td><a href="{html.escape(links.engine(e.engine_id))}">{html.escape(e.engine_id)}</a></td>'
+        f"<td>{_status(e.latest_status)}</td>"
+        f'<td><a href="{html.escape(links.recording(e.latest_recording_id))}">'
+        f"{html.escape(e.latest_filename)}</a> ({_when(e.latest_recorded_at)} UTC)</td>"
+        f"<td>{e.recordings}</td><td>{e.alarms}</td><td>{e.warnings}</td></tr>"
+        for e in ordered
+    )
+    table = (
+        '<table class="fleet" id="fleet"><tr><th>engine</th><th>latest status</th><th>latest recording</th>'
+        f"<th>diagnosed</th><th>alarms</th><th>warnings</th></tr>{rows}</table>"
+        if engines
+        else '<p class="none" id="fleet">No diagnosed recording yet: upload one, or run the nightly batch.'
+        "</p>"
+    )
+    worst = ordered[0].latest_status if ordered else "none"
+    return (
+        _head(f"Fleet {fleet}", assets)
+        + '<body class="view-fleet">\n'
+        + f'<nav><form method="post" action="{html.escape(links.logout)}" class="logout">'
+        '<button type="submit" id="logout">Log out</button></form></nav>'
+        + f"<header><h1>Fleet {html.escape(fleet)}</h1>"
+        f'<p class="facts">{len(engines)} engine(s) · worst latest status {_status(worst)}</p></header>\n'
+        + f"<section>{table}</section>\n"
+        + "</body></html>\n"
+    )
+
+
+def engine_page(
+    engine_id: str,
+    trend: dict[str, Any] | None,
+    latest: dict[str, Any] | None,
+    *,
+    latest_id: int | None,
+    links: Any,
+    assets: str,
+) -> str:
+    """The engine view: the latest verdict and findings, the trend findings, then the charts.
+
+    Parameters
+    ----------
+    engine_id : str
+    trend : dict or None
+        :func:`monitor.store.trends.trend_document`.
+    latest : dict or None
+        The latest recording's diagnosis document.
+    latest_id : int or None
+        Its recording id.
+    links : object
+        ``fleet``, ``recording(recording_id)``.
+    assets : str
+        The URL prefix of the served ``static/`` folder.
+
+    Returns
+    -------
+    str
+    """
+    status = str((latest or {}).get("status", "none"))
+    findings = (latest or {}).get("findings") or []
+    drift = (trend or {}).get("findings") or []
+    trend_html = (
+        '<ul class="findings" id="trend-findings">'
+        + "".join(f'<li class="finding severity-warning">{html.escape(str(d))}</li>' for d in drift)
+        + "</ul>"
+        if drift
+        else '<p class="none" id="trend-findings">No trend finding: every judged quantity within its '
+        "history.</p>"
+    )
+    name = html.escape(str((latest or {}).get("recording", "")))
+    latest_link = (
+        f' <a href="{html.escape(links.recording(latest_id))}">{name}</a>' if latest_id is not None else ""
+    )
+    data = {"view": "engine", "trend": trend, "latest": latest}
+    return (
+        _head(f"{engine_id}: {STATUS_WORDS.get(status, status)}", assets)
+        + '<body class="view-engine">\n'
+        + f'<nav><a href="{html.escape(links.fleet)}">Fleet</a></nav>'
+        + f"<header><h1>{html.escape(engine_id)}</h1></header>\n"
+        + f'<section class="verdict"><h2>Latest recording {_status(status)}{latest_link}</h2>'
+        + _findings(findings)
+        + f"<h2>Trend findings</h2>{trend_html}</section>\n"
+        + '<section id="charts"><noscript>The charts need JavaScript; the findings above do not.</noscript>'
+        "</section>\n" + _data_script(data) + _scripts(assets) + "\n</body></html>\n"
+    )
+
+
+def login_page(*, action: str, error: str = "", assets: str) -> str:
+    """A form that takes an API key and starts a session (the key itself is never shown again).
+
+    Parameters
+    ----------
+    action : str
+        The URL the form posts to.
+    error : str, optional
+        Why the last attempt was refused.
+    assets : str
+        The URL prefix of the served ``static/`` folder.
+
+    Returns
+    -------
+    str
+    """
+    message = f'<p class="error" id="login-error">{html.escape(error)}</p>' if error else ""
+    return (
+        _head("Log in", assets)
+        + '<body class="view-login">\n'
+        + f'<form class="login" method="post" action="{html.escape(action)}"><h1>Engine monitor</h1>'
+        '<label for="key">API key of your fleet</label>'
+        '<input type="password" id="key" name="key" autocomplete="current-password" required>'
+        f'{message}<button type="submit" id="login">Log in</button></form>\n' + "</body></html>\n"
     )
