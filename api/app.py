@@ -55,8 +55,10 @@ from starlette.requests import ClientDisconnect
 
 from api import docs
 from api.auth import SESSION_S, Fleet, LoginRequired, Sessions, session_secret
+from api.baselines import calibration_limits
+from api.baselines import router as baselines_router
 from api.engines import Source, visible_engine
-from api.errors import ApiError
+from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, validate
 from api.worker import Worker, plot_path
@@ -104,6 +106,11 @@ class Settings:
     key_ttl_s : float
         How long a key found in the store is trusted without asking again [s]: a revoked key is
         refused at most this long after (0: every request asks the store).
+    calibrations : int
+        Baselines calibrated at once (``POST /engines/{id}/baseline``; a fleet has one at a time, its
+        next is refused with 429 meanwhile; another fleet's waits its turn).
+    calibration_memory_bytes, calibration_timeout_s : int, float
+        Limits of the calibrating child process (its request waits for it).
     session_s : float
         How long a browser's session lasts after its login (``POST /login``) [s].
     read_threads : int
@@ -127,6 +134,9 @@ class Settings:
     lease_s: float = 30.0
     retry_backoff_s: float = 10.0
     key_ttl_s: float = KEY_TTL_S
+    calibrations: int = 1
+    calibration_memory_bytes: int = 4 << 30
+    calibration_timeout_s: float = 300.0
     session_s: float = SESSION_S
     read_threads: int = 8
 
@@ -135,16 +145,6 @@ def _error(status: int, code: str, message: str, headers: dict[str, str] | None 
     return JSONResponse(
         {"error": {"status": status, "code": code, "message": message}}, status_code=status, headers=headers
     )
-
-
-class ErrorBody(BaseModel):
-    status: int
-    code: str
-    message: str
-
-
-class ErrorResponse(BaseModel):
-    error: ErrorBody
 
 
 class RecordingOut(BaseModel):
@@ -339,6 +339,8 @@ def create_app(settings: Settings) -> FastAPI:
         app.state.store = store
         app.state.keys = KeyCache(settings.key_ttl_s)
         app.state.sessions = Sessions(session_secret(settings.data_dir), settings.session_s)
+        app.state.settings = settings
+        app.state.calibrations, app.state.calibrating = calibration_limits(settings.calibrations)
         app.state.readers = CapacityLimiter(settings.read_threads)
         worker = (
             Worker(
@@ -448,6 +450,7 @@ def create_app(settings: Settings) -> FastAPI:
         return JSONResponse(app.openapi())
 
     app.include_router(docs.router)
+    app.include_router(baselines_router)
 
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> dict[str, str]:

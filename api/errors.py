@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["ApiError"]
+from pydantic import BaseModel
+
+__all__ = ["ApiError", "ErrorBody", "ErrorResponse"]
 
 
 class ApiError(Exception):
@@ -11,3 +13,13 @@ class ApiError(Exception):
     def __init__(self, status: int, code: str, message: str, headers: dict[str, str] | None = None) -> None:
         super().__init__(message)
         self.status, self.code, self.message, self.headers = status, code, message, headers
+
+
+class ErrorBody(BaseModel):
+    status: int
+    code: str
+    message: str
+
+
+class ErrorResponse(BaseModel):
+    error: ErrorBody

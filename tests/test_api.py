@@ -437,6 +437,74 @@ def test_the_openapi_document_lists_every_route(server: Server) -> None:
     }
 
 
+def test_a_baseline_set_from_a_stored_recording_is_used_by_later_analyses_of_its_fleet_only(
+    server: Server, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """POST /engines/{id}/baseline calibrates on a stored recording what `engine-monitor calibrate`
+    writes for the same file, stores it, and the fleet's later analyses of that engine compare through
+    it as `compare --baseline` does; another fleet's analyses do not. Calibrations the product refuses
+    (an unhealthy recording, no bearing channel) answer 422 with its message and store nothing; another
+    fleet's engine, recording or baseline answers 404."""
+    from dataclasses import replace
+
+    from monitor.io.hdf5 import read_hdf5
+
+    engine = "man-b-w-7k98mc"
+    healthy, misfiring = SAMPLES / "7k98mc-baseline.h5", SAMPLES / "7k98mc-misfire-cyl4.h5"
+    unhealthy = tmp_path / "misfire-copy.h5"  # the same samples, another file: another recording
+    write_hdf5(replace(read_hdf5(misfiring), start_time="2026-01-02T03:04:05Z"), unhealthy)
+    deaf = tmp_path / "no-bearing-sensor.h5"
+    sample = read_hdf5(healthy)
+    write_hdf5(replace(sample, channels=tuple(c for c in sample.channels if c.kind != "acceleration")), deaf)
+    with server.client("a") as a, server.client("b") as b:
+        ids = {path.name: _upload(a, path).json()["id"] for path in (healthy, unhealthy, deaf)}
+        other = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        theirs = _upload(b, healthy).json()["id"]
+        assert a.get(f"/engines/{engine}/baseline").status_code == 404
+        for name, reason in (
+            (unhealthy.name, "not healthy enough to calibrate on"),
+            (deaf.name, "no acceleration or velocity channel on a main bearing"),
+        ):
+            refused = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[name]})
+            assert refused.status_code == 422, refused.text
+            assert refused.json()["error"]["code"] == "calibration_failed"
+            assert reason in refused.json()["error"]["message"]
+            assert str(server.data) not in refused.json()["error"]["message"]
+        mismatch = a.post(f"/engines/{engine}/baseline", json={"recording_id": other})
+        assert mismatch.status_code == 422 and "'medium-speed-6l32', not 'man-b-w-7k98mc'" in mismatch.text
+        assert a.get(f"/engines/{engine}/baseline").status_code == 404  # nothing stored
+        set_ = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[healthy.name]})
+        assert set_.status_code == 201, set_.text
+        stored = a.get(f"/engines/{engine}/baseline").json()
+        assert stored == set_.json() and stored["recording_id"] == ids[healthy.name]
+        # another fleet: a's recording is unknown to b, and b has no baseline of its own
+        assert (
+            b.post(f"/engines/{engine}/baseline", json={"recording_id": ids[healthy.name]}).status_code == 404
+        )
+        assert b.get(f"/engines/{engine}/baseline").status_code == 404
+        assert b.get("/engines/ship-a-only/baseline").status_code == 404
+        mine = _upload(a, misfiring).json()["id"]
+        not_mine = _upload(b, misfiring).json()["id"]
+        assert _wait_done(a, mine)["status"] == "done" and _wait_done(b, not_mine)["status"] == "done"
+        with_baseline = a.get(f"/recordings/{mine}/diagnosis").json()
+        without = b.get(f"/recordings/{not_mine}/diagnosis").json()
+        assert b.get(f"/engines/{engine}/baseline").status_code == 404 and theirs != ids[healthy.name]
+    calibrated = tmp_path / "cli-baseline.json"
+    assert main(["calibrate", str(healthy), "-o", str(calibrated)]) == 0
+    assert stored["baseline"] == json.loads(calibrated.read_text())
+    capsys.readouterr()
+    main(["compare", str(misfiring), "--baseline", str(calibrated), "--json"])
+    cli = json.loads(capsys.readouterr().out)
+    assert with_baseline["baseline"] == cli["baseline"] == healthy.name and without["baseline"] == ""
+    assert with_baseline["findings"] == cli["findings"]
+    assert without["findings"] != cli["findings"]  # without a baseline no bearing order is compared
+    store = open_store(server.store_url)
+    try:
+        assert store.count("baselines") == 1
+    finally:
+        store.close()
+
+
 def _cookie_attributes(answer: httpx.Response, name: str) -> tuple[str, set[str]]:
     """A Set-Cookie's value and its attributes (lower case)."""
     for header in answer.headers.get_list("set-cookie"):
