@@ -2,9 +2,14 @@
 
 Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
 
-- Every route but ``/health`` needs an API key (header ``X-API-Key``); a key
-  sees only its fleet's engines and recordings, and another fleet's id
-  answers 404 as an unknown one.
+- Every route but ``/health`` and the login needs an API key (header
+  ``X-API-Key``) or a browser's session (``POST /login``, :mod:`api.auth`); a
+  key sees only its fleet's engines, recordings and baselines, and the bundled
+  engines, and another fleet's id answers 404 as an unknown one.
+- ``GET /engines`` lists the fleet's own engine descriptions and the bundled
+  engines (:mod:`api.engines`); ``POST /engines/{id}/baseline`` calibrates an
+  engine's baseline on a stored recording, which later analyses use
+  (:mod:`api.baselines`).
 - ``POST /recordings?filename=NAME`` takes the file as the request body
   (``application/octet-stream``), streamed to a temporary file on disk
   (never whole in memory) up to :attr:`Settings.max_upload_bytes`, validated
@@ -17,7 +22,8 @@ Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
   tag, 304 for a client that has it, keys remembered for a second.
 
 Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
-``/openapi.json`` (with a key, as every route but ``/health``).
+``/openapi.json``, and its page at ``/docs`` (:mod:`api.docs`), both with a
+key or a session.
 """
 
 from __future__ import annotations
