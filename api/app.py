@@ -2,9 +2,14 @@
 
 Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
 
-- Every route but ``/health`` needs an API key (header ``X-API-Key``); a key
-  sees only its fleet's engines and recordings, and another fleet's id
-  answers 404 as an unknown one.
+- Every route but ``/health`` and the login needs an API key (header
+  ``X-API-Key``) or a browser's session (``POST /login``, :mod:`api.auth`); a
+  key sees only its fleet's engines, recordings and baselines, and the bundled
+  engines, and another fleet's id answers 404 as an unknown one.
+- ``GET /engines`` lists the fleet's own engine descriptions and the bundled
+  engines (:mod:`api.engines`); ``POST /engines/{id}/baseline`` calibrates an
+  engine's baseline on a stored recording, which later analyses use
+  (:mod:`api.baselines`).
 - ``POST /recordings?filename=NAME`` takes the file as the request body
   (``application/octet-stream``), streamed to a temporary file on disk
   (never whole in memory) up to :attr:`Settings.max_upload_bytes`, validated
@@ -17,7 +22,8 @@ Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
   tag, 304 for a client that has it, keys remembered for a second.
 
 Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
-``/openapi.json`` (with a key, as every route but ``/health``).
+``/openapi.json``, and its page at ``/docs`` (:mod:`api.docs`), both with a
+key or a session.
 """
 
 from __future__ import annotations
@@ -40,24 +46,31 @@ from datetime import UTC, datetime, timedelta
 from functools import partial
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
+from urllib.parse import urlencode
 
 from anyio import CapacityLimiter, to_thread
-from fastapi import Depends, FastAPI, Query, Request
+from fastapi import FastAPI, Query, Request
 from fastapi import Path as FastPath
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Response
 from fastapi.routing import APIRoute
 from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import ClientDisconnect
 
+from api import docs
+from api.auth import SESSION_S, Fleet, LoginRequired, Sessions, session_secret
+from api.baselines import calibration_limits
+from api.baselines import router as baselines_router
+from api.engines import Source, visible_engine
+from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, validate
 from api.worker import Worker, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.engine import bundled_engines
-from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, key_digest, open_store
+from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, open_store
 
 log = logging.getLogger("engine_monitor.api")
 T = TypeVar("T")
@@ -99,6 +112,13 @@ class Settings:
     key_ttl_s : float
         How long a key found in the store is trusted without asking again [s]: a revoked key is
         refused at most this long after (0: every request asks the store).
+    calibrations : int
+        Baselines calibrated at once (``POST /engines/{id}/baseline``; a fleet has one at a time, its
+        next is refused with 429 meanwhile; another fleet's waits its turn).
+    calibration_memory_bytes, calibration_timeout_s : int, float
+        Limits of the calibrating child process (its request waits for it).
+    session_s : float
+        How long a browser's session lasts after its login (``POST /login``) [s].
     read_threads : int
         Threads that run the reads' queries at once on PostgreSQL (each holds a connection; more would
         only take turns at the interpreter's lock, fewer would leave the round trips unoverlapped). On
@@ -120,31 +140,17 @@ class Settings:
     lease_s: float = 30.0
     retry_backoff_s: float = 10.0
     key_ttl_s: float = KEY_TTL_S
+    calibrations: int = 1
+    calibration_memory_bytes: int = 4 << 30
+    calibration_timeout_s: float = 300.0
+    session_s: float = SESSION_S
     read_threads: int = 8
-
-
-class ApiError(Exception):
-    """An error answered with the service's one error body."""
-
-    def __init__(self, status: int, code: str, message: str, headers: dict[str, str] | None = None) -> None:
-        super().__init__(message)
-        self.status, self.code, self.message, self.headers = status, code, message, headers
 
 
 def _error(status: int, code: str, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
     return JSONResponse(
         {"error": {"status": status, "code": code, "message": message}}, status_code=status, headers=headers
     )
-
-
-class ErrorBody(BaseModel):
-    status: int
-    code: str
-    message: str
-
-
-class ErrorResponse(BaseModel):
-    error: ErrorBody
 
 
 class RecordingOut(BaseModel):
@@ -182,6 +188,10 @@ class RecordingPage(BaseModel):
 class EngineOut(BaseModel):
     engine_id: str
     description: dict[str, Any]
+    source: Source = Field(
+        description="fleet: the fleet's own description; bundled: shipped with the product (read-only). A "
+        "fleet's own description of a bundled id takes precedence, in the analyses too"
+    )
 
 
 class Health(BaseModel):
@@ -234,25 +244,6 @@ async def _read(app: FastAPI, function: Callable[..., T], *args: Any) -> T:
     return await to_thread.run_sync(function, *args, limiter=app.state.readers)
 
 
-async def _fleet(request: Request) -> int:
-    """The fleet of the request's API key (401 without a known key); the store is asked unless it
-    confirmed the key less than ``key_ttl_s`` ago."""
-    key = request.headers.get("x-api-key")
-    if not key:
-        raise ApiError(401, "missing_key", "an API key is needed: send it in the X-API-Key header")
-    keys: KeyCache = request.app.state.keys
-    digest = key_digest(key)
-    found = keys.fleet(digest)
-    if found is None:
-        store: Store = request.app.state.store
-        found = await _read(request.app, store.fleet_of_key, key)
-        if found is None:
-            raise ApiError(401, "unknown_key", "the API key is not known")
-        keys.remember(digest, found)
-    return found
-
-
-Fleet = Annotated[int, Depends(_fleet)]
 RecordingId = Annotated[int, FastPath(ge=1, le=2**31 - 1, description="the recording's id")]
 # printable text: a NUL or a control character in an id is refused (422) before it reaches a store
 PRINTABLE = r"^[^\x00-\x1f\x7f]+$"
@@ -353,6 +344,9 @@ def create_app(settings: Settings) -> FastAPI:
         state["store"] = store
         app.state.store = store
         app.state.keys = KeyCache(settings.key_ttl_s)
+        app.state.sessions = Sessions(session_secret(settings.data_dir), settings.session_s)
+        app.state.settings = settings
+        app.state.calibrations, app.state.calibrating = calibration_limits(settings.calibrations)
         app.state.readers = CapacityLimiter(settings.read_threads)
         worker = (
             Worker(
@@ -394,6 +388,10 @@ def create_app(settings: Settings) -> FastAPI:
     @app.exception_handler(ApiError)
     async def api_error(_: Request, error: ApiError) -> JSONResponse:
         return _error(error.status, error.code, error.message, error.headers)
+
+    @app.exception_handler(LoginRequired)
+    async def login_first(_: Request, needed: LoginRequired) -> RedirectResponse:
+        return RedirectResponse(f"/login?{urlencode({'next': needed.path})}", status_code=303)
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, error: StarletteHTTPException) -> JSONResponse:
@@ -454,8 +452,11 @@ def create_app(settings: Settings) -> FastAPI:
 
     @app.get("/openapi.json", include_in_schema=False)
     def openapi(_: Fleet) -> JSONResponse:
-        """The OpenAPI document (with a key, as every route but /health)."""
+        """The OpenAPI document (with a key or a session, as every route but /health)."""
         return JSONResponse(app.openapi())
+
+    app.include_router(docs.router)
+    app.include_router(baselines_router)
 
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> dict[str, str]:
@@ -716,9 +717,18 @@ def create_app(settings: Settings) -> FastAPI:
         return description
 
     @app.get("/engines", response_model=list[str], responses=ERRORS, tags=["engines"])
-    def list_engines(fleet_id: Fleet) -> list[str]:
-        """The fleet's engine ids (recordings of bundled engines need none)."""
-        return store().engines(fleet_id)
+    def list_engines(
+        fleet_id: Fleet,
+        source: Annotated[
+            Source | None,
+            Query(description="only the fleet's own descriptions, or only the bundled engines"),
+        ] = None,
+    ) -> list[str]:
+        """The ids of the engines the fleet's recordings may name, sorted: the fleet's own descriptions and
+        the bundled engines (an id in both once; GET /engines/{engine_id} says which it is)."""
+        own = store().engines(fleet_id) if source != "bundled" else []
+        bundled = list(bundled_engines()) if source != "fleet" else []
+        return sorted(set(own) | set(bundled))
 
     @app.post("/engines", status_code=201, response_model=EngineOut, responses=ERRORS, tags=["engines"])
     def create_engine(fleet_id: Fleet, body: EngineIn) -> dict[str, Any]:
@@ -730,22 +740,24 @@ def create_app(settings: Settings) -> FastAPI:
                 409, "exists", f"engine {engine_id!r} exists already: PUT /engines/{engine_id} replaces it"
             )
         store().put_engine(fleet_id, engine_id, description)
-        return {"engine_id": engine_id, "description": description}
+        return {"engine_id": engine_id, "description": description, "source": "fleet"}
 
     @app.get("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
     def get_engine(fleet_id: Fleet, engine_id: EngineId) -> dict[str, Any]:
-        """An engine description of the fleet."""
-        description = store().engine(fleet_id, engine_id)
-        if description is None:
+        """An engine's description: the fleet's own, else the bundled one (``source`` says which)."""
+        found = visible_engine(store(), fleet_id, engine_id)
+        if found is None:
             raise ApiError(404, "not_found", f"no engine {engine_id!r}")
-        return {"engine_id": engine_id, "description": description}
+        return {"engine_id": engine_id, "description": found[0], "source": found[1]}
 
     @app.put("/engines/{engine_id}", response_model=EngineOut, responses=ERRORS, tags=["engines"])
     def put_engine(fleet_id: Fleet, engine_id: EngineId, body: EngineIn) -> dict[str, Any]:
         """Replace an engine description (later analyses use it)."""
         if store().engine(fleet_id, engine_id) is None:
-            raise ApiError(404, "not_found", f"no engine {engine_id!r}")
+            read_only = " (a bundled engine is read-only: POST /engines adds the fleet's own)"
+            hint = read_only if engine_id in bundled_engines() else ""
+            raise ApiError(404, "not_found", f"no engine {engine_id!r} among the fleet's own{hint}")
         store().put_engine(fleet_id, engine_id, checked_engine(engine_id, body.description))
-        return {"engine_id": engine_id, "description": body.description}
+        return {"engine_id": engine_id, "description": body.description, "source": "fleet"}
 
     return app

@@ -11,7 +11,8 @@
 - ``Cache-Control: private, no-cache``: an answer depends on the key, so no
   shared cache may keep it, and a client's own copy is checked again (a cheap
   304) before each use, so a revoked key or a finished analysis is seen at
-  once. ``Vary: X-API-Key`` says the same to caches that read it.
+  once. ``Vary: X-API-Key, Cookie`` says the same to caches that read it (a
+  browser's session is a cookie).
 - :class:`KeyCache`: the fleet of a key found in the store, remembered for
   :data:`KEY_TTL_S`, so a client's reads do not each look their key up. A
   key revoked meanwhile (by ``engine-monitor keys revoke``, in another
@@ -35,7 +36,7 @@ __all__ = ["CACHE_CONTROL", "KEY_TTL_S", "KeyCache", "conditional", "json_body",
 #: Seconds a key found in the store is taken as valid without asking the store again.
 KEY_TTL_S = 1.0
 CACHE_CONTROL = "private, no-cache"
-_HEADERS = {"Cache-Control": CACHE_CONTROL, "Vary": "X-API-Key"}
+_HEADERS = {"Cache-Control": CACHE_CONTROL, "Vary": "X-API-Key, Cookie"}
 
 
 class KeyCache:

@@ -8,7 +8,10 @@ lease). Only the job's taker may complete or fail it (its token). The
 analysis runs in a separate process: its crash fails the job and a fresh
 process takes the next, never stopping the worker. The result is written
 with the job's completion in one transaction, once. A job that fails records
-why. A failure of the input itself (a :class:`~monitor.errors.MonitorError`:
+why. The fleet's baseline of the recording's engine, if it set one
+(``POST /engines/{id}/baseline``), is the reference of the bearing
+comparisons, as ``batch --baseline`` gives one. A failure of the input
+itself (a :class:`~monitor.errors.MonitorError`:
 a file the reader refuses, an engine nobody described, a recording the
 diagnosis cannot use) is permanent and set aside at once, the reason in its
 status; any other (a process killed, a disk full) is retried after a backoff
@@ -150,9 +153,15 @@ class Worker:
             self.store.fail(job, "the recording is no longer stored")
             return
         engine = self.store.engine(row.fleet_id, row.engine_id)
+        baseline = self.store.baseline(row.fleet_id, row.engine_id)  # the bearing comparisons' reference
         # a pool broken by an earlier analysis is replaced before this one is submitted
         future = self._fresh_pool().submit(
-            analyse, row.path, engine, None, str(plot_path(self.data_dir, row.id)), row.filename
+            analyse,
+            row.path,
+            engine,
+            None if baseline is None else baseline.document,
+            str(plot_path(self.data_dir, row.id)),
+            row.filename,
         )
         while True:
             try:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -19,6 +20,7 @@ import httpx
 import pytest
 
 from monitor.cli import main
+from monitor.engine import bundled_engines
 from monitor.io.hdf5 import write_hdf5
 from monitor.processes import session_processes
 from monitor.scene import load_scene, simulate
@@ -362,7 +364,9 @@ def test_engines_are_created_read_and_updated_with_validation(server: Server) ->
         assert answer.status_code == 422 and "cylinders" in answer.json()["error"]["message"]
         assert a.post("/engines", json={"description": description}).status_code == 201
         assert a.post("/engines", json={"description": description}).status_code == 409
-        assert a.get("/engines").json() == ["ship-a-main-engine"]
+        assert a.get("/engines", params={"source": "fleet"}).json() == ["ship-a-main-engine"]
+        assert a.get("/engines").json() == sorted({"ship-a-main-engine", *bundled_engines()})
+        assert b.get("/engines").json() == sorted(bundled_engines())
         changed = {**description, "name": "renamed"}
         assert a.put("/engines/ship-a-main-engine", json={"description": changed}).status_code == 200
         assert a.get("/engines/ship-a-main-engine").json()["description"]["name"] == "renamed"
@@ -370,12 +374,57 @@ def test_engines_are_created_read_and_updated_with_validation(server: Server) ->
         assert a.put("/engines/other", json={"description": changed}).status_code == 404
 
 
+def test_bundled_engines_are_listed_and_read_and_a_fleet_s_own_description_takes_precedence(
+    server: Server,
+) -> None:
+    """Recordings may name a bundled engine: it is listed and read (source "bundled") by every fleet, is
+    read-only, and a fleet's own description of the same id is what that fleet reads (source "fleet"),
+    as its analyses use it, while other fleets still read the bundled one."""
+    engine = "medium-speed-6l32"
+    shipped = tomllib.loads(bundled_engines()[engine].read_text())
+    with server.client("a") as a, server.client("b") as b:
+        assert set(a.get("/engines", params={"source": "bundled"}).json()) == set(bundled_engines())
+        assert a.get("/engines", params={"source": "fleet"}).json() == []
+        read = a.get(f"/engines/{engine}")
+        assert read.status_code == 200, read.text
+        assert read.json() == {"engine_id": engine, "description": shipped, "source": "bundled"}
+        refused = a.put(f"/engines/{engine}", json={"description": shipped})
+        assert refused.status_code == 404 and "read-only" in refused.json()["error"]["message"]
+        own = {**shipped, "name": "ship A's own description"}
+        assert a.post("/engines", json={"description": own}).status_code == 201
+        assert a.get(f"/engines/{engine}").json() == {
+            "engine_id": engine,
+            "description": own,
+            "source": "fleet",
+        }
+        assert a.get("/engines").json().count(engine) == 1
+        assert a.get("/engines", params={"source": "fleet"}).json() == [engine]
+        assert b.get(f"/engines/{engine}").json()["source"] == "bundled"
+        assert b.get("/engines/nobody-has-this-engine").status_code == 404
+        assert a.get("/engines", params={"source": "nowhere"}).status_code == 422
+
+
 def test_the_openapi_document_lists_every_route(server: Server) -> None:
-    """The document needs a key, as every route but /health."""
+    """The document needs a key, as every route but /health, and declares it: the key's header and the
+    browser's session cookie as apiKey schemes, either of them on every route but /health."""
     assert httpx.get(f"{server.url}/openapi.json").status_code == 401
-    assert httpx.get(f"{server.url}/docs").status_code == 404
+    docs = httpx.get(f"{server.url}/docs")  # a browser without a session is sent to log in
+    assert docs.status_code == 303 and docs.headers["location"] == "/login?next=%2Fdocs"
     with server.client() as client:
-        paths = client.get("/openapi.json").json()["paths"]
+        document = client.get("/openapi.json").json()
+    paths = document["paths"]
+    schemes = document["components"]["securitySchemes"]
+    assert schemes["ApiKey"] == {**schemes["ApiKey"], "type": "apiKey", "in": "header", "name": "X-API-Key"}
+    assert schemes["Session"] == {
+        **schemes["Session"],
+        "type": "apiKey",
+        "in": "cookie",
+        "name": "engine_monitor_session",
+    }
+    for path, operations in paths.items():
+        for method, operation in operations.items():
+            expected = None if path == "/health" else [{"ApiKey": []}, {"Session": []}]
+            assert operation.get("security") == expected, (method, path)
     assert set(paths) >= {
         "/health",
         "/recordings",
@@ -386,6 +435,155 @@ def test_the_openapi_document_lists_every_route(server: Server) -> None:
         "/engines",
         "/engines/{engine_id}",
     }
+
+
+def test_a_baseline_set_from_a_stored_recording_is_used_by_later_analyses_of_its_fleet_only(
+    server: Server, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """POST /engines/{id}/baseline calibrates on a stored recording what `engine-monitor calibrate`
+    writes for the same file, stores it, and the fleet's later analyses of that engine compare through
+    it as `compare --baseline` does; another fleet's analyses do not. Calibrations the product refuses
+    (an unhealthy recording, no bearing channel) answer 422 with its message and store nothing; another
+    fleet's engine, recording or baseline answers 404."""
+    from dataclasses import replace
+
+    from monitor.io.hdf5 import read_hdf5
+
+    engine = "man-b-w-7k98mc"
+    healthy, misfiring = SAMPLES / "7k98mc-baseline.h5", SAMPLES / "7k98mc-misfire-cyl4.h5"
+    unhealthy = tmp_path / "misfire-copy.h5"  # the same samples, another file: another recording
+    write_hdf5(replace(read_hdf5(misfiring), start_time="2026-01-02T03:04:05Z"), unhealthy)
+    deaf = tmp_path / "no-bearing-sensor.h5"
+    sample = read_hdf5(healthy)
+    write_hdf5(replace(sample, channels=tuple(c for c in sample.channels if c.kind != "acceleration")), deaf)
+    with server.client("a") as a, server.client("b") as b:
+        ids = {path.name: _upload(a, path).json()["id"] for path in (healthy, unhealthy, deaf)}
+        other = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
+        theirs = _upload(b, healthy).json()["id"]
+        assert a.get(f"/engines/{engine}/baseline").status_code == 404
+        for name, reason in (
+            (unhealthy.name, "not healthy enough to calibrate on"),
+            (deaf.name, "no acceleration or velocity channel on a main bearing"),
+        ):
+            refused = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[name]})
+            assert refused.status_code == 422, refused.text
+            assert refused.json()["error"]["code"] == "calibration_failed"
+            assert reason in refused.json()["error"]["message"]
+            assert str(server.data) not in refused.json()["error"]["message"]
+        mismatch = a.post(f"/engines/{engine}/baseline", json={"recording_id": other})
+        assert mismatch.status_code == 422 and "'medium-speed-6l32', not 'man-b-w-7k98mc'" in mismatch.text
+        assert a.get(f"/engines/{engine}/baseline").status_code == 404  # nothing stored
+        set_ = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[healthy.name]})
+        assert set_.status_code == 201, set_.text
+        stored = a.get(f"/engines/{engine}/baseline").json()
+        assert stored == set_.json() and stored["recording_id"] == ids[healthy.name]
+        # another fleet: a's recording is unknown to b, and b has no baseline of its own
+        assert (
+            b.post(f"/engines/{engine}/baseline", json={"recording_id": ids[healthy.name]}).status_code == 404
+        )
+        assert b.get(f"/engines/{engine}/baseline").status_code == 404
+        assert b.get("/engines/ship-a-only/baseline").status_code == 404
+        mine = _upload(a, misfiring).json()["id"]
+        not_mine = _upload(b, misfiring).json()["id"]
+        assert _wait_done(a, mine)["status"] == "done" and _wait_done(b, not_mine)["status"] == "done"
+        with_baseline = a.get(f"/recordings/{mine}/diagnosis").json()
+        without = b.get(f"/recordings/{not_mine}/diagnosis").json()
+        assert b.get(f"/engines/{engine}/baseline").status_code == 404 and theirs != ids[healthy.name]
+    calibrated = tmp_path / "cli-baseline.json"
+    assert main(["calibrate", str(healthy), "-o", str(calibrated)]) == 0
+    assert stored["baseline"] == json.loads(calibrated.read_text())
+    capsys.readouterr()
+    main(["compare", str(misfiring), "--baseline", str(calibrated), "--json"])
+    cli = json.loads(capsys.readouterr().out)
+    assert with_baseline["baseline"] == cli["baseline"] == healthy.name and without["baseline"] == ""
+    assert with_baseline["findings"] == cli["findings"]
+    assert without["findings"] != cli["findings"]  # without a baseline no bearing order is compared
+    store = open_store(server.store_url)
+    try:
+        assert store.count("baselines") == 1
+    finally:
+        store.close()
+
+
+def _cookie_attributes(answer: httpx.Response, name: str) -> tuple[str, set[str]]:
+    """A Set-Cookie's value and its attributes (lower case)."""
+    for header in answer.headers.get_list("set-cookie"):
+        first, *attributes = [part.strip() for part in header.split(";")]
+        if first.startswith(f"{name}="):
+            return first.split("=", 1)[1], {a.lower() for a in attributes}
+    raise AssertionError(f"no Set-Cookie of {name}: {answer.headers.get_list('set-cookie')}")
+
+
+def test_a_browser_logs_in_reads_the_docs_from_this_server_and_logs_out(server: Server) -> None:
+    """The login sets an HttpOnly, SameSite=Strict session that holds a signed token, not the key; with
+    it a browser opens /docs, whose scripts and styles come from this server (the installed Swagger UI
+    package, byte for byte), reads the JSON routes, and changes state only with the CSRF token; a wrong
+    key, a tampered session, another site's login form and an open redirect are refused; the logout
+    clears the session."""
+    from swagger_ui_bundle import swagger_ui_path
+
+    key = server.keys["a"]
+    with httpx.Client(base_url=server.url, timeout=60) as browser:
+        form = browser.get("/login", params={"next": "/docs"})
+        assert form.status_code == 200 and 'name="key"' in form.text and 'type="password"' in form.text
+        wrong = browser.post("/login", data={"key": "not-a-key", "next": "/docs"})
+        assert wrong.status_code == 401 and "not known" in wrong.text and not browser.cookies
+        elsewhere = browser.post("/login", data={"key": key}, headers={"Origin": "http://elsewhere.example"})
+        assert elsewhere.status_code == 403 and elsewhere.json()["error"]["code"] == "cross_site"
+        assert not browser.cookies
+        away = browser.post("/login", data={"key": key, "next": "//elsewhere.example/x"})
+        assert away.status_code == 303 and away.headers["location"] == "/docs"  # never another site
+        browser.cookies.clear()
+        answer = browser.post("/login", data={"key": key, "next": "/docs"})
+        assert answer.status_code == 303 and answer.headers["location"] == "/docs"
+        session, attributes = _cookie_attributes(answer, "engine_monitor_session")
+        assert {"httponly", "samesite=strict", "path=/"} <= attributes
+        assert key not in session and key not in answer.headers.get("set-cookie", "")
+        csrf, csrf_attributes = _cookie_attributes(answer, "engine_monitor_csrf")
+        assert "samesite=strict" in csrf_attributes and "httponly" not in csrf_attributes
+        page = browser.get("/docs")
+        assert page.status_code == 200 and "swagger-ui" in page.text
+        assert "frame-ancestors 'none'" in page.headers["content-security-policy"]
+        loaded = re.findall(r'(?:src|href)="([^"]+)"', page.text)
+        assert loaded and all(url.startswith("/docs/assets/") for url in loaded), loaded
+        for url in loaded:
+            asset = browser.get(url)
+            assert asset.status_code == 200, url
+            assert asset.content == (Path(str(swagger_ui_path)) / url.rsplit("/", 1)[1]).read_bytes()
+        assert browser.get("/openapi.json").json()["components"]["securitySchemes"]
+        assert browser.get("/recordings").status_code == 200
+        description = tomllib.loads((ROOT / "recordings" / "engines" / "medium-speed-6l32.toml").read_text())
+        description["id"] = "ship-a-main-engine"
+        forged = browser.post("/engines", json={"description": description})
+        assert forged.status_code == 403 and forged.json()["error"]["code"] == "csrf"
+        added = browser.post("/engines", json={"description": description}, headers={"X-CSRF-Token": csrf})
+        assert added.status_code == 201, added.text
+        tampered = session[:-1] + ("0" if session[-1] != "0" else "1")
+        for bad in (tampered, "0" * 64 + ".9999999999." + "0" * 64):
+            refused = httpx.get(f"{server.url}/recordings", cookies={"engine_monitor_session": bad})
+            assert refused.status_code == 401 and refused.json()["error"]["code"] == "session_expired"
+        gone = browser.post("/logout")
+        assert gone.status_code == 303 and gone.headers["location"] == "/login"
+        assert not browser.cookies
+        assert browser.get("/docs").status_code == 303
+        assert browser.get("/recordings").status_code == 401
+        assert browser.get("/docs/assets/swagger-ui.css").status_code == 401
+    with server.client() as client:  # the header still works, and needs no CSRF token
+        assert client.get("/docs").status_code == 200
+        assert client.get("/docs/assets/swagger-ui.css").status_code == 200
+        assert client.get("/docs/assets/..%2F..%2Fpyproject.toml").status_code == 404
+        assert client.get("/docs/assets/index.html").status_code == 404
+
+
+def test_a_session_ends_when_it_expires_or_is_signed_by_another_server() -> None:
+    from api.auth import Sessions
+
+    sessions = Sessions(b"k" * 32, lifetime_s=60)
+    token = sessions.token("d" * 64, now=1000.0)
+    assert sessions.digest(token, now=1059.0) == "d" * 64
+    assert sessions.digest(token, now=1060.0) is None
+    assert Sessions(b"x" * 32).digest(token, now=1000.0) is None
+    assert sessions.csrf(token) != sessions.csrf(sessions.token("d" * 64, now=1001.0))
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")

@@ -71,7 +71,7 @@ def test_a_result_is_answered_byte_for_byte_as_stored_and_tagged_by_its_digest(
     assert answer.content == stored.encode("utf-8")
     assert answer.headers["etag"] == f'"{hashlib.sha256(answer.content).hexdigest()}"'
     assert answer.headers["cache-control"] == "private, no-cache"
-    assert answer.headers["vary"] == "X-API-Key"
+    assert answer.headers["vary"] == "X-API-Key, Cookie"  # the key, or a browser's session
     assert answer.json()["recording"] if kind == "diagnosis" else answer.json()["channels"]
 
 

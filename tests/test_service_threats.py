@@ -42,21 +42,23 @@ def _routes(server: Server) -> list[tuple[str, str]]:
 
 def test_another_fleet_s_ids_answer_404_on_every_route_as_unknown_ones_do(server: Server) -> None:
     """Fleet a's recording and engine, asked for by fleet b on every route that takes an id (every
-    method the document lists), answer exactly as ids nobody has: 404 not_found, same body shape."""
-    description = {"description": {"name": "x"}}
+    method the document lists), answer exactly as ids nobody has: 404 not_found, same body shape.
+
+    Fleet a's engine has an id of its own: a bundled engine's id is every fleet's to read. A body, where
+    a route takes one, is valid for it (an engine description, a recording id), so the answer is the
+    route's own and not the body's validation."""
     with server.client("a") as a, server.client("b") as b:
         recording = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
-        engine = "medium-speed-6l32"
-        engine_file = (
-            Path(__file__).resolve().parents[1] / "monitor" / "engines" / f"{engine}.toml"
-        ).read_text()
-        created = a.post("/engines", json={"description": tomllib.loads(engine_file)})
+        engine = "ship-a-main-engine"
+        description = tomllib.loads((ENGINES / "medium-speed-6l32.toml").read_text())
+        created = a.post("/engines", json={"description": {**description, "id": engine}})
         assert created.status_code == 201, created.text
         probes = 0
         for method, path in _routes(server):
             for ids in ((recording, engine), (987654, "nobody-has-this-engine")):
                 url = path.replace("{recording_id}", str(ids[0])).replace("{engine_id}", str(ids[1]))
-                answer = b.request(method, url, json=description if method in ("PUT", "POST") else None)
+                body = {"description": {**description, "id": ids[1]}, "recording_id": ids[0]}
+                answer = b.request(method, url, json=body if method in ("PUT", "POST") else None)
                 probes += 1
                 assert answer.status_code == 404, (method, url, answer.text)
                 assert answer.json()["error"]["code"] == "not_found"

@@ -60,7 +60,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     try:
         with again.db.connect() as c:
             version = c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one()
-        assert version == head == "0005"
+        assert version == head == "0006"
     finally:
         again.close()
 
@@ -308,6 +308,43 @@ def test_engines_are_created_and_updated(store: Store) -> None:
     assert store.put_engine(fleet, "e1", {"id": "e1", "cylinders": 7}) is False
     assert store.engine(fleet, "e1") == {"id": "e1", "cylinders": 7}
     assert store.engines(fleet) == ["e1"] and store.engine(store.create_fleet("b"), "e1") is None
+
+
+def test_a_baseline_is_one_per_fleet_and_engine_replaced_whole_and_never_another_fleet_s(
+    store: Store,
+) -> None:
+    """A baseline is stored for the fleet's recording of the same engine, read back as it was written,
+    replaced by the next, and invisible to another fleet; a recording of another fleet or another engine
+    is refused with a message naming it, and nothing is stored."""
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    first, second = _recording(store, a, "1" * 64), _recording(store, a, "2" * 64)
+    theirs = _recording(store, b, "3" * 64)
+    other_engine, _ = store.add_recording(
+        a, content_hash="4" * 64, engine_id="medium-speed-6l32", filename="o.h5", path="/x/o.h5", size_bytes=1
+    )
+    document = {"format": "test", "sensors": {"mb2-vertical": [1.5, -2.0]}, "speed_rpm": 104.0}
+    assert store.baseline(a, "man-b-w-7k98mc") is None
+    written = store.put_baseline(a, "man-b-w-7k98mc", first, "v1", document)
+    read = store.baseline(a, "man-b-w-7k98mc")
+    assert read is not None and read.document == document and read.recording_id == first
+    assert (read.engine_id, read.analysis_version) == (written.engine_id, written.analysis_version)
+    assert store.baseline(b, "man-b-w-7k98mc") is None
+    store.put_baseline(a, "man-b-w-7k98mc", second, "v2", {**document, "speed_rpm": 90.0})
+    replaced = store.baseline(a, "man-b-w-7k98mc")
+    assert replaced is not None and (replaced.recording_id, replaced.analysis_version) == (second, "v2")
+    assert replaced.document["speed_rpm"] == 90.0 and store.count("baselines") == 1
+    with pytest.raises(StoreError, match=f"recording {theirs}: expected a recording of engine"):
+        store.put_baseline(a, "man-b-w-7k98mc", theirs, "v3", document)
+    with pytest.raises(StoreError, match="found one of engine 'medium-speed-6l32'"):
+        store.put_baseline(a, "man-b-w-7k98mc", other_engine.id, "v3", document)
+    assert store.baseline(a, "man-b-w-7k98mc") == replaced and store.count("baselines") == 1
+
+
+def test_a_key_s_fleet_is_found_by_its_digest(store: Store) -> None:
+    a = store.create_fleet("a")
+    key = store.create_key(a)
+    assert store.fleet_of_digest(key_digest(key)) == a == store.fleet_of_key(key)
+    assert store.fleet_of_digest(key_digest(key + "x")) is None
 
 
 def test_the_password_comes_from_a_secrets_file_when_the_url_has_none(

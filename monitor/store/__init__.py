@@ -46,6 +46,7 @@ from monitor.errors import MonitorError
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
+from monitor.store.schema import baselines as baseline_rows
 from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
 
 __all__ = [
@@ -55,6 +56,7 @@ __all__ = [
     "POOL_OVERFLOW",
     "POOL_SIZE",
     "RETRY_BACKOFF",
+    "BaselineRow",
     "Job",
     "KeyRow",
     "RecordingRow",
@@ -139,6 +141,18 @@ class RecordingRow:
     size_bytes: int
     recorded_at: str
     uploaded_at: datetime
+
+
+@dataclass(frozen=True)
+class BaselineRow:
+    """A fleet's baseline of an engine: the calibration document (``engine-monitor calibrate``'s JSON),
+    the stored recording it was calibrated on, the analysis version that calibrated it, and when."""
+
+    engine_id: str
+    recording_id: int
+    analysis_version: str
+    document: dict[str, Any]
+    created_at: datetime
 
 
 @dataclass(frozen=True)
@@ -920,6 +934,100 @@ class Store:
                 )
             ).first()
         return None if row is None else str(row.status)
+
+    # ------------------------------------------------------------------------------------ baselines
+    def put_baseline(
+        self,
+        fleet_id: int,
+        engine_id: str,
+        recording_id: int,
+        analysis_version: str,
+        document: dict[str, Any],
+    ) -> BaselineRow:
+        """Store a fleet's baseline of an engine, replacing the one it had, in one transaction.
+
+        Parameters
+        ----------
+        fleet_id : int
+        engine_id : str
+        recording_id : int
+            The fleet's stored recording of that engine it was calibrated on.
+        analysis_version : str
+            The version of the analysis that calibrated it.
+        document : dict
+            The baseline (:meth:`monitor.diagnosis.Baseline.to_document`).
+
+        Raises
+        ------
+        StoreError
+            If the recording is not the fleet's, or is of another engine (nothing is stored).
+        """
+        now = _now()
+        with self.transaction() as c:
+            found = c.execute(
+                sa.select(recordings.c.engine_id).where(
+                    (recordings.c.id == recording_id) & (recordings.c.fleet_id == fleet_id)
+                )
+            ).first()
+            if found is None or found.engine_id != engine_id:
+                raise StoreError(
+                    f"recording {recording_id}: expected a recording of engine {engine_id!r} of the same "
+                    f"fleet, found {'none' if found is None else 'one of engine ' + repr(found.engine_id)}"
+                )
+            values = {
+                "recording_id": recording_id,
+                "analysis_version": analysis_version,
+                "document": document,
+                "created_at": now,
+            }
+            created = _insert_new(
+                c,
+                baseline_rows,
+                {"fleet_id": fleet_id, "engine_id": engine_id, **values},
+                ["fleet_id", "engine_id"],
+            )
+            if not created:
+                c.execute(
+                    sa.update(baseline_rows)
+                    .where((baseline_rows.c.fleet_id == fleet_id) & (baseline_rows.c.engine_id == engine_id))
+                    .values(**values)
+                )
+        return BaselineRow(engine_id, recording_id, analysis_version, document, now)
+
+    def baseline(self, fleet_id: int, engine_id: str) -> BaselineRow | None:
+        """A fleet's baseline of an engine, or None (another fleet's answers None, as none at all).
+
+        Parameters
+        ----------
+        fleet_id : int
+        engine_id : str
+        """
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(baseline_rows).where(
+                    (baseline_rows.c.fleet_id == fleet_id) & (baseline_rows.c.engine_id == engine_id)
+                )
+            ).first()
+        if row is None:
+            return None
+        return BaselineRow(
+            row.engine_id,
+            int(row.recording_id),
+            row.analysis_version,
+            dict(row.document),
+            _utc(row.created_at),
+        )
+
+    def fleet_of_digest(self, digest: str) -> int | None:
+        """The fleet of a key known by its digest (a session holds the digest, never the key), or None.
+
+        Parameters
+        ----------
+        digest : str
+            :func:`key_digest` of the key.
+        """
+        row = self.readers.read(KEY_FLEET, {"digest": digest}, CursorResult.first)
+        return None if row is None else int(row.fleet_id)
 
     def count(self, table: str) -> int:
         """Rows in a table (for checks and summaries)."""

@@ -16,7 +16,12 @@
 - ``trend_points``: the quantities of each stored diagnosis an engine's
   condition is followed by (speed, load, each cylinder's strength, each bearing
   sensor's order deviations, impact score and rms velocity), one row each, at
-  the recording's time (:mod:`monitor.trends`), written with the result.
+  the recording's time (:mod:`monitor.trends`), written with the result;
+- ``baselines``: a fleet's baseline of an engine (``POST /engines/{id}/baseline``),
+  one per fleet and engine: the calibration document (``engine-monitor
+  calibrate``'s JSON), the stored recording it was calibrated on, and the
+  analysis version that calibrated it; later analyses of that engine's
+  recordings compare their bearing orders through it.
 
 Each read of the service is one indexed query: a key by its digest (unique),
 a recording by id, its job and results by their unique keys, and a fleet's
@@ -32,6 +37,7 @@ import sqlalchemy as sa
 __all__ = [
     "JOB_STATES",
     "api_keys",
+    "baselines",
     "engines",
     "fleets",
     "jobs",
@@ -142,4 +148,17 @@ trend_points = sa.Table(
         "recording_id", "analysis_version", "quantity", name="uq_trend_points_recording_version_quantity"
     ),
     sa.Index("ix_trend_points_engine_quantity_time", "fleet_id", "engine_id", "quantity", "recorded_at"),
+)
+
+baselines = sa.Table(
+    "baselines",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("engine_id", sa.String(200), nullable=False),
+    sa.Column("recording_id", sa.Integer, sa.ForeignKey("recordings.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("analysis_version", sa.String(32), nullable=False),
+    sa.Column("document", sa.JSON, nullable=False),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("fleet_id", "engine_id", name="uq_baselines_fleet_engine"),
 )

@@ -1,0 +1,132 @@
+"""Calibrate a baseline on a stored recording, in a process of its own, as the request waits.
+
+``python -m api.calibrate PARENT MEMORY_BYTES LOAD PATH`` reads the engine's
+description (the fleet's own, or null for the bundled one) and the
+recording's name as JSON on its standard input, limits its own address space,
+lowers its own CPU priority (:data:`api.validate.NICE`, as the analyses), dies
+with its parent, and runs :func:`monitor.diagnosis.calibrate` as
+``engine-monitor calibrate`` does. It prints the baseline document
+(``calibrate``'s JSON) and exits 0, or prints the product's refusal (an
+unhealthy recording, no bearing channel, a faulty sensor) and exits 3.
+
+The service awaits it without holding a thread, within a time limit
+(:attr:`api.app.Settings.calibration_timeout_s`), one calibration per fleet
+and :attr:`api.app.Settings.calibrations` in all at once: the answer is the
+baseline itself, or the reason there is none, in the same request, and
+nothing is stored until the calibration has succeeded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import resource
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from api.validate import NICE
+
+__all__ = ["Calibration", "calibrate_stored"]
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """What the calibrating process said: the baseline document, or why there is none."""
+
+    ok: bool
+    document: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+
+def _calibrate(
+    path: str, engine_description: dict[str, Any] | None, load: float, name: str
+) -> dict[str, Any]:
+    from monitor.diagnosis import calibrate
+    from monitor.engine import bundled_engines, load_engine, parse_engine
+    from monitor.errors import DiagnosisError
+    from monitor.pipeline import open_recording
+
+    with open_recording(path) as recording:
+        if engine_description is not None:
+            engine = parse_engine(engine_description, origin=f"engine {recording.engine_id} of the store")
+        elif recording.engine_id in bundled_engines():
+            engine = load_engine(bundled_engines()[recording.engine_id])
+        else:
+            raise DiagnosisError(
+                f"engine {recording.engine_id!r} is neither in the fleet's engines nor bundled: "
+                "add its description"
+            )
+        return calibrate(recording, engine, load=load, source=name).to_document()
+
+
+async def calibrate_stored(
+    path: str,
+    engine_description: dict[str, Any] | None,
+    *,
+    load: float,
+    name: str,
+    memory_bytes: int,
+    timeout_s: float,
+) -> Calibration:
+    """Calibrate a baseline on the recording at ``path`` in a child process with these limits."""
+    child = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-m",
+        "api.calibrate",
+        str(os.getpid()),
+        str(memory_bytes),
+        repr(float(load)),
+        path,
+        stdin=asyncio.subprocess.PIPE,
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+        cwd=Path(__file__).resolve().parents[1],
+    )
+    request = json.dumps({"engine": engine_description, "name": name}).encode("utf-8")
+    try:
+        stdout, stderr = await asyncio.wait_for(child.communicate(request), timeout_s)
+    except (TimeoutError, asyncio.CancelledError) as stop:
+        child.kill()
+        await child.wait()
+        if isinstance(stop, asyncio.CancelledError):  # the client went away: stop calibrating
+            raise
+        return Calibration(
+            False,
+            message=f"{name}: the calibration took longer than the service's limit of {timeout_s:g} s: "
+            "calibrate on a shorter recording (a few minutes at a steady speed suffice)",
+        )
+    if child.returncode == 0:
+        return Calibration(True, json.loads(stdout))
+    err = stderr.decode("utf-8", "replace").strip()
+    reason = err.splitlines()[-1] if err else f"exit status {child.returncode}"
+    if child.returncode != 3:
+        reason = f"{name}: the calibration failed ({reason})"
+    return Calibration(False, message=reason.replace(path, name))
+
+
+def main() -> None:
+    from monitor.processes import die_with_parent
+
+    die_with_parent(int(sys.argv[1]))
+    limit = int(sys.argv[2])
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    os.setpriority(os.PRIO_PROCESS, 0, max(NICE, os.getpriority(os.PRIO_PROCESS, 0)))
+    from monitor.errors import MonitorError
+
+    given = json.loads(sys.stdin.read())
+    try:
+        document = _calibrate(sys.argv[4], given["engine"], float(sys.argv[3]), str(given["name"]))
+    except (MonitorError, OSError, ValueError) as error:
+        print(str(error).replace("\n", " "), file=sys.stderr)
+        sys.exit(3)
+    except MemoryError:
+        print("the calibration needs more memory than the service allows it", file=sys.stderr)
+        sys.exit(3)
+    print(json.dumps(document))
+
+
+if __name__ == "__main__":
+    main()
