@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto bench-kill bench-startup bench-trends browser
+	wheelhouse check-container proto bench-kill bench-startup bench-trends browser screenshots
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -50,6 +50,10 @@ bench: $(STAMP)
 ## temporary disk; installs the peer rota-order into .venv-peers/ on first use); rewrites docs/performance.md
 bench-performance: $(STAMP)
 	$(BIN)/python -m benchmarks.performance --minutes 60
+
+## screenshots: the web pages' pictures in docs/images/, taken by the browser tests themselves
+screenshots: $(STAMP) browser
+	ENGINE_MONITOR_SCREENSHOTS=docs/images $(BIN)/pytest -q tests/test_web.py -k service
 
 ## bench-trends: the drift rule's false findings and delays with its baseline estimated; rewrites its
 ## section of docs/trends.md

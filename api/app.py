@@ -67,6 +67,7 @@ from api.engines import Source, visible_engine
 from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, validate
+from api.views import add_views
 from api.worker import Worker, plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.engine import bundled_engines
@@ -457,6 +458,7 @@ def create_app(settings: Settings) -> FastAPI:
 
     app.include_router(docs.router)
     app.include_router(baselines_router)
+    add_views(app)
 
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> dict[str, str]:

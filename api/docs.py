@@ -53,14 +53,14 @@ def _swagger_folder() -> Path:
 
 def safe_next(target: str | None) -> str:
     """Where the login sends the browser: a path of this service (``/...``), never another site
-    (``//host``, ``/\\host`` or a full URL would be an open redirect); else ``/docs``."""
+    (``//host``, ``/\\host`` or a full URL would be an open redirect); else the fleet's page, ``/ui``."""
     if (
         not target
         or not target.startswith("/")
         or target.startswith(("//", "/\\"))
         or any(c < " " or c == "\\" for c in target)
     ):
-        return "/docs"
+        return "/ui"
     return target
 
 

@@ -70,3 +70,78 @@ def test_the_recording_view_shows_status_and_findings_first_and_its_charts_zoom_
     assert after[1] - after[0] < 0.5 * (before[1] - before[0]), (before, after)
     browser.save_screenshot(str(tmp_path / "recording.png"))
     assert (tmp_path / "recording.png").stat().st_size > 20_000
+
+
+def _screenshot(browser: Any, folder: Path, name: str) -> Path:
+    """Save the page as the test sees it: under the test's folder, and under $ENGINE_MONITOR_SCREENSHOTS
+    too when set (``make screenshots`` writes the docs' pictures that way)."""
+    import os
+    import shutil
+
+    path = folder / f"{name}.png"
+    browser.save_screenshot(str(path))
+    assert path.stat().st_size > 10_000
+    wanted = os.environ.get("ENGINE_MONITOR_SCREENSHOTS")
+    if wanted:
+        Path(wanted).mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, Path(wanted) / path.name)
+    return path
+
+
+def test_the_service_pages_log_in_and_show_the_fleet_an_engine_and_a_recording(
+    browser: Any, tmp_path: Path
+) -> None:
+    """Recordings uploaded here, analysed by the service; a browser logs in with fleet a's key through the
+    form and finds each engine's latest verdict on the fleet page (as GET /fleet says), the engine page
+    with its charts and trend findings, the recording page with the alarm and its finding on top; fleet
+    b's engine and recording answer 404 to it, pages and JSON alike."""
+    from selenium.webdriver.common.by import By
+
+    from tests.test_api import _upload, _wait_done, two_fleet_server
+
+    server = two_fleet_server(tmp_path)
+    try:
+        with server.client("a") as a, server.client("b") as b:
+            ids = {
+                name: int(_upload(a, SAMPLES / name).json()["id"])
+                for name in ("7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5")
+            }
+            theirs = int(_upload(b, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"])
+            for recording in ids.values():
+                assert _wait_done(a, recording)["status"] == "done"
+            assert _wait_done(b, theirs)["status"] == "done"
+            fleet = a.get("/fleet").json()
+            assert [e["engine_id"] for e in fleet["engines"]] == ["man-b-w-7k98mc"]
+            assert a.get("/engines/medium-speed-6l32/trend").status_code == 404  # fleet b's only
+            assert a.get(f"/ui/recordings/{theirs}").status_code == 404
+            trend = a.get("/engines/man-b-w-7k98mc/trend").json()
+            assert len(trend["quantities"]["cylinder 4 strength"]["points"]) == 2
+        browser.delete_all_cookies()
+        browser.get(f"{server.url}/ui")
+        assert "/login" in browser.current_url  # no session: the login first
+        browser.find_element(By.ID, "key").send_keys(server.keys["a"])
+        browser.find_element(By.CSS_SELECTOR, "form button[type=submit]").click()
+        assert browser.current_url.endswith("/ui")
+        rows = browser.find_elements(By.CSS_SELECTOR, "#fleet .engine-row")
+        assert [(r.get_attribute("data-engine"), r.get_attribute("data-status")) for r in rows] == [
+            (e["engine_id"], e["latest"]["status"]) for e in fleet["engines"]
+        ]
+        _screenshot(browser, tmp_path, "fleet")
+        rows[0].find_element(By.CSS_SELECTOR, "a").click()  # the engine
+        assert "/ui/engines/man-b-w-7k98mc" in browser.current_url
+        assert browser.find_element(By.ID, "trend-findings").text
+        assert int(browser.find_element(By.TAG_NAME, "body").get_attribute("data-charts")) >= 2
+        _screenshot(browser, tmp_path, "engine")
+        browser.get(f"{server.url}/ui/recordings/{ids['7k98mc-misfire-cyl4.h5']}")
+        status = browser.find_element(By.CSS_SELECTOR, ".verdict .status")
+        assert status.get_attribute("data-status") == "alarm"
+        assert "cylinder 4" in browser.find_element(By.ID, "findings").text
+        assert status.location["y"] < browser.find_element(By.ID, "charts").location["y"]
+        assert int(browser.find_element(By.TAG_NAME, "body").get_attribute("data-charts")) >= 3
+        _screenshot(browser, tmp_path, "recording")
+        browser.get(f"{server.url}/ui/recordings/{theirs}")
+        assert "no recording" in browser.page_source
+        browser.get(f"{server.url}/ui/engines/medium-speed-6l32")
+        assert "no diagnosed recording" in browser.page_source
+    finally:
+        server.kill()

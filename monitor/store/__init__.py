@@ -398,6 +398,14 @@ class Store:
             c.execute(sa.insert(fleets).values(name=name, created_at=_now()))
             return int(c.execute(sa.select(fleets.c.id).where(fleets.c.name == name)).scalar_one())
 
+    def fleet_label(self, fleet_id: int) -> str:
+        """The name of a fleet by id (the pages' heading)."""
+        with self.db.connect() as c:
+            row = c.execute(sa.select(fleets.c.name).where(fleets.c.id == fleet_id)).first()
+        if row is None:
+            raise StoreError(f"no fleet {fleet_id}")
+        return str(row.name)
+
     def fleet_id(self, name: str) -> int:
         """The id of a fleet by name."""
         with self.db.connect() as c:

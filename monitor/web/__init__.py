@@ -8,6 +8,6 @@ package, and a page written for a ship without network (``compare --plot
 FILE.html``) carries them inline.
 """
 
-from monitor.web.pages import STATIC, engine_page, fleet_page, login_page, recording_page
+from monitor.web.pages import STATIC, engine_page, fleet_page, recording_page
 
-__all__ = ["STATIC", "engine_page", "fleet_page", "login_page", "recording_page"]
+__all__ = ["STATIC", "engine_page", "fleet_page", "recording_page"]

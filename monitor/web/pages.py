@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STATIC", "engine_page", "fleet_page", "login_page", "recording_page"]
+__all__ = ["STATIC", "engine_page", "fleet_page", "recording_page"]
 
 STATIC = Path(__file__).parent / "static"
 _UPLOT = "vendor/uplot-1.6.32"
@@ -262,31 +262,4 @@ def engine_page(
         + f"<h2>Trend findings</h2>{trend_html}</section>\n"
         + '<section id="charts"><noscript>The charts need JavaScript; the findings above do not.</noscript>'
         "</section>\n" + _data_script(data) + _scripts(assets) + "\n</body></html>\n"
-    )
-
-
-def login_page(*, action: str, error: str = "", assets: str) -> str:
-    """A form that takes an API key and starts a session (the key itself is never shown again).
-
-    Parameters
-    ----------
-    action : str
-        The URL the form posts to.
-    error : str, optional
-        Why the last attempt was refused.
-    assets : str
-        The URL prefix of the served ``static/`` folder.
-
-    Returns
-    -------
-    str
-    """
-    message = f'<p class="error" id="login-error">{html.escape(error)}</p>' if error else ""
-    return (
-        _head("Log in", assets)
-        + '<body class="view-login">\n'
-        + f'<form class="login" method="post" action="{html.escape(action)}"><h1>Engine monitor</h1>'
-        '<label for="key">API key of your fleet</label>'
-        '<input type="password" id="key" name="key" autocomplete="current-password" required>'
-        f'{message}<button type="submit" id="login">Log in</button></form>\n' + "</body></html>\n"
     )
