@@ -23,21 +23,27 @@ that fails records why and is retried by the next run, up to
 Engines come from the fleet's descriptions in the store, else the bundled
 ones; baselines (``--baseline B.json``, one per engine) make the bearing
 comparisons.
+
+With a data folder, each diagnosis plot is kept in its ``plots/`` folder,
+named after its recording's file (:func:`plot_names`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
+
+import sqlalchemy as sa
 
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
@@ -48,7 +54,9 @@ __all__ = [
     "BatchSummary",
     "content_hash",
     "diagnose_file",
+    "plot_names",
     "plot_path",
+    "recording_plot_path",
     "register",
     "run_batch",
 ]
@@ -58,7 +66,10 @@ DIAGNOSIS = "diagnosis"  # the kind of result a job writes
 
 
 def plot_path(data_dir: Path, recording_id: int) -> Path:
-    """Where the service's data folder keeps a recording's diagnosis plot (the batch and the service).
+    """Where the service's worker keeps a recording's diagnosis plot, named by its store id.
+
+    The batch names its plots after the recordings (:func:`recording_plot_path`); this name
+    is the service's until it names them alike.
 
     Parameters
     ----------
@@ -70,6 +81,84 @@ def plot_path(data_dir: Path, recording_id: int) -> Path:
     from monitor.diagnosis import ANALYSIS_VERSION
 
     return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
+
+
+PLOT_STEM_CHARACTERS = 120  # a plot's name keeps this much of its recording's stem
+
+
+def _safe_stem(filename: str) -> str:
+    """A file name's stem as a plot's name may hold it: ASCII letters, digits, ``.``, ``_`` and ``-``
+    (any other character becomes ``_``), not hidden, at most :data:`PLOT_STEM_CHARACTERS` long."""
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", PurePath(filename).stem)[:PLOT_STEM_CHARACTERS]
+    return "_" + stem[1:] if stem.startswith(".") else stem or "recording"
+
+
+def plot_names(recordings: Iterable[tuple[int, str]]) -> dict[int, str]:
+    """The diagnosis plots' file names of recordings, named after their files' stems.
+
+    A recording's plot is named ``STEM-vVERSION.png`` (the analysis version) when no recording of
+    a lower id has the same stem, else ``STEM+ID-vVERSION.png``. Stems are compared as a
+    case-insensitive file system would, after the characters a plot's name leaves out are replaced.
+    ``+`` is one of those, so an id added to a stem can never make another recording's name: the names
+    never collide. A recording's name depends only on the recordings registered before it, so it is
+    the same on every run.
+
+    Parameters
+    ----------
+    recordings : iterable of (int, str)
+        Every recording whose plot shares the folder: its id in the store and its file name (as
+        registered).
+
+    Returns
+    -------
+    dict of int to str
+        The plot's file name, by recording id.
+    """
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    listed = sorted(recordings)
+    first: dict[str, int] = {}
+    for recording_id, filename in listed:
+        first.setdefault(_safe_stem(filename).casefold(), recording_id)
+    names = {}
+    for recording_id, filename in listed:
+        stem = _safe_stem(filename)
+        if first[stem.casefold()] != recording_id:
+            stem = f"{stem}+{recording_id}"
+        names[recording_id] = f"{stem}-v{ANALYSIS_VERSION}.png"
+    return names
+
+
+def _plot_names(store: Store) -> dict[int, str]:
+    """:func:`plot_names` of every recording in the store (of every fleet: they share the data folder)."""
+    from monitor.store.schema import recordings
+
+    with store.db.connect() as c:
+        rows = c.execute(sa.select(recordings.c.id, recordings.c.filename)).all()
+    return plot_names((row.id, row.filename) for row in rows)
+
+
+def recording_plot_path(data_dir: Path, store: Store, recording_id: int) -> Path:
+    """Where the batch keeps a recording's diagnosis plot: named after the recording (:func:`plot_names`).
+
+    Parameters
+    ----------
+    data_dir : Path
+        The service's data folder.
+    store : Store
+        The store the recording is registered in.
+    recording_id : int
+        The recording's id in the store.
+
+    Raises
+    ------
+    MonitorError
+        If no recording has that id.
+    """
+    names = _plot_names(store)
+    if recording_id not in names:
+        raise MonitorError(f"recording {recording_id}: no such recording in the store")
+    return data_dir / "plots" / names[recording_id]
 
 
 def content_hash(path: str | Path) -> str:
@@ -374,7 +463,8 @@ def run_batch(
         elif job.state == "running":
             held.append(recording_id)
     summary.held = len(held)
-    context = _Run(store, fleet_id, baselines or {}, data_dir, lease, summary, progress)
+    plots = {i: data_dir / "plots" / name for i, name in _plot_names(store).items()} if data_dir else {}
+    context = _Run(store, fleet_id, baselines or {}, plots, lease, summary, progress)
     total = len(pending) + len(held)
     if total == 0:
         return summary
@@ -407,7 +497,7 @@ class _Run:
     store: Store
     fleet_id: int
     baselines: dict[str, dict[str, Any]]
-    data_dir: Path | None
+    plots: dict[int, Path]  # where each recording's plot goes (none: no plots kept)
     lease: timedelta
     summary: BatchSummary
     progress: Callable[[int, int], None] | None
@@ -431,7 +521,6 @@ class _Run:
         Returns the recordings whose job another run took first (to be waited for).
         """
         store, summary, fleet_id, engines = self.store, self.summary, self.fleet_id, self.engines
-        data_dir = self.data_dir
         running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
         queue = list(pending)
         taken: list[int] = []
@@ -447,7 +536,7 @@ class _Run:
                 assert row is not None
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
-                plot = str(plot_path(data_dir, row.id)) if data_dir is not None else None
+                plot = str(self.plots[row.id]) if row.id in self.plots else None
                 future = pool.submit(
                     diagnose_file,
                     row.path,
@@ -458,8 +547,8 @@ class _Run:
                 )
                 running[future] = (claimed, row.filename, row.engine_id)
 
-        if data_dir is not None:
-            (data_dir / "plots").mkdir(parents=True, exist_ok=True)
+        for folder in {p.parent for p in self.plots.values()}:
+            folder.mkdir(parents=True, exist_ok=True)
         submit()
         while running:
             finished, _ = wait(list(running), timeout=self.beat, return_when=FIRST_COMPLETED)

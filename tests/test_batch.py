@@ -14,8 +14,10 @@ from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
+from hypothesis import example, given
+from hypothesis import strategies as st
 
-from monitor.batch import content_hash, register, run_batch
+from monitor.batch import content_hash, plot_names, register, run_batch
 from monitor.cli import main
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.io.hdf5 import read_hdf5, write_hdf5
@@ -200,7 +202,16 @@ def test_the_batch_command_prints_the_summary(
     url = f"sqlite:///{tmp_path / 's.db'}"
     data = tmp_path / "data"
     assert main(["batch", str(folder), "--store", url, "--workers", "1", "--data", str(data)]) == 0
-    assert len(list((data / "plots").glob("*.png"))) == 3  # the plots are kept where the service keeps them
+    # the plots are kept where the service keeps them, named after their recordings' files (a copy of
+    # one content is one recording, under the name it was first found by)
+    store = open_store(url)
+    try:
+        registered = [Path(r.filename).stem for r in store.recordings(store.fleet_id("local"))]
+    finally:
+        store.close()
+    assert len(registered) == 3
+    plots = {p.name for p in (data / "plots").glob("*.png")}
+    assert plots == {f"{stem}-v{ANALYSIS_VERSION}.png" for stem in registered}
     out = capsys.readouterr().out
     assert "3 recording(s) registered, 1 already known, 3 diagnosed, 0 failed" in out
     assert "man-b-w-7k98mc: 1 healthy, 1 alarm" in out
@@ -249,3 +260,34 @@ def test_a_batch_on_a_dask_cluster_survives_a_worker_killed_midway(tmp_path: Pat
         assert store.count("results") == 16 and store.count("jobs") == 8
     finally:
         store.close()
+
+
+def test_plot_names_follow_the_files_and_add_the_id_only_for_a_stem_taken() -> None:
+    """The first recording of a stem keeps it; a later one adds its id; stems compared as a file system
+    that ignores case would, after the characters a name leaves out are replaced."""
+    v = ANALYSIS_VERSION
+    files = [(3, "night.h5"), (1, "night.mcap"), (7, "NIGHT.h5"), (9, "other night.h5"), (12, "night+3.h5")]
+    assert plot_names(files) == {
+        1: f"night-v{v}.png",
+        3: f"night+3-v{v}.png",
+        7: f"NIGHT+7-v{v}.png",
+        9: f"other_night-v{v}.png",
+        12: f"night_3-v{v}.png",  # a '+' of its own is replaced: the names of ids added stay apart
+    }
+
+
+filenames = st.text(alphabet="aA12+._- /b", min_size=1, max_size=12).map(lambda s: s.strip("/") or "x")
+
+
+@given(st.lists(filenames, min_size=1, max_size=25))
+@example(["a.h5", "a.mcap", "a-2.h5", "a+2.h5", "a_2.h5"])  # named as another's stem and id
+def test_plot_names_never_collide_and_a_later_recording_renames_none(files: list[str]) -> None:
+    """Names distinct however the files are named (even one named as another's stem and id), as a
+    file system that ignores case sees them, and each recording's name kept when more are registered."""
+    recordings = list(enumerate(files, start=1))
+    names = plot_names(recordings)
+    assert len({n.casefold() for n in names.values()}) == len(recordings)
+    assert all("/" not in n and not n.startswith(".") for n in names.values())
+    for count in range(1, len(recordings)):
+        earlier = plot_names(recordings[:count])
+        assert all(names[i] == earlier[i] for i in earlier)
