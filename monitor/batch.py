@@ -24,6 +24,13 @@ Engines come from the fleet's descriptions in the store, else the bundled
 ones; baselines (``--baseline B.json``, one per engine) make the bearing
 comparisons.
 
+The summary covers the run's scope (the files under ``PATH``, or the store's
+recordings since ``DATE``): each recording with its diagnosis, made by this run
+or found already made, or with why it has none. Its exit status, as
+``compare``'s, is the worst over the scope: 0 healthy, 1 warning, 2 alarm, 3
+inconclusive or not diagnosed (a job that failed or was set aside, a file that
+is not a readable recording). A run again on the same scope says the same.
+
 With a data folder, each diagnosis plot is kept in its ``plots/`` folder,
 named after its recording's file (:func:`plot_names`).
 """
@@ -38,7 +45,7 @@ from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta
 from pathlib import Path, PurePath
 from typing import Any
@@ -50,8 +57,10 @@ from monitor.processes import analysis_pool
 from monitor.store import Job, Store
 
 __all__ = [
+    "EXIT_STATUS",
     "RECORDING_SUFFIXES",
     "BatchSummary",
+    "RecordingOutcome",
     "content_hash",
     "diagnose_file",
     "plot_names",
@@ -296,6 +305,74 @@ def diagnose_file(
     }
 
 
+EXIT_STATUS = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
+"""The exit status of each diagnosis status, as ``compare``'s; anything not diagnosed counts 3."""
+
+NOT_DIAGNOSED = 3  # a failed or set-aside job, an unreadable file: the batch could not diagnose it
+
+
+@dataclass(frozen=True)
+class RecordingOutcome:
+    """Where one recording of a batch's scope stands once the run is over.
+
+    Attributes
+    ----------
+    id : int
+        The recording's id in the store.
+    filename : str
+        Its file name, as registered.
+    engine_id : str
+    recorded_at : str
+        When it was recorded (ISO 8601, as the recording says; "" when it does not).
+    status : str
+        The diagnosis' status ("healthy", "warning", "alarm", "inconclusive"), else the job's state:
+        "failed" (to be retried by the next run), "set_aside" (failed too often), or "running"
+        (another run still holds it).
+    diagnosed : str
+        Who diagnosed it: "this run", "another run" (while this one waited for it), "before" (an
+        earlier run or the service); "" when it is not diagnosed.
+    findings : list of dict
+        The diagnosis' findings: kind, subject, severity, summary.
+    error : str
+        Why its job failed ("" when it did not).
+    plot : str
+        The diagnosis plot's path, when one is kept ("" otherwise).
+    truncated : bool
+        Whether the file was cut short (diagnosed on what it holds).
+    """
+
+    id: int
+    filename: str
+    engine_id: str
+    recorded_at: str
+    status: str
+    diagnosed: str = ""
+    findings: list[dict[str, str]] = field(default_factory=list)
+    error: str = ""
+    plot: str = ""
+    truncated: bool = False
+
+    @property
+    def exit_status(self) -> int:
+        """0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed."""
+        return EXIT_STATUS.get(self.status, NOT_DIAGNOSED)
+
+    def document(self) -> dict[str, Any]:
+        """The recording's entry in ``batch --json``."""
+        return {
+            "id": self.id,
+            "file": self.filename,
+            "engine_id": self.engine_id,
+            "recorded_at": self.recorded_at or None,
+            "status": self.status,
+            "diagnosed": self.diagnosed or None,
+            "findings": self.findings,
+            "error": self.error or None,
+            "plot": self.plot or None,
+            "truncated": self.truncated,
+        }
+
+
 @dataclass
 class BatchSummary:
     """What a batch run did.
@@ -325,6 +402,9 @@ class BatchSummary:
         Per engine, the statuses of the diagnoses of this run.
     findings : dict of str to list of str
         Per engine, the findings' summaries of this run (prefixed with the file name).
+    recordings : list of RecordingOutcome
+        Every recording of the run's scope, as it stands once the run is over, diagnosed in this run
+        or before it.
     """
 
     registered: int = 0
@@ -339,6 +419,14 @@ class BatchSummary:
     waited_s: float = 0.0
     by_engine: dict[str, Counter[str]] = field(default_factory=lambda: defaultdict(Counter))
     findings: dict[str, list[str]] = field(default_factory=lambda: defaultdict(list))
+    recordings: list[RecordingOutcome] = field(default_factory=list)
+
+    @property
+    def exit_status(self) -> int:
+        """The worst over the scope: each recording's (:attr:`RecordingOutcome.exit_status`), diagnosed
+        in this run or before it, and 3 for an unreadable file; 0 for an empty scope."""
+        worst = max((r.exit_status for r in self.recordings), default=0)
+        return max(worst, NOT_DIAGNOSED) if self.unreadable else worst
 
     def text(self) -> str:
         """The summary for people: per engine, counts by status and the findings."""
@@ -356,10 +444,18 @@ class BatchSummary:
             )
         for engine_id in sorted(self.by_engine):
             counts = self.by_engine[engine_id]
-            kinds = ("healthy", "warning", "alarm", "inconclusive")
-            status = ", ".join(f"{counts[s]} {s}" for s in kinds if counts[s])
+            status = ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
             lines.append(f"  {engine_id}: {status}")
             lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
+        before = [r for r in self.recordings if r.diagnosed == "before"]
+        if before:
+            counts = Counter(r.status for r in before)
+            lines.append(
+                f"  diagnosed before this run: {len(before)} ("
+                + ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
+                + ")"
+            )
+            lines += [f"    {r.filename}: {f['summary']}" for r in before for f in r.findings]
         for name, reason in self.unreadable:
             lines.append(f"  not a readable recording: {name}: {reason}")
         for name in self.truncated:
@@ -367,7 +463,41 @@ class BatchSummary:
         for name, reason, state in self.failed:
             again = "set aside (too many attempts)" if state == "set_aside" else "will be retried"
             lines.append(f"  failed: {name}: {reason} ({again})")
+        failed_now = {name for name, _, _ in self.failed}
+        for r in self.recordings:  # jobs set aside by an earlier run, left alone by this one
+            if r.status not in EXIT_STATUS and r.filename not in failed_now:
+                lines.append(f"  not diagnosed ({r.status.replace('_', ' ')}): {r.filename}: {r.error}")
+        lines.append(
+            f"exit status {self.exit_status}: the worst over {len(self.recordings)} recording(s) in scope"
+            + (f" and {len(self.unreadable)} unreadable file(s)" if self.unreadable else "")
+            + " (0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed)"
+        )
         return "\n".join(lines)
+
+    def document(self) -> dict[str, Any]:
+        """The summary for programs (``batch --json``, described in docs/service.md)."""
+        from monitor.diagnosis import ANALYSIS_VERSION
+
+        return {
+            "analysis_version": ANALYSIS_VERSION,
+            "exit_status": self.exit_status,
+            "totals": {
+                "registered": self.registered,
+                "known": self.known,
+                "diagnosed": self.diagnosed,
+                "failed": len(self.failed),
+                "unreadable": len(self.unreadable),
+                "truncated": len(self.truncated),
+                "requeued": self.requeued,
+                "held": self.held,
+                "finished_elsewhere": self.finished_elsewhere,
+                "waited_s": self.waited_s,
+                "by_engine": {e: dict(self.by_engine[e]) for e in sorted(self.by_engine)},
+                "by_status": dict(Counter(r.status for r in self.recordings)),
+            },
+            "recordings": [r.document() for r in self.recordings],
+            "unreadable": [{"file": name, "error": reason} for name, reason in self.unreadable],
+        }
 
 
 def _one_line(reason: str) -> str:
@@ -430,6 +560,7 @@ def run_batch(
 
     summary = BatchSummary()
     scope: list[int] = []
+    cut_short: set[int] = set()
     if path is not None:
         for file in _files(path):
             try:
@@ -442,6 +573,7 @@ def run_batch(
                 continue
             if truncated:
                 summary.truncated.append(file.name)
+                cut_short.add(recording_id)
             summary.registered += created
             summary.known += not created
             scope.append(recording_id)
@@ -466,8 +598,21 @@ def run_batch(
     plots = {i: data_dir / "plots" / name for i, name in _plot_names(store).items()} if data_dir else {}
     context = _Run(store, fleet_id, baselines or {}, plots, lease, summary, progress)
     total = len(pending) + len(held)
-    if total == 0:
-        return summary
+    if total > 0:
+        _run_jobs(context, scheduler, workers, pending, held, total)
+    summary.recordings = [
+        _outcome(store, recording_id, context, truncated=recording_id in cut_short) for recording_id in scope
+    ]
+    return summary
+
+
+def _run_jobs(
+    context: _Run, scheduler: str | None, workers: int | None, pending: list[Job], held: list[int], total: int
+) -> None:
+    """Run this run's jobs, then wait for those another run holds (see the module docstring)."""
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    store, summary, lease = context.store, context.summary, context.lease
     with _executor(scheduler, workers, total) as (pool, count):
         held += context.run(pool, count, pending, total)
         started = time.monotonic()
@@ -484,10 +629,42 @@ def run_batch(
                     still.append(recording_id)
                 else:  # done or set aside by the run that held it
                     summary.finished_elsewhere += 1
+                    context.elsewhere.add(recording_id)
                     context.count_done(total)
             held = still + context.run(pool, count, again, total)
             summary.waited_s = time.monotonic() - started
-    return summary
+
+
+def _outcome(store: Store, recording_id: int, context: _Run, *, truncated: bool) -> RecordingOutcome:
+    """Where a recording of the scope stands: its diagnosis (stored), else its job's state."""
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    row = store.recording(context.fleet_id, recording_id)
+    assert row is not None  # in the scope: registered in this fleet
+    plot = context.plots.get(recording_id)
+    outcome = RecordingOutcome(
+        id=row.id,
+        filename=row.filename,
+        engine_id=row.engine_id,
+        recorded_at=row.recorded_at,
+        status="failed",
+        plot=str(plot) if plot is not None and plot.is_file() else "",
+        truncated=truncated,
+    )
+    document = store.result(recording_id, ANALYSIS_VERSION, DIAGNOSIS)
+    if document is not None:
+        if recording_id in context.mine:
+            diagnosed = "this run"
+        else:
+            diagnosed = "another run" if recording_id in context.elsewhere else "before"
+        findings = [
+            {k: f[k] for k in ("kind", "subject", "severity", "summary")} for f in document["findings"]
+        ]
+        return replace(outcome, status=document["status"], diagnosed=diagnosed, findings=findings)
+    job = store.job(recording_id, ANALYSIS_VERSION)
+    if job is None:
+        return replace(outcome, error="no job was queued")
+    return replace(outcome, status="failed" if job.state == "queued" else job.state, error=job.error)
 
 
 @dataclass
@@ -503,6 +680,8 @@ class _Run:
     progress: Callable[[int, int], None] | None
     engines: dict[str, dict[str, Any] | None] = field(default_factory=dict)
     done: int = 0
+    mine: set[int] = field(default_factory=set)  # the recordings this run diagnosed
+    elsewhere: set[int] = field(default_factory=set)  # those another run finished while this one waited
 
     def count_done(self, total: int) -> None:
         """One more job of this run's is over; tell the progress display."""
@@ -563,6 +742,7 @@ class _Run:
                     summary.failed.append((name, reason, store.fail(job, reason)))
                 else:
                     store.complete(job, documents)
+                    self.mine.add(job.recording_id)
                     status, document = documents[DIAGNOSIS]
                     summary.diagnosed += 1
                     summary.by_engine[engine_id][status] += 1

@@ -268,7 +268,7 @@ BAD_INPUTS = [
     (["simulate", "{tmp}/missing.toml", "-o", "{tmp}/x.h5"], 2, "missing.toml"),
     (["compare", "{tmp}/missing.h5"], 3, "missing.h5"),
     (["calibrate", "{tmp}/missing.h5", "-o", "{tmp}/b.json"], 2, "missing.h5"),
-    (["batch", "{tmp}/no-such-folder", "--data", "{tmp}/data"], 2, "no such file or folder"),
+    (["batch", "{tmp}/no-such-folder", "--data", "{tmp}/data"], 3, "no such file or folder"),
     (["tdc", "{tmp}/missing.h5"], 2, "missing.h5"),
     (["torsion", "modes", "no-such-engine"], 2, "no such engine file"),
     (["keys", "revoke", "5", "--data", "{tmp}/no-data"], 2, "no such folder"),
@@ -319,8 +319,8 @@ def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """An option out of its range, of the wrong type, or missing: status 2 (3 for compare) and an error
-    line naming it
+    """An option out of its range, of the wrong type, or missing: status 2 (3 for compare and batch, whose
+    2 is an alarm) and an error line naming it
     (argparse's usage lines above it for a usage error), never a traceback, never an 'unexpected'."""
     monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
     monkeypatch.chdir(tmp_path)
@@ -334,7 +334,7 @@ def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
     except SystemExit as stop:  # argparse's usage error
         status = stop.code  # type: ignore[assignment]
     err = capsys.readouterr().err
-    assert status == (3 if argv[0] == "compare" else 2), err  # compare's 3: not diagnosed (README)
+    assert status == (3 if argv[0] in ("compare", "batch") else 2), err  # their 3: not diagnosed (README)
     last = err.strip().splitlines()[-1]
     assert "error: " in last and said in last, err
     assert "Traceback" not in err and "unexpected" not in err
@@ -351,7 +351,7 @@ def test_every_subcommand_answers_a_bad_input_in_one_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Each subcommand given a file, engine, folder or store that is not there: one line on stderr
-    naming it, the README's status (2; 3 for compare), no traceback, and nothing made for it (no
+    naming it, the README's status (2; 3 for compare and batch), no traceback, and nothing made for it (no
     data folder, no store)."""
     monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
     monkeypatch.chdir(tmp_path)
