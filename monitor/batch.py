@@ -23,32 +23,49 @@ that fails records why and is retried by the next run, up to
 Engines come from the fleet's descriptions in the store, else the bundled
 ones; baselines (``--baseline B.json``, one per engine) make the bearing
 comparisons.
+
+The summary covers the run's scope (the files under ``PATH``, or the store's
+recordings since ``DATE``): each recording with its diagnosis, made by this run
+or found already made, or with why it has none. Its exit status, as
+``compare``'s, is the worst over the scope: 0 healthy, 1 warning, 2 alarm, 3
+inconclusive or not diagnosed (a job that failed or was set aside, a file that
+is not a readable recording). A run again on the same scope says the same.
+
+With a data folder, each diagnosis plot is kept in its ``plots/`` folder,
+named after its recording's file (:func:`plot_names`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
+
+import sqlalchemy as sa
 
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import Job, Store
 
 __all__ = [
+    "EXIT_STATUS",
     "RECORDING_SUFFIXES",
     "BatchSummary",
+    "RecordingOutcome",
     "content_hash",
     "diagnose_file",
+    "plot_names",
     "plot_path",
+    "recording_plot_path",
     "register",
     "run_batch",
 ]
@@ -58,7 +75,10 @@ DIAGNOSIS = "diagnosis"  # the kind of result a job writes
 
 
 def plot_path(data_dir: Path, recording_id: int) -> Path:
-    """Where the service's data folder keeps a recording's diagnosis plot (the batch and the service).
+    """Where the service's worker keeps a recording's diagnosis plot, named by its store id.
+
+    The batch names its plots after the recordings (:func:`recording_plot_path`); this name
+    is the service's until it names them alike.
 
     Parameters
     ----------
@@ -70,6 +90,84 @@ def plot_path(data_dir: Path, recording_id: int) -> Path:
     from monitor.diagnosis import ANALYSIS_VERSION
 
     return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
+
+
+PLOT_STEM_CHARACTERS = 120  # a plot's name keeps this much of its recording's stem
+
+
+def _safe_stem(filename: str) -> str:
+    """A file name's stem as a plot's name may hold it: ASCII letters, digits, ``.``, ``_`` and ``-``
+    (any other character becomes ``_``), not hidden, at most :data:`PLOT_STEM_CHARACTERS` long."""
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", PurePath(filename).stem)[:PLOT_STEM_CHARACTERS]
+    return "_" + stem[1:] if stem.startswith(".") else stem or "recording"
+
+
+def plot_names(recordings: Iterable[tuple[int, str]]) -> dict[int, str]:
+    """The diagnosis plots' file names of recordings, named after their files' stems.
+
+    A recording's plot is named ``STEM-vVERSION.png`` (the analysis version) when no recording of
+    a lower id has the same stem, else ``STEM+ID-vVERSION.png``. Stems are compared as a
+    case-insensitive file system would, after the characters a plot's name leaves out are replaced.
+    ``+`` is one of those, so an id added to a stem can never make another recording's name: the names
+    never collide. A recording's name depends only on the recordings registered before it, so it is
+    the same on every run.
+
+    Parameters
+    ----------
+    recordings : iterable of (int, str)
+        Every recording whose plot shares the folder: its id in the store and its file name (as
+        registered).
+
+    Returns
+    -------
+    dict of int to str
+        The plot's file name, by recording id.
+    """
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    listed = sorted(recordings)
+    first: dict[str, int] = {}
+    for recording_id, filename in listed:
+        first.setdefault(_safe_stem(filename).casefold(), recording_id)
+    names = {}
+    for recording_id, filename in listed:
+        stem = _safe_stem(filename)
+        if first[stem.casefold()] != recording_id:
+            stem = f"{stem}+{recording_id}"
+        names[recording_id] = f"{stem}-v{ANALYSIS_VERSION}.png"
+    return names
+
+
+def _plot_names(store: Store) -> dict[int, str]:
+    """:func:`plot_names` of every recording in the store (of every fleet: they share the data folder)."""
+    from monitor.store.schema import recordings
+
+    with store.db.connect() as c:
+        rows = c.execute(sa.select(recordings.c.id, recordings.c.filename)).all()
+    return plot_names((row.id, row.filename) for row in rows)
+
+
+def recording_plot_path(data_dir: Path, store: Store, recording_id: int) -> Path:
+    """Where the batch keeps a recording's diagnosis plot: named after the recording (:func:`plot_names`).
+
+    Parameters
+    ----------
+    data_dir : Path
+        The service's data folder.
+    store : Store
+        The store the recording is registered in.
+    recording_id : int
+        The recording's id in the store.
+
+    Raises
+    ------
+    MonitorError
+        If no recording has that id.
+    """
+    names = _plot_names(store)
+    if recording_id not in names:
+        raise MonitorError(f"recording {recording_id}: no such recording in the store")
+    return data_dir / "plots" / names[recording_id]
 
 
 def content_hash(path: str | Path) -> str:
@@ -207,6 +305,74 @@ def diagnose_file(
     }
 
 
+EXIT_STATUS = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
+"""The exit status of each diagnosis status, as ``compare``'s; anything not diagnosed counts 3."""
+
+NOT_DIAGNOSED = 3  # a failed or set-aside job, an unreadable file: the batch could not diagnose it
+
+
+@dataclass(frozen=True)
+class RecordingOutcome:
+    """Where one recording of a batch's scope stands once the run is over.
+
+    Attributes
+    ----------
+    id : int
+        The recording's id in the store.
+    filename : str
+        Its file name, as registered.
+    engine_id : str
+    recorded_at : str
+        When it was recorded (ISO 8601, as the recording says; "" when it does not).
+    status : str
+        The diagnosis' status ("healthy", "warning", "alarm", "inconclusive"), else the job's state:
+        "failed" (to be retried by the next run), "set_aside" (failed too often), or "running"
+        (another run still holds it).
+    diagnosed : str
+        Who diagnosed it: "this run", "another run" (while this one waited for it), "before" (an
+        earlier run or the service); "" when it is not diagnosed.
+    findings : list of dict
+        The diagnosis' findings: kind, subject, severity, summary.
+    error : str
+        Why its job failed ("" when it did not).
+    plot : str
+        The diagnosis plot's path, when one is kept ("" otherwise).
+    truncated : bool
+        Whether the file was cut short (diagnosed on what it holds).
+    """
+
+    id: int
+    filename: str
+    engine_id: str
+    recorded_at: str
+    status: str
+    diagnosed: str = ""
+    findings: list[dict[str, str]] = field(default_factory=list)
+    error: str = ""
+    plot: str = ""
+    truncated: bool = False
+
+    @property
+    def exit_status(self) -> int:
+        """0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed."""
+        return EXIT_STATUS.get(self.status, NOT_DIAGNOSED)
+
+    def document(self) -> dict[str, Any]:
+        """The recording's entry in ``batch --json``."""
+        return {
+            "id": self.id,
+            "file": self.filename,
+            "engine_id": self.engine_id,
+            "recorded_at": self.recorded_at or None,
+            "status": self.status,
+            "diagnosed": self.diagnosed or None,
+            "findings": self.findings,
+            "error": self.error or None,
+            "plot": self.plot or None,
+            "truncated": self.truncated,
+        }
+
+
 @dataclass
 class BatchSummary:
     """What a batch run did.
@@ -236,6 +402,9 @@ class BatchSummary:
         Per engine, the statuses of the diagnoses of this run.
     findings : dict of str to list of str
         Per engine, the findings' summaries of this run (prefixed with the file name).
+    recordings : list of RecordingOutcome
+        Every recording of the run's scope, as it stands once the run is over, diagnosed in this run
+        or before it.
     """
 
     registered: int = 0
@@ -250,6 +419,14 @@ class BatchSummary:
     waited_s: float = 0.0
     by_engine: dict[str, Counter[str]] = field(default_factory=lambda: defaultdict(Counter))
     findings: dict[str, list[str]] = field(default_factory=lambda: defaultdict(list))
+    recordings: list[RecordingOutcome] = field(default_factory=list)
+
+    @property
+    def exit_status(self) -> int:
+        """The worst over the scope: each recording's (:attr:`RecordingOutcome.exit_status`), diagnosed
+        in this run or before it, and 3 for an unreadable file; 0 for an empty scope."""
+        worst = max((r.exit_status for r in self.recordings), default=0)
+        return max(worst, NOT_DIAGNOSED) if self.unreadable else worst
 
     def text(self) -> str:
         """The summary for people: per engine, counts by status and the findings."""
@@ -267,10 +444,18 @@ class BatchSummary:
             )
         for engine_id in sorted(self.by_engine):
             counts = self.by_engine[engine_id]
-            kinds = ("healthy", "warning", "alarm", "inconclusive")
-            status = ", ".join(f"{counts[s]} {s}" for s in kinds if counts[s])
+            status = ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
             lines.append(f"  {engine_id}: {status}")
             lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
+        before = [r for r in self.recordings if r.diagnosed == "before"]
+        if before:
+            counts = Counter(r.status for r in before)
+            lines.append(
+                f"  diagnosed before this run: {len(before)} ("
+                + ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
+                + ")"
+            )
+            lines += [f"    {r.filename}: {f['summary']}" for r in before for f in r.findings]
         for name, reason in self.unreadable:
             lines.append(f"  not a readable recording: {name}: {reason}")
         for name in self.truncated:
@@ -278,7 +463,41 @@ class BatchSummary:
         for name, reason, state in self.failed:
             again = "set aside (too many attempts)" if state == "set_aside" else "will be retried"
             lines.append(f"  failed: {name}: {reason} ({again})")
+        failed_now = {name for name, _, _ in self.failed}
+        for r in self.recordings:  # jobs set aside by an earlier run, left alone by this one
+            if r.status not in EXIT_STATUS and r.filename not in failed_now:
+                lines.append(f"  not diagnosed ({r.status.replace('_', ' ')}): {r.filename}: {r.error}")
+        lines.append(
+            f"exit status {self.exit_status}: the worst over {len(self.recordings)} recording(s) in scope"
+            + (f" and {len(self.unreadable)} unreadable file(s)" if self.unreadable else "")
+            + " (0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed)"
+        )
         return "\n".join(lines)
+
+    def document(self) -> dict[str, Any]:
+        """The summary for programs (``batch --json``, described in docs/service.md)."""
+        from monitor.diagnosis import ANALYSIS_VERSION
+
+        return {
+            "analysis_version": ANALYSIS_VERSION,
+            "exit_status": self.exit_status,
+            "totals": {
+                "registered": self.registered,
+                "known": self.known,
+                "diagnosed": self.diagnosed,
+                "failed": len(self.failed),
+                "unreadable": len(self.unreadable),
+                "truncated": len(self.truncated),
+                "requeued": self.requeued,
+                "held": self.held,
+                "finished_elsewhere": self.finished_elsewhere,
+                "waited_s": self.waited_s,
+                "by_engine": {e: dict(self.by_engine[e]) for e in sorted(self.by_engine)},
+                "by_status": dict(Counter(r.status for r in self.recordings)),
+            },
+            "recordings": [r.document() for r in self.recordings],
+            "unreadable": [{"file": name, "error": reason} for name, reason in self.unreadable],
+        }
 
 
 def _one_line(reason: str) -> str:
@@ -341,6 +560,7 @@ def run_batch(
 
     summary = BatchSummary()
     scope: list[int] = []
+    cut_short: set[int] = set()
     if path is not None:
         for file in _files(path):
             try:
@@ -353,6 +573,7 @@ def run_batch(
                 continue
             if truncated:
                 summary.truncated.append(file.name)
+                cut_short.add(recording_id)
             summary.registered += created
             summary.known += not created
             scope.append(recording_id)
@@ -374,10 +595,24 @@ def run_batch(
         elif job.state == "running":
             held.append(recording_id)
     summary.held = len(held)
-    context = _Run(store, fleet_id, baselines or {}, data_dir, lease, summary, progress)
+    plots = {i: data_dir / "plots" / name for i, name in _plot_names(store).items()} if data_dir else {}
+    context = _Run(store, fleet_id, baselines or {}, plots, lease, summary, progress)
     total = len(pending) + len(held)
-    if total == 0:
-        return summary
+    if total > 0:
+        _run_jobs(context, scheduler, workers, pending, held, total)
+    summary.recordings = [
+        _outcome(store, recording_id, context, truncated=recording_id in cut_short) for recording_id in scope
+    ]
+    return summary
+
+
+def _run_jobs(
+    context: _Run, scheduler: str | None, workers: int | None, pending: list[Job], held: list[int], total: int
+) -> None:
+    """Run this run's jobs, then wait for those another run holds (see the module docstring)."""
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    store, summary, lease = context.store, context.summary, context.lease
     with _executor(scheduler, workers, total) as (pool, count):
         held += context.run(pool, count, pending, total)
         started = time.monotonic()
@@ -394,10 +629,42 @@ def run_batch(
                     still.append(recording_id)
                 else:  # done or set aside by the run that held it
                     summary.finished_elsewhere += 1
+                    context.elsewhere.add(recording_id)
                     context.count_done(total)
             held = still + context.run(pool, count, again, total)
             summary.waited_s = time.monotonic() - started
-    return summary
+
+
+def _outcome(store: Store, recording_id: int, context: _Run, *, truncated: bool) -> RecordingOutcome:
+    """Where a recording of the scope stands: its diagnosis (stored), else its job's state."""
+    from monitor.diagnosis import ANALYSIS_VERSION
+
+    row = store.recording(context.fleet_id, recording_id)
+    assert row is not None  # in the scope: registered in this fleet
+    plot = context.plots.get(recording_id)
+    outcome = RecordingOutcome(
+        id=row.id,
+        filename=row.filename,
+        engine_id=row.engine_id,
+        recorded_at=row.recorded_at,
+        status="failed",
+        plot=str(plot) if plot is not None and plot.is_file() else "",
+        truncated=truncated,
+    )
+    document = store.result(recording_id, ANALYSIS_VERSION, DIAGNOSIS)
+    if document is not None:
+        if recording_id in context.mine:
+            diagnosed = "this run"
+        else:
+            diagnosed = "another run" if recording_id in context.elsewhere else "before"
+        findings = [
+            {k: f[k] for k in ("kind", "subject", "severity", "summary")} for f in document["findings"]
+        ]
+        return replace(outcome, status=document["status"], diagnosed=diagnosed, findings=findings)
+    job = store.job(recording_id, ANALYSIS_VERSION)
+    if job is None:
+        return replace(outcome, error="no job was queued")
+    return replace(outcome, status="failed" if job.state == "queued" else job.state, error=job.error)
 
 
 @dataclass
@@ -407,12 +674,14 @@ class _Run:
     store: Store
     fleet_id: int
     baselines: dict[str, dict[str, Any]]
-    data_dir: Path | None
+    plots: dict[int, Path]  # where each recording's plot goes (none: no plots kept)
     lease: timedelta
     summary: BatchSummary
     progress: Callable[[int, int], None] | None
     engines: dict[str, dict[str, Any] | None] = field(default_factory=dict)
     done: int = 0
+    mine: set[int] = field(default_factory=set)  # the recordings this run diagnosed
+    elsewhere: set[int] = field(default_factory=set)  # those another run finished while this one waited
 
     def count_done(self, total: int) -> None:
         """One more job of this run's is over; tell the progress display."""
@@ -431,7 +700,6 @@ class _Run:
         Returns the recordings whose job another run took first (to be waited for).
         """
         store, summary, fleet_id, engines = self.store, self.summary, self.fleet_id, self.engines
-        data_dir = self.data_dir
         running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
         queue = list(pending)
         taken: list[int] = []
@@ -447,7 +715,7 @@ class _Run:
                 assert row is not None
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
-                plot = str(plot_path(data_dir, row.id)) if data_dir is not None else None
+                plot = str(self.plots[row.id]) if row.id in self.plots else None
                 future = pool.submit(
                     diagnose_file,
                     row.path,
@@ -458,8 +726,8 @@ class _Run:
                 )
                 running[future] = (claimed, row.filename, row.engine_id)
 
-        if data_dir is not None:
-            (data_dir / "plots").mkdir(parents=True, exist_ok=True)
+        for folder in {p.parent for p in self.plots.values()}:
+            folder.mkdir(parents=True, exist_ok=True)
         submit()
         while running:
             finished, _ = wait(list(running), timeout=self.beat, return_when=FIRST_COMPLETED)
@@ -474,6 +742,7 @@ class _Run:
                     summary.failed.append((name, reason, store.fail(job, reason)))
                 else:
                     store.complete(job, documents)
+                    self.mine.add(job.recording_id)
                     status, document = documents[DIAGNOSIS]
                     summary.diagnosed += 1
                     summary.by_engine[engine_id][status] += 1

@@ -19,7 +19,8 @@ Errors the product raises on purpose (bad engine file, out-of-range input)
 print one clear message and exit with status 2; the table goes to standard
 output, messages to standard error. ``compare`` exits with the health it
 found instead: 0 healthy, 1 warning, 2 alarm, and 3 when it cannot diagnose
-(an error, a usage error included).
+(an error, a usage error included); ``batch`` likewise with the worst over
+the recordings in its scope (see :mod:`monitor.batch`).
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ if TYPE_CHECKING:
     from monitor.recording import Recording
 
 __all__ = ["main"]
+
+_DIAGNOSING = ("compare", "batch")  # their 2 is an alarm: their errors exit with 3, could not diagnose
 
 
 def _positive_float(text: str) -> float:
@@ -269,11 +272,16 @@ def _build_parser() -> argparse.ArgumentParser:
 
     batch = sub.add_parser(
         "batch",
-        help="diagnose every recording not yet diagnosed (a folder, or the store's since a date)",
+        help="diagnose every recording not yet diagnosed (a folder, or the store's since a date); "
+        "exit 0/1/2/3",
         description="Register the recordings under PATH in the results store (or take the store's "
         "recordings uploaded since --since), and diagnose those without a result at the current analysis "
         "version in a local process pool. Idempotent: run it again, or after a crash, and only what is "
-        "missing is done. Ends with a summary of findings per engine.",
+        "missing is done. Ends with a summary of findings per engine (--json: a JSON document); diagnosis "
+        "plots are kept in DATA/plots, named after their recordings. Exit status, the worst over the "
+        "recordings in scope, those diagnosed by this run and those found diagnosed before it: 0 healthy, "
+        "1 warning, 2 alarm, 3 inconclusive or not diagnosed (a job that failed or was set aside, a file "
+        "that is not a readable recording, an error).",
     )
     scope = batch.add_mutually_exclusive_group(required=True)
     scope.add_argument("path", nargs="?", metavar="PATH", help="a recording file or a folder of them")
@@ -300,6 +308,10 @@ def _build_parser() -> argparse.ArgumentParser:
     batch.add_argument(
         "--scheduler", metavar="ADDRESS", help="run on a Dask distributed cluster (tcp://host:8786) instead"
     )
+    batch.add_argument(
+        "--json", action="store_true", help="print the summary as a JSON document (docs/service.md)"
+    )
+    batch.error = _exit_3_on_usage_error(batch)  # type: ignore[method-assign]
 
     serve = sub.add_parser(
         "serve",
@@ -436,7 +448,8 @@ def _build_parser() -> argparse.ArgumentParser:
 
 
 def _exit_3_on_usage_error(parser: argparse.ArgumentParser) -> Any:
-    """``compare``'s usage errors exit with 3 (could not diagnose), not argparse's 2 (an alarm)."""
+    """``compare``'s and ``batch``'s usage errors exit with 3 (could not diagnose), not argparse's 2 (an
+    alarm)."""
 
     def error(message: str) -> Any:
         parser.print_usage(sys.stderr)
@@ -606,8 +619,12 @@ def _run_batch(args: argparse.Namespace) -> int:
             )
     finally:
         store.close()
-    print(summary.text())
-    return 0
+    if args.json:
+        json.dump(summary.document(), sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        print(summary.text())
+    return summary.exit_status
 
 
 def _service_store_url(given: str | None, data: str) -> str:
@@ -1148,8 +1165,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 on success, 2 on a usage or input error; ``compare``: 0 healthy,
-        1 warning, 2 alarm, 3 could not diagnose.
+        Exit status: 0 on success, 2 on a usage or input error; ``compare`` and ``batch``: 0 healthy,
+        1 warning, 2 alarm, 3 could not diagnose (``batch``: the worst over its scope).
     """
     parser = _build_parser()
     args = parser.parse_args(argv)
@@ -1162,7 +1179,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 check_figure_path(getattr(args, option), formats=formats)
             except PlotError as error:
                 print(f"engine-monitor: error: --{option.replace('_', '-')} {error}", file=sys.stderr)
-                return 3 if args.command == "compare" else 2
+                return 3 if args.command in _DIAGNOSING else 2
     handlers = {
         "orders": _run_orders,
         "engines": _run_engines,
@@ -1183,7 +1200,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return handlers[args.command](args)
     except MonitorError as error:
         print(f"engine-monitor: error: {error}", file=sys.stderr)
-        return 3 if args.command == "compare" else 2
+        return 3 if args.command in _DIAGNOSING else 2
     except KeyboardInterrupt:
         print("engine-monitor: stopped (Ctrl-C)", file=sys.stderr)
         return 130
@@ -1204,4 +1221,4 @@ def main(argv: Sequence[str] | None = None) -> int:
             "shows where)",
             file=sys.stderr,
         )
-        return 3 if args.command == "compare" else 2
+        return 3 if args.command in _DIAGNOSING else 2

@@ -6,6 +6,7 @@ physics puts where. Each function writes one PNG and returns its path.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from monitor.model_orders import ModelOrders
 __all__ = [
     "PlotError",
     "check_figure_path",
+    "diagnosis_title",
     "plot_diagnosis",
     "plot_model_orders",
     "plot_spectra",
@@ -94,11 +96,11 @@ def check_figure_path(path: str | Path, *, formats: tuple[str, ...] | None = Non
     return out
 
 
-def save_figure(fig: Any, out: Path, *, dpi: int = 110) -> Path:
-    """Write the figure to ``out`` and release it."""
+def save_figure(fig: Any, out: Path, *, dpi: int = 110, metadata: dict[str, str] | None = None) -> Path:
+    """Write the figure to ``out`` and release it (``metadata``: the file's, e.g. a PNG's "Title")."""
     import matplotlib.pyplot as plt
 
-    fig.savefig(out, dpi=dpi)
+    fig.savefig(out, dpi=dpi, metadata=metadata)
     plt.close(fig)
     return out
 
@@ -252,6 +254,50 @@ def plot_speed_maps(result: Any, path: str | Path) -> Path:
     return save_figure(fig, out, dpi=100)
 
 
+STATUS_COLOURS = {"healthy": "tab:green", "warning": "tab:orange", "alarm": "tab:red", "inconclusive": "0.35"}
+
+
+def diagnosis_title(status: str, summaries: Sequence[str], *, heading: str = "", width: int = 110) -> str:
+    """A diagnosis figure's title: the status word first, then the findings, then the heading.
+
+    The first line is the status in capitals followed by the findings' summaries, separated by
+    semicolons, as many whole as fit in ``width`` characters; a first summary too long on its own is
+    cut with an ellipsis; those left out are counted as "+N more". The heading (the recording, its
+    engine and speed) is the second line. A figure seen alone so says what was found.
+
+    Parameters
+    ----------
+    status : str
+        "healthy", "warning", "alarm" or "inconclusive".
+    summaries : sequence of str
+        The findings' one-line summaries, in the diagnosis' order.
+    heading : str, optional
+        The second line.
+    width : int, optional
+        Characters the first line may take.
+
+    Returns
+    -------
+    str
+    """
+    line = status.upper()
+    for shown, summary in enumerate(summaries):
+        left = len(summaries) - shown - 1
+        more = f"; +{left} more" if left else ""
+        candidate = f"{line}{':' if shown == 0 else ';'} {summary}"
+        if len(candidate) + len(more) <= width:
+            line = candidate
+            continue
+        if shown == 0:  # the first finding is shown even when it does not fit whole
+            room = width - len(line) - 2 - len(more) - 1
+            if room >= 20:
+                line = f"{line}: {summary[:room].rstrip()}\u2026"
+                continue
+        line += f"{':' if shown == 0 else ';'} +{len(summaries) - shown} more"
+        break
+    return f"{line}\n{heading}" if heading else line
+
+
 def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: str = "") -> Path:
     """Measured against predicted order spectra per channel, and the cylinder balance on a polar chart.
 
@@ -259,7 +305,9 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
     (markers), amplitudes on a log scale with the measured orders' standard
     error; the polar chart puts each cylinder at its firing angle with its
     strength relative to those that fire alike as the radius (the unit
-    circle is "as the others"), with its 95 % interval.
+    circle is "as the others"), with its 95 % interval. The figure's title
+    carries the status and the findings (:func:`diagnosis_title`), in the
+    status' colour, so a figure seen alone says what was found.
 
     Parameters
     ----------
@@ -268,6 +316,7 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
         ``.png``, or ``.html`` for a self-contained page (the figure as inline SVG,
         followed by ``table``).
     title : str, optional
+        The title's second line, under the status and findings (default: the engine's id).
     table : str, optional
         Text shown under the figure on an HTML page.
 
@@ -338,9 +387,16 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
         )
     else:
         polar.set_title("no cylinder balance")
-    fig.suptitle(title or f"{diagnosis.engine_id}: {diagnosis.status}")
-    if out.suffix.lower() == ".png":
-        return save_figure(fig, out, dpi=100)
+    size = 13.0  # points
+    heading = diagnosis_title(
+        diagnosis.status,
+        [f.summary for f in diagnosis.findings],
+        heading=title or diagnosis.engine_id,
+        width=int(fig.get_figwidth() * 72 / (0.55 * size)),  # characters of about 0.55 em
+    )
+    fig.suptitle(heading, fontsize=size, color=STATUS_COLOURS.get(diagnosis.status, "black"))
+    if out.suffix.lower() == ".png":  # the title in the file's metadata too, for programs
+        return save_figure(fig, out, dpi=100, metadata={"Title": heading})
     import matplotlib.pyplot as plt
 
     buffer = io.StringIO()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -11,11 +12,16 @@ import time
 from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
+from typing import Any
 
 import pytest
 import sqlalchemy as sa
+from hypothesis import example, given
+from hypothesis import strategies as st
+from PIL import Image
 
-from monitor.batch import content_hash, register, run_batch
+from monitor import batch as batch_module
+from monitor.batch import content_hash, diagnose_file, plot_names, register, run_batch
 from monitor.cli import main
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.io.hdf5 import read_hdf5, write_hdf5
@@ -76,12 +82,18 @@ def test_a_failing_recording_is_retried_then_set_aside(tmp_path: Path) -> None:
         for _ in range(MAX_ATTEMPTS + 1):
             summary = run_batch(store, fleet, path=unknown, workers=1)
             states += [state for _, _, state in summary.failed]
+            # failed, then set aside: not diagnosed, 3, and the summary says why on every run
+            assert summary.exit_status == 3
+            [outcome] = summary.recordings
+            assert outcome.status in ("failed", "set_aside") and "unknown-engine" in outcome.error
             if summary.failed:
                 assert (
                     "engine 'unknown-engine' is neither in the fleet's engines nor bundled"
                     in summary.failed[0][1]
                 )
         assert states == ["queued"] * (MAX_ATTEMPTS - 1) + ["set_aside"]
+        assert summary.recordings[0].status == "set_aside" and summary.failed == []  # left alone
+        assert "not diagnosed (set aside): unknown-engine.h5" in summary.text()
         assert store.count("results") == 0
     finally:
         store.close()
@@ -199,12 +211,22 @@ def test_the_batch_command_prints_the_summary(
 ) -> None:
     url = f"sqlite:///{tmp_path / 's.db'}"
     data = tmp_path / "data"
-    assert main(["batch", str(folder), "--store", url, "--workers", "1", "--data", str(data)]) == 0
-    assert len(list((data / "plots").glob("*.png"))) == 3  # the plots are kept where the service keeps them
+    # notes.h5 is no recording: the batch could not diagnose it, 3
+    assert main(["batch", str(folder), "--store", url, "--workers", "1", "--data", str(data)]) == 3
+    # the plots are kept where the service keeps them, named after their recordings' files (a copy of
+    # one content is one recording, under the name it was first found by)
+    store = open_store(url)
+    try:
+        registered = [Path(r.filename).stem for r in store.recordings(store.fleet_id("local"))]
+    finally:
+        store.close()
+    assert len(registered) == 3
+    plots = {p.name for p in (data / "plots").glob("*.png")}
+    assert plots == {f"{stem}-v{ANALYSIS_VERSION}.png" for stem in registered}
     out = capsys.readouterr().out
     assert "3 recording(s) registered, 1 already known, 3 diagnosed, 0 failed" in out
     assert "man-b-w-7k98mc: 1 healthy, 1 alarm" in out
-    assert main(["batch", "--since", "yesterday", "--store", url, "--data", str(data)]) == 2
+    assert main(["batch", "--since", "yesterday", "--store", url, "--data", str(data)]) == 3
     assert "expected a date or time in ISO 8601" in capsys.readouterr().err
 
 
@@ -249,3 +271,153 @@ def test_a_batch_on_a_dask_cluster_survives_a_worker_killed_midway(tmp_path: Pat
         assert store.count("results") == 16 and store.count("jobs") == 8
     finally:
         store.close()
+
+
+# ------------------------------------------------------------------ exit status, --json, plot names
+def _batch_json(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, dict[str, Any]]:
+    """Run ``batch --json``: its exit status and its document (stdout holds the document alone)."""
+    status = main([*argv, "--json"])
+    return status, json.loads(capsys.readouterr().out)
+
+
+def test_the_batch_exits_with_the_worst_over_its_scope_and_says_so_in_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 16. Night 1, the healthy baseline: 0. Night 2 adds the cylinder 4 misfire, under the
+    same file name in its own folder: 2, an alarm, with its finding as the store keeps it, and its plot
+    named after the file with its id added (the name is taken). Run again, nothing to do: still 2 (the
+    alarm was found before this run). A file that is no recording added: 3."""
+    baseline = tmp_path / "baseline.json"
+    assert main(["calibrate", str(SAMPLES / "7k98mc-baseline.h5"), "-o", str(baseline)]) == 0
+    folder, data = tmp_path / "recordings", tmp_path / "data"
+    (folder / "night-1").mkdir(parents=True)
+    shutil.copy(SAMPLES / "7k98mc-baseline.h5", folder / "night-1" / "recording.h5")
+    url = f"sqlite:///{tmp_path / 's.db'}"
+    argv = ["batch", str(folder), "--store", url, "--data", str(data), "--baseline", str(baseline)]
+    capsys.readouterr()
+
+    status, first = _batch_json([*argv, "--workers", "1"], capsys)
+    assert status == 0 and first["exit_status"] == 0
+    [healthy] = first["recordings"]
+    assert healthy["file"] == "recording.h5"
+    assert (healthy["status"], healthy["diagnosed"]) == ("healthy", "this run")
+    assert Path(healthy["plot"]) == data / "plots" / f"recording-v{ANALYSIS_VERSION}.png"
+
+    (folder / "night-2").mkdir()
+    shutil.copy(SAMPLES / "7k98mc-misfire-cyl4.h5", folder / "night-2" / "recording.h5")
+    status, second = _batch_json(argv, capsys)
+    assert status == 2 and second["exit_status"] == 2
+    by_id = {r["id"]: r for r in second["recordings"]}
+    assert by_id[healthy["id"]]["diagnosed"] == "before" and by_id[healthy["id"]]["status"] == "healthy"
+    [alarm] = [r for r in second["recordings"] if r["id"] != healthy["id"]]
+    store = open_store(url)
+    try:
+        stored = store.result(alarm["id"], ANALYSIS_VERSION, "diagnosis")
+        row = store.recording(store.fleet_id("local"), alarm["id"])
+    finally:
+        store.close()
+    assert stored is not None and row is not None
+    assert alarm["status"] == stored["status"] == "alarm" and alarm["diagnosed"] == "this run"
+    assert (alarm["file"], alarm["engine_id"], alarm["recorded_at"]) == (
+        row.filename,
+        row.engine_id,
+        row.recorded_at,
+    )
+    keys = ("kind", "subject", "severity", "summary")
+    assert alarm["findings"] == [{k: f[k] for k in keys} for f in stored["findings"]]
+    assert [f["subject"] for f in alarm["findings"]] == ["cylinder 4"] and alarm["error"] is None
+    plot = Path(alarm["plot"])
+    assert plot == data / "plots" / f"recording+{alarm['id']}-v{ANALYSIS_VERSION}.png"
+    # the PNG says what was found: the status word first, then the finding (its title, kept in the file)
+    with Image.open(plot) as image:
+        title = image.text["Title"]
+    assert title.startswith("ALARM: " + alarm["findings"][0]["summary"][:40])
+    totals = second["totals"]
+    assert (totals["registered"], totals["known"], totals["diagnosed"], totals["failed"]) == (1, 1, 1, 0)
+    assert totals["by_engine"] == {"man-b-w-7k98mc": {"alarm": 1}}
+    assert second["unreadable"] == []
+
+    assert main(argv) == 2  # nothing left to do: the alarm found before still counts
+    text = capsys.readouterr().out
+    assert "0 diagnosed" in text and "diagnosed before this run: 2 (1 healthy, 1 alarm)" in text
+    assert f"recording.h5: {alarm['findings'][0]['summary']}" in text
+
+    (folder / "notes.h5").write_text("not a recording")
+    status, third = _batch_json(argv, capsys)
+    assert status == 3 and third["exit_status"] == 3
+    assert [u["file"] for u in third["unreadable"]] == ["notes.h5"] and third["totals"]["unreadable"] == 1
+    assert "notes.h5" in third["unreadable"][0]["error"]
+
+
+def test_an_unreadable_file_alone_exits_3(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Nothing diagnosed, nothing healthy: a file the batch could not read is 'cannot diagnose'."""
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "cut.h5").write_bytes((SAMPLES / "7k98mc-baseline.h5").read_bytes()[:4096])
+    argv = [
+        "batch",
+        str(tmp_path / "in"),
+        "--store",
+        f"sqlite:///{tmp_path / 's.db'}",
+        "--data",
+        str(tmp_path),
+    ]
+    status, document = _batch_json(argv, capsys)
+    assert status == 3 and document["recordings"] == []
+    assert [u["file"] for u in document["unreadable"]] == ["cut.h5"] and document["unreadable"][0]["error"]
+
+
+def _diagnosed_as_a_warning(*args: Any) -> dict[str, tuple[str, dict[str, Any]]]:
+    """:func:`monitor.batch.diagnose_file` with the status a warning (no bundled sample gives one)."""
+    documents = diagnose_file(*args)
+    return {kind: ("warning", {**document, "status": "warning"}) for kind, (_, document) in documents.items()}
+
+
+def test_a_warning_exits_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The diagnosis' status, a warning here, is the batch's exit status 1 (the worker processes are
+    forked, or import this module: either way they run the function given)."""
+    monkeypatch.setattr(batch_module, "diagnose_file", _diagnosed_as_a_warning)
+    (tmp_path / "in").mkdir()
+    shutil.copy(SAMPLES / "7k98mc-baseline.h5", tmp_path / "in")
+    argv = [
+        "batch",
+        str(tmp_path / "in"),
+        "--store",
+        f"sqlite:///{tmp_path / 's.db'}",
+        "--data",
+        str(tmp_path),
+    ]
+    status, document = _batch_json([*argv, "--workers", "1"], capsys)
+    assert status == 1 and [r["status"] for r in document["recordings"]] == ["warning"]
+
+
+def test_plot_names_follow_the_files_and_add_the_id_only_for_a_stem_taken() -> None:
+    """The first recording of a stem keeps it; a later one adds its id; stems compared as a file system
+    that ignores case would, after the characters a name leaves out are replaced."""
+    v = ANALYSIS_VERSION
+    files = [(3, "night.h5"), (1, "night.mcap"), (7, "NIGHT.h5"), (9, "other night.h5"), (12, "night+3.h5")]
+    assert plot_names(files) == {
+        1: f"night-v{v}.png",
+        3: f"night+3-v{v}.png",
+        7: f"NIGHT+7-v{v}.png",
+        9: f"other_night-v{v}.png",
+        12: f"night_3-v{v}.png",  # a '+' of its own is replaced: the names of ids added stay apart
+    }
+
+
+filenames = st.text(alphabet="aA12+._- /b", min_size=1, max_size=12).map(lambda s: s.strip("/") or "x")
+
+
+@given(st.lists(filenames, min_size=1, max_size=25))
+@example(["a.h5", "a.mcap", "a-2.h5", "a+2.h5", "a_2.h5"])  # named as another's stem and id
+def test_plot_names_never_collide_and_a_later_recording_renames_none(files: list[str]) -> None:
+    """Names distinct however the files are named (even one named as another's stem and id), as a
+    file system that ignores case sees them, and each recording's name kept when more are registered."""
+    recordings = list(enumerate(files, start=1))
+    names = plot_names(recordings)
+    assert len({n.casefold() for n in names.values()}) == len(recordings)
+    assert all("/" not in n and not n.startswith(".") for n in names.values())
+    for count in range(1, len(recordings)):
+        earlier = plot_names(recordings[:count])
+        assert all(names[i] == earlier[i] for i in earlier)

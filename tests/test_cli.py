@@ -10,11 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from monitor.cli import main
 from monitor.crankshaft import EngineModel
 from monitor.engine import load_engine
 from monitor.model_orders import predict_orders
+from monitor.plots import diagnosis_title
 
 from .conftest import ENGINES
 
@@ -265,7 +268,7 @@ BAD_INPUTS = [
     (["simulate", "{tmp}/missing.toml", "-o", "{tmp}/x.h5"], 2, "missing.toml"),
     (["compare", "{tmp}/missing.h5"], 3, "missing.h5"),
     (["calibrate", "{tmp}/missing.h5", "-o", "{tmp}/b.json"], 2, "missing.h5"),
-    (["batch", "{tmp}/no-such-folder", "--data", "{tmp}/data"], 2, "no such file or folder"),
+    (["batch", "{tmp}/no-such-folder", "--data", "{tmp}/data"], 3, "no such file or folder"),
     (["tdc", "{tmp}/missing.h5"], 2, "missing.h5"),
     (["torsion", "modes", "no-such-engine"], 2, "no such engine file"),
     (["keys", "revoke", "5", "--data", "{tmp}/no-data"], 2, "no such folder"),
@@ -316,8 +319,8 @@ def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """An option out of its range, of the wrong type, or missing: status 2 (3 for compare) and an error
-    line naming it
+    """An option out of its range, of the wrong type, or missing: status 2 (3 for compare and batch, whose
+    2 is an alarm) and an error line naming it
     (argparse's usage lines above it for a usage error), never a traceback, never an 'unexpected'."""
     monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
     monkeypatch.chdir(tmp_path)
@@ -331,7 +334,7 @@ def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
     except SystemExit as stop:  # argparse's usage error
         status = stop.code  # type: ignore[assignment]
     err = capsys.readouterr().err
-    assert status == (3 if argv[0] == "compare" else 2), err  # compare's 3: not diagnosed (README)
+    assert status == (3 if argv[0] in ("compare", "batch") else 2), err  # their 3: not diagnosed (README)
     last = err.strip().splitlines()[-1]
     assert "error: " in last and said in last, err
     assert "Traceback" not in err and "unexpected" not in err
@@ -348,7 +351,7 @@ def test_every_subcommand_answers_a_bad_input_in_one_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Each subcommand given a file, engine, folder or store that is not there: one line on stderr
-    naming it, the README's status (2; 3 for compare), no traceback, and nothing made for it (no
+    naming it, the README's status (2; 3 for compare and batch), no traceback, and nothing made for it (no
     data folder, no store)."""
     monkeypatch.delenv("ENGINE_MONITOR_DB", raising=False)
     monkeypatch.chdir(tmp_path)
@@ -356,3 +359,29 @@ def test_every_subcommand_answers_a_bad_input_in_one_line(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("engine-monitor: error: ") and said in err[0], err
     assert not (tmp_path / "data").exists() and not (tmp_path / "no-data").exists()
+
+
+@given(
+    status=st.sampled_from(["healthy", "warning", "alarm", "inconclusive"]),
+    summaries=st.lists(st.text(alphabet="abcdef %-()0123456789", min_size=1, max_size=150), max_size=8),
+    width=st.integers(min_value=40, max_value=200),
+)
+def test_a_diagnosis_title_says_the_status_first_then_every_finding_shown_or_counted(
+    status: str, summaries: list[str], width: int
+) -> None:
+    """Issue 16: the PNG's title carries the status and the findings. The first line starts with the
+    status word, fits its width, and each finding is there whole, cut (the first alone, with an
+    ellipsis), or counted in "+N more": none is lost, none is counted twice."""
+    line, heading = diagnosis_title(status, summaries, heading="x.h5", width=width).split("\n")
+    assert heading == "x.h5"
+    assert line.startswith(status.upper()) and len(line) <= width
+    parts = line[len(status) + 2 :].split("; ") if summaries else []
+    more = int(parts.pop()[1:].split()[0]) if parts and parts[-1].startswith("+") else 0
+    if not summaries:
+        assert line == status.upper()
+    if more == len(summaries) and parts == [] and summaries:  # nothing shown: only counted
+        assert line == f"{status.upper()}: +{more} more"
+    assert len(parts) + more == len(summaries)
+    for shown, summary in zip(parts, summaries, strict=False):
+        assert shown == summary or (shown.endswith("\u2026") and summary.startswith(shown[:-1]))
+    assert all(shown == summary for shown, summary in zip(parts[1:], summaries[1:], strict=False))
