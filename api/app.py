@@ -69,6 +69,7 @@ from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, validate
 from api.views import add_views
 from api.worker import Worker, plot_path
+from monitor.batch import recording_plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.engine import bundled_engines
 from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, open_store
@@ -697,7 +698,10 @@ def create_app(settings: Settings) -> FastAPI:
     def get_plot(fleet_id: Fleet, recording_id: RecordingId) -> FileResponse:
         """The diagnosis plot (PNG): measured against predicted orders, cylinder strengths."""
         result(fleet_id, recording_id, "diagnosis")
-        path = plot_path(settings.data_dir, recording_id)
+        # named after the recording (the batch's and the worker's way), or by id (plots kept before)
+        path = recording_plot_path(settings.data_dir, store(), recording_id)
+        if not path.exists():
+            path = plot_path(settings.data_dir, recording_id)
         if not path.exists():
             raise ApiError(404, "not_found", f"recording {recording_id}: no plot was kept")
         return FileResponse(path, media_type="image/png")

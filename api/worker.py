@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from api.validate import NICE
-from monitor.batch import diagnose_file, plot_path
+from monitor.batch import diagnose_file, plot_path, recording_plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
@@ -160,7 +160,7 @@ class Worker:
             row.path,
             engine,
             None if baseline is None else baseline.document,
-            str(plot_path(self.data_dir, row.id)),
+            str(recording_plot_path(self.data_dir, self.store, row.id)),  # named as the batch names it
             row.filename,
         )
         while True:
