@@ -251,12 +251,9 @@ def diagnose_file(
     name : str, optional
         The recording's name in the documents (default: the file's).
     """
-    import math
-
-    import numpy as np
 
     from monitor.diagnosis import Baseline, diagnose
-    from monitor.diagnosis.report import diagnosis_document
+    from monitor.diagnosis.report import diagnosis_document, spectrum_document
     from monitor.engine import bundled_engines, load_engine, parse_engine
     from monitor.errors import DiagnosisError
     from monitor.io import open_recording
@@ -274,24 +271,7 @@ def diagnose_file(
         baseline = Baseline.from_document(baseline_document) if baseline_document is not None else None
         diagnosis = diagnose(recording, engine, baseline=baseline)
     name = name or Path(path).name
-    measured = diagnosis.spectra
-    spectrum = {
-        "recording": name,
-        "engine_id": engine.id,
-        "mean_speed_rpm": measured.mean_speed * 30 / math.pi,
-        "cycle_revolutions": measured.cycle_revolutions,
-        "channels": {
-            channel: {
-                "unit": measured.units[channel],
-                "blocks": s.blocks,
-                "orders": s.orders.tolist(),
-                "amplitude": np.abs(s.amplitude).tolist(),
-                "phase_deg": np.degrees(np.angle(s.amplitude)).tolist(),
-                "standard_error": s.standard_error.tolist(),
-            }
-            for channel, s in measured.spectra.items()
-        },
-    }
+    spectrum = spectrum_document(diagnosis, recording=name)
     if plot is not None:
         from monitor.plots import plot_diagnosis
 

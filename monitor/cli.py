@@ -811,6 +811,7 @@ def _run_compare(args: argparse.Namespace) -> int:
                 args.plot,
                 title=f"{name}: {engine.id} at {diagnosis.speed_rpm:.1f} rpm",
                 table=table,
+                recording=name,
             )
         except OSError as error:
             raise MonitorError(f"--plot {args.plot}: cannot be written ({error.strerror or error})") from None

@@ -298,7 +298,9 @@ def diagnosis_title(status: str, summaries: Sequence[str], *, heading: str = "",
     return f"{line}\n{heading}" if heading else line
 
 
-def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: str = "") -> Path:
+def plot_diagnosis(
+    diagnosis: Any, path: str | Path, *, title: str = "", table: str = "", recording: str = ""
+) -> Path:
     """Measured against predicted order spectra per channel, and the cylinder balance on a polar chart.
 
     Each channel's panel overlays the measured orders (bars) and the model's
@@ -313,24 +315,35 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
     ----------
     diagnosis : monitor.diagnosis.Diagnosis
     path : str or Path
-        ``.png``, or ``.html`` for a self-contained page (the figure as inline SVG,
-        followed by ``table``).
+        ``.png``, or ``.html`` for the recording view of the web pages (:mod:`monitor.web`) as one
+        self-contained file: the status and findings on top, then charts that zoom and show values on
+        hover, every script inline (a ship without network opens it).
     title : str, optional
         The title's second line, under the status and findings (default: the engine's id).
     table : str, optional
-        Text shown under the figure on an HTML page.
+        Not used (the HTML page shows the findings and values itself); kept for callers.
+    recording : str, optional
+        The recording's name on an HTML page.
 
     Returns
     -------
     Path
     """
-    import html
-    import io
     import math
 
     out = Path(path)
     if out.suffix.lower() not in (".png", ".html", ".htm"):
         raise MonitorError(f"--plot {out}: expected a .png or .html file")
+    if out.suffix.lower() != ".png":
+        from monitor.diagnosis.report import diagnosis_document, spectrum_document
+        from monitor.web import recording_page
+
+        page = recording_page(
+            diagnosis_document(diagnosis, recording=recording),
+            spectrum_document(diagnosis, recording=recording),
+        )
+        out.write_text(page, encoding="utf-8")
+        return out
     comparisons = [c for c in diagnosis.comparisons if c.orders.size]
     balance = diagnosis.balance
     rows = max(len(comparisons), 1)
@@ -395,20 +408,4 @@ def plot_diagnosis(diagnosis: Any, path: str | Path, *, title: str = "", table: 
         width=int(fig.get_figwidth() * 72 / (0.55 * size)),  # characters of about 0.55 em
     )
     fig.suptitle(heading, fontsize=size, color=STATUS_COLOURS.get(diagnosis.status, "black"))
-    if out.suffix.lower() == ".png":  # the title in the file's metadata too, for programs
-        return save_figure(fig, out, dpi=100, metadata={"Title": heading})
-    import matplotlib.pyplot as plt
-
-    buffer = io.StringIO()
-    fig.savefig(buffer, format="svg")
-    plt.close(fig)
-    svg = buffer.getvalue()
-    svg = svg[svg.index("<svg") :]
-    page = (
-        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-        f"<title>{html.escape(title or diagnosis.engine_id)}</title></head>\n<body>\n"
-        f"<h1>{html.escape(title or diagnosis.engine_id)}</h1>\n{svg}\n"
-        f"<pre>{html.escape(table)}</pre>\n</body></html>\n"
-    )
-    out.write_text(page)
-    return out
+    return save_figure(fig, out, dpi=100, metadata={"Title": heading})  # the title in its metadata too

@@ -279,7 +279,8 @@ def test_a_bad_baseline_file_is_refused(tmp_path: Path) -> None:
 # ---------------------------------------------------------------------------------------------- CLI
 def test_compare_exits_with_the_health_it_found(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The bundled samples: the baseline compared with itself is healthy (0), the misfire an alarm (2)
-    naming cylinder 4; a weak cylinder is a warning (1); the JSON says the same; PNG and HTML plots."""
+    naming cylinder 4; a weak cylinder is a warning (1); the JSON says the same; PNG and HTML plots (the
+    HTML one the recording view of the web pages, in one file)."""
     baseline = str(tmp_path / "b.json")
     assert main(["calibrate", str(SAMPLES / "7k98mc-baseline.h5"), "-o", baseline]) == 0
     assert main(["compare", str(SAMPLES / "7k98mc-baseline.h5"), "--baseline", baseline]) == 0
@@ -294,7 +295,9 @@ def test_compare_exits_with_the_health_it_found(tmp_path: Path, capsys: pytest.C
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main([*argv[:-1], "--plot", str(page)]) == 2
     text = page.read_text()
-    assert text.startswith("<!DOCTYPE html>") and "<svg" in text and "cylinder 4 at" in text
+    # the recording view, self-contained: the verdict first, the data for its charts, the scripts inline
+    assert text.startswith("<!DOCTYPE html>") and 'data-status="alarm"' in text and "cylinder 4 at" in text
+    assert text.index('id="findings"') < text.index('id="charts"') and "uPlot" in text and "src=" not in text
     weak = tmp_path / "weak.h5"
     write_hdf5(
         simulate(

@@ -15,7 +15,7 @@ import numpy as np
 
 from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
 
-__all__ = ["diagnosis_document", "diagnosis_table"]
+__all__ = ["diagnosis_document", "diagnosis_table", "spectrum_document"]
 
 
 def _plain(value: Any) -> Any:
@@ -31,6 +31,44 @@ def _plain(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def spectrum_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
+    """The measured order spectra a diagnosis started from, as a JSON-ready document (the batch's and the
+    service's ``spectrum`` result).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    recording : str, optional
+        The recording's name in the document.
+
+    Returns
+    -------
+    dict
+    """
+    measured = diagnosis.spectra
+    return dict(
+        _plain(
+            {
+                "recording": recording,
+                "engine_id": diagnosis.engine_id,
+                "mean_speed_rpm": measured.mean_speed * 30 / math.pi,
+                "cycle_revolutions": measured.cycle_revolutions,
+                "channels": {
+                    channel: {
+                        "unit": measured.units[channel],
+                        "blocks": s.blocks,
+                        "orders": s.orders.tolist(),
+                        "amplitude": np.abs(s.amplitude).tolist(),
+                        "phase_deg": np.degrees(np.angle(s.amplitude)).tolist(),
+                        "standard_error": s.standard_error.tolist(),
+                    }
+                    for channel, s in measured.spectra.items()
+                },
+            }
+        )
+    )
 
 
 def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
