@@ -149,10 +149,15 @@
       var box = panel(parent, name + " [" + q.unit + "]" + (q.drift ? ": " + q.drift.summary : ""),
         "chart-trend-" + k);
       if (q.drift) { box.classList.add("drifting"); }
+      // a day either side of the recordings (all of them at one time would give no span to draw)
+      var first = Math.min.apply(null, xs), last = Math.max.apply(null, xs);
+      var pad = Math.max(86400, 0.03 * (last - first));
       chart(box, [
         {},
         { label: name, stroke: q.drift ? COLOURS[1] : COLOURS[0], points: { show: true, size: 6 }, width: 1 }
-      ], [xs, ys], { xLabel: "recording time", yLabel: q.unit, extra: { scales: { x: { time: true } } } });
+      ], [xs, ys], { xLabel: "recording time (UTC)", yLabel: "[" + q.unit + "]",
+        extra: { scales: { x: { time: true, range: [first - pad, last + pad] } },
+          tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1e3), "Etc/UTC"); } } });
     });
   }
 
