@@ -8,7 +8,10 @@ at the recording's time (its start, not its upload):
 - ``cylinder N strength`` [-]: each cylinder's strength relative to the
   cylinders that fire alike (1 healthy, 0 misfiring), with its standard error;
 - ``<sensor> order deviation`` [-]: the largest over the orders compared of
-  ``|measured - predicted| / |largest predicted|`` of a bearing sensor;
+  ``|measured - predicted| / |largest predicted|`` of a bearing sensor (and
+  ``<sensor> order K deviation``, each order's, kept and shown, not judged:
+  the largest stands for them, so that a sensor's two dozen orders do not
+  multiply the false findings);
 - ``<sensor> impact`` [-]: the largest of the sensor's impact scores over the
   bearings it hears, with its standard error;
 - ``<sensor> rms velocity`` [mm/s]: with its standard error.
@@ -151,11 +154,14 @@ def trend_points(document: dict[str, Any]) -> list[TrendPoint]:
     for sensor, channel in sorted((document.get("channels") or {}).items()):
         if sensor == "crank speed":  # the cylinders' strengths are its summary
             continue
-        deviations = [
-            v for v in (_number(d) for d in channel.get("deviation_of_largest") or []) if v is not None
-        ]
-        if deviations:
-            add(f"{sensor} order deviation", max(deviations), None, "-")
+        orders = channel.get("orders") or []
+        deviations = [_number(d) for d in channel.get("deviation_of_largest") or []]
+        known = [v for v in deviations if v is not None]
+        if known:
+            add(f"{sensor} order deviation", max(known), None, "-")
+        for order, value in zip(orders, deviations, strict=False):  # each order's, kept, not judged
+            if value is not None and _number(order) is not None:
+                add(f"{sensor} order {float(order):g} deviation", value, None, "-")
     for sensor, scores in sorted((document.get("impacts") or {}).items()):
         scored = [s for s in scores if _number(s.get("score")) is not None]
         if scored:

@@ -132,7 +132,7 @@ def test_the_quantities_of_a_document() -> None:
         },
         "channels": {
             "crank speed": {"deviation_of_largest": [3.0]},
-            "mb2-vertical": {"deviation_of_largest": [0.01, 0.2, 0.05]},
+            "mb2-vertical": {"orders": [1.0, 2.0, 4.0], "deviation_of_largest": [0.01, 0.2, 0.05]},
         },
         "impacts": {
             "mb2-vertical": [{"score": 1.2, "standard_error": 0.1}, {"score": 1.9, "standard_error": 0.2}]
@@ -146,6 +146,9 @@ def test_the_quantities_of_a_document() -> None:
         "cylinder 1 strength",
         "cylinder 3 strength",
         "mb2-vertical order deviation",
+        "mb2-vertical order 1 deviation",
+        "mb2-vertical order 2 deviation",
+        "mb2-vertical order 4 deviation",
         "mb2-vertical impact",
         "mb2-vertical rms velocity",
     }
@@ -153,7 +156,9 @@ def test_the_quantities_of_a_document() -> None:
     assert points["mb2-vertical order deviation"].value == 0.2
     assert (points["mb2-vertical impact"].value, points["mb2-vertical impact"].standard_error) == (1.9, 0.2)
     assert points["mb2-vertical rms velocity"].unit == "mm/s"
+    assert points["mb2-vertical order 4 deviation"].value == 0.05
     assert not judged("speed") and not judged("load") and judged("cylinder 1 strength")
+    assert judged("mb2-vertical order deviation") and not judged("mb2-vertical order 2 deviation")
     assert trend_points({}) == []
 
 

@@ -96,6 +96,7 @@ def test_the_service_pages_log_in_and_show_the_fleet_an_engine_and_a_recording(
     with its charts and trend findings, the recording page with the alarm and its finding on top; fleet
     b's engine and recording answer 404 to it, pages and JSON alike."""
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
 
     from tests.test_api import _upload, _wait_done, two_fleet_server
 
@@ -121,14 +122,15 @@ def test_the_service_pages_log_in_and_show_the_fleet_an_engine_and_a_recording(
         assert "/login" in browser.current_url  # no session: the login first
         browser.find_element(By.ID, "key").send_keys(server.keys["a"])
         browser.find_element(By.CSS_SELECTOR, "form button[type=submit]").click()
-        assert browser.current_url.endswith("/ui")
+        # the form's answer is a redirect the browser follows after click() returns: wait for it
+        WebDriverWait(browser, 30).until(lambda page: page.current_url.endswith("/ui"))
         rows = browser.find_elements(By.CSS_SELECTOR, "#fleet .engine-row")
         assert [(r.get_attribute("data-engine"), r.get_attribute("data-status")) for r in rows] == [
             (e["engine_id"], e["latest"]["status"]) for e in fleet["engines"]
         ]
         _screenshot(browser, tmp_path, "fleet")
         rows[0].find_element(By.CSS_SELECTOR, "a").click()  # the engine
-        assert "/ui/engines/man-b-w-7k98mc" in browser.current_url
+        WebDriverWait(browser, 30).until(lambda page: "/ui/engines/man-b-w-7k98mc" in page.current_url)
         assert browser.find_element(By.ID, "trend-findings").text
         assert int(browser.find_element(By.TAG_NAME, "body").get_attribute("data-charts")) >= 2
         _screenshot(browser, tmp_path, "engine")
@@ -145,3 +147,35 @@ def test_the_service_pages_log_in_and_show_the_fleet_an_engine_and_a_recording(
         assert "no diagnosed recording" in browser.page_source
     finally:
         server.kill()
+
+
+def test_the_wheel_carries_every_script_and_style_the_pages_load(tmp_path: Path) -> None:
+    """No step downloads anything at build or run time: the product's wheel (built here from a copy of
+    the sources, without fetching) holds every file a page refers to, the vendored chart library and
+    its licence among them."""
+    import shutil
+    import subprocess
+    import sys
+    import zipfile
+
+    from monitor.web import pages
+
+    source = tmp_path / "source"
+    source.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, source / name)
+    for package in ("monitor", "api"):
+        shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
+    command = [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index"]
+    built = subprocess.run(
+        [*command, "-q", "-w", str(tmp_path / "wheel"), str(source)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert built.returncode == 0, built.stderr
+    (wheel,) = (tmp_path / "wheel").glob("*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    wanted = [*pages._SCRIPTS, *pages._STYLES, f"{pages._UPLOT}/LICENSE"]
+    missing = [name for name in wanted if f"monitor/web/static/{name}" not in names]
+    assert not missing, f"the wheel lacks {missing}"
