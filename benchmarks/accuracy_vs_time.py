@@ -205,7 +205,62 @@ def published_values() -> list[str]:
     model = EngineModel(kl)
     f = model.cylinder_forces(w, 1.0)
     rows.append(f"| 004 | peak gas force | 19 830 N | {f.gas_force.max():.0f} N (combustion start tuned) |")
+    rows += paper_003_rows()
     return rows
+
+
+def paper_003_rows() -> list[str]:
+    """Paper 003's printed numbers for the moving parts at 500 rpm, motored with the spark-plug hole open
+    (no gas force: ``--gas none``), beside the model (its inertia forces of piston and rod summed at the
+    crank pin, as the paper's F12: no weight, no crank unbalance; tests/test_paper003.py)."""
+    from monitor.forces import CrankTrain
+
+    train = CrankTrain.of(load_engine("zubaydi-1cyl-2stroke"))
+    w = 500 * math.pi / 30
+    alpha = cycle_grid(36000)
+    piston = kin.piston_acceleration(alpha, w, train.crank_radius, train.rod_ratio)
+    ax, ay = kin.rod_cg_acceleration(alpha, w, train.crank_radius, train.rod_ratio, train.rod_cg_fraction)
+    rod = np.hypot(ax, ay)
+    vertical = np.abs(train.piston_mass * -piston + train.rod_mass * ay).max()
+    inferred = "(the engine file's value is inferred from it)"
+    disagrees = "(disagrees with the paper's other numbers: engines.md)"
+    values = [
+        ("Fig. 8", "piston acceleration at TDC", "293 m/s²", f"{piston[0]:.1f} m/s² {inferred}"),
+        ("Fig. 8", "piston acceleration, other extreme", "170 m/s²", f"{-piston.min():.1f} m/s² {inferred}"),
+        (
+            "Fig. 9",
+            "rod centre-of-gravity acceleration, largest",
+            "260 m/s²",
+            f"{rod.max():.1f} m/s² {inferred}",
+        ),
+        ("Fig. 9", "the same, smallest", "121 m/s²", f"{rod.min():.1f} m/s² {inferred}"),
+        (
+            "Fig. 10",
+            "piston inertia force at TDC",
+            "59 N",
+            f"{train.piston_mass * piston[0]:.1f} N {inferred}",
+        ),
+        (
+            "Fig. 10",
+            "the same, other extreme",
+            "35 N",
+            f"{-train.piston_mass * piston.min():.1f} N {disagrees}",
+        ),
+        ("Fig. 11", "rod inertia force, largest", "27.5 N", f"{train.rod_mass * rod.max():.2f} N {inferred}"),
+        (
+            "Fig. 12",
+            "main-bearing force, horizontal",
+            "±12.5 N",
+            f"±{np.abs(train.rod_mass * ax).max():.2f} N {disagrees}",
+        ),
+        (
+            "Fig. 13",
+            "main-bearing force, vertical, at 0°",
+            "89 N",
+            f"{vertical:.1f} N {disagrees}",
+        ),
+    ]
+    return [f"| 003, {where} | {what} | {printed} | {model} |" for where, what, printed, model in values]
 
 
 def figure(trunc: dict[str, list[float]], grid: dict[str, list[float]]) -> None:
