@@ -238,13 +238,13 @@ def paper_003_rows() -> list[str]:
             "Fig. 10",
             "piston inertia force at TDC",
             "59 N",
-            f"{train.piston_mass * piston[0]:.1f} N {inferred}",
+            f"{train.piston_mass * piston[0]:.2f} N {inferred}",
         ),
         (
             "Fig. 10",
             "the same, other extreme",
             "35 N",
-            f"{-train.piston_mass * piston.min():.1f} N {disagrees}",
+            f"{-train.piston_mass * piston.min():.2f} N {inferred}",
         ),
         ("Fig. 11", "rod inertia force, largest", "27.5 N", f"{train.rod_mass * rod.max():.2f} N {inferred}"),
         (
@@ -257,7 +257,7 @@ def paper_003_rows() -> list[str]:
             "Fig. 13",
             "main-bearing force, vertical, at 0°",
             "89 N",
-            f"{vertical:.1f} N {disagrees}",
+            f"{vertical:.2f} N {disagrees}",
         ),
     ]
     return [f"| 003, {where} | {what} | {printed} | {model} |" for where, what, printed, model in values]
