@@ -339,6 +339,15 @@ def main() -> None:
         "",
         *published,
         "",
+        "Paper 003's rows are its engine as the paper ran it: turned by a motor with the spark-plug hole "
+        "open, so no gas force (`--gas none`; `--load 0` still compresses), at 500 rpm. Its bearing forces "
+        "(F12, eq. 11-15) are the piston's and the rod's inertia forces summed at the crank pin and taken by "
+        "one bearing; the product's `main_bearings` output also holds the crank's unbalance less its "
+        "counterweight, the rod's inertia torque and the weights, and splits the throw's force over its two "
+        "bearings. The paper's weights (17.285 N; -7.007 and -5.375 N) cannot be reconstructed: eq. 17-19 "
+        "need lengths and weights the paper does not print. [engines.md](engines.md) derives the engine's "
+        "values from the figures and says why two numbers disagree with the others.",
+        "",
         "## Exact against approximate kinematics",
         "",
         "Largest difference over 3600 crank angles at rated speed between the exact acceleration "
