@@ -44,21 +44,12 @@ class Calibration:
 def _calibrate(
     path: str, engine_description: dict[str, Any] | None, load: float, name: str
 ) -> dict[str, Any]:
+    from monitor.batch import recording_engine
     from monitor.diagnosis import calibrate
-    from monitor.engine import bundled_engines, load_engine, parse_engine
-    from monitor.errors import DiagnosisError
     from monitor.pipeline import open_recording
 
     with open_recording(path) as recording:
-        if engine_description is not None:
-            engine = parse_engine(engine_description, origin=f"engine {recording.engine_id} of the store")
-        elif recording.engine_id in bundled_engines():
-            engine = load_engine(bundled_engines()[recording.engine_id])
-        else:
-            raise DiagnosisError(
-                f"engine {recording.engine_id!r} is neither in the fleet's engines nor bundled: "
-                "add its description"
-            )
+        engine = recording_engine(recording, engine_description)
         return calibrate(recording, engine, load=load, source=name).to_document()
 
 

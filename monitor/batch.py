@@ -225,6 +225,36 @@ def _register(store: Store, fleet_id: int, path: Path) -> tuple[int, bool, bool]
     return row.id, created, truncated
 
 
+def recording_engine(recording: Any, engine_description: dict[str, Any] | None) -> Any:
+    """The engine a recording names: the fleet's description of it, else the bundled one.
+
+    Parameters
+    ----------
+    recording : Recording
+    engine_description : dict or None
+        The fleet's engine file content (from the store), if it has one.
+
+    Returns
+    -------
+    Engine
+
+    Raises
+    ------
+    DiagnosisError
+        When the fleet has no description and no bundled engine has that id.
+    """
+    from monitor.engine import bundled_engines, load_engine, parse_engine
+    from monitor.errors import DiagnosisError
+
+    if engine_description is not None:
+        return parse_engine(engine_description, origin=f"engine {recording.engine_id} of the store")
+    if recording.engine_id in bundled_engines():
+        return load_engine(bundled_engines()[recording.engine_id])
+    raise DiagnosisError(
+        f"engine {recording.engine_id!r} is neither in the fleet's engines nor bundled: add its description"
+    )
+
+
 def diagnose_file(
     path: str,
     engine_description: dict[str, Any] | None,
@@ -254,20 +284,10 @@ def diagnose_file(
 
     from monitor.diagnosis import Baseline, diagnose
     from monitor.diagnosis.report import diagnosis_document, spectrum_document
-    from monitor.engine import bundled_engines, load_engine, parse_engine
-    from monitor.errors import DiagnosisError
     from monitor.io import open_recording
 
     with open_recording(path) as recording:
-        if engine_description is not None:
-            engine = parse_engine(engine_description, origin=f"engine {recording.engine_id} of the store")
-        elif recording.engine_id in bundled_engines():
-            engine = load_engine(bundled_engines()[recording.engine_id])
-        else:
-            raise DiagnosisError(
-                f"engine {recording.engine_id!r} is neither in the fleet's engines nor bundled: "
-                "add its description"
-            )
+        engine = recording_engine(recording, engine_description)
         baseline = Baseline.from_document(baseline_document) if baseline_document is not None else None
         diagnosis = diagnose(recording, engine, baseline=baseline)
     name = name or Path(path).name
