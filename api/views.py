@@ -21,10 +21,12 @@ Another fleet's engine or recording answers 404, as an unknown one.
 from __future__ import annotations
 
 import asyncio
+import html
 from collections.abc import Callable
 from datetime import UTC, datetime
 from typing import Annotated, Any, TypeVar
 from urllib.parse import quote
+from weakref import WeakKeyDictionary
 
 from fastapi import APIRouter, FastAPI, Query, Request
 from fastapi import Path as FastPath
@@ -91,9 +93,22 @@ async def _blocking(function: Callable[..., T], *args: Any) -> T:
     return await run_in_threadpool(function, *args)
 
 
+_FILLED: WeakKeyDictionary[Store, set[int]] = WeakKeyDictionary()  # fleets whose older results are filled
+
+
+def _filled(store: Store, fleet_id: int, c: Any) -> None:
+    """Fill in a fleet's trend points of results stored before them, once per store and fleet in this
+    process: every result stored since comes with its points (Store.complete), so a read need not look
+    again (the look is a query over all the fleet's results)."""
+    done = _FILLED.setdefault(store, set())
+    if fleet_id not in done:
+        fill_trend_points(c, fleet_id)
+        done.add(fleet_id)
+
+
 def _summary(store: Store, fleet_id: int) -> list[Any]:
     with store.transaction() as c:
-        fill_trend_points(c, fleet_id)
+        _filled(store, fleet_id, c)
         return fleet_summary(c, fleet_id, analysis_version=ANALYSIS_VERSION)
 
 
@@ -101,7 +116,7 @@ def _trend(
     store: Store, fleet_id: int, engine_id: str, quantities: list[str] | None, since: datetime | None
 ) -> list[Any]:
     with store.transaction() as c:
-        fill_trend_points(c, fleet_id)
+        _filled(store, fleet_id, c)
         return read_trend(
             c, fleet_id, engine_id, analysis_version=ANALYSIS_VERSION, quantities=quantities, since=since
         )
@@ -232,15 +247,9 @@ async def recording_view(request: Request, fleet_id: PageFleet, recording_id: Re
         }
     navigation = (
         f'<nav><a href="{_Links.fleet}">Fleet</a> <a href="{_Links.engine(found.engine_id)}">'
-        f"{_escape(found.engine_id)}</a></nav>"
+        f"{html.escape(found.engine_id)}</a></nav>"
     )
     return _page(recording_page(diagnosis, spectrum, assets=STATIC_URL, navigation=navigation))
-
-
-def _escape(text: str) -> str:
-    import html
-
-    return html.escape(text)
 
 
 def add_views(app: FastAPI) -> None:
