@@ -80,10 +80,13 @@ __all__ = [
     "LAG",
     "REFERENCE",
     "RELATIVE_FLOOR",
+    "ROBUST_SIGMAS",
     "Drift",
+    "Reference",
     "TrendPoint",
     "cusum",
     "drift",
+    "reference",
     "standardised",
     "trend_points",
 ]
@@ -93,6 +96,7 @@ REFERENCE = 0.5  # K: half the shift, in sigmas, the CUSUM is tuned to [-]
 DECISION = 9.0  # H: the decision interval, in sigmas [-]
 LAG = 10  # recordings between a value and the newest of those it is standardised by [-]
 RELATIVE_FLOOR = 0.01  # sigma at least this share of the baseline's mean magnitude [-]
+ROBUST_SIGMAS = 5.0  # values farther than this from their median are left out of the estimates [-]
 JUDGED = ("strength", "order deviation", "impact", "rms velocity")  # quantity endings followed for drift
 
 
@@ -221,7 +225,8 @@ class Drift:
     shift_sigmas : float
         The same in the baseline's sigmas [-].
     baseline_mean, baseline_sigma : float
-        Mean and spread of the values before ``since`` [unit].
+        Mean and spread of the values before ``since``, those far from their median left out as the
+        rule leaves them out (:func:`reference`) [unit].
     """
 
     quantity: str
@@ -245,38 +250,120 @@ class Drift:
         )
 
 
-def standardised(values: npt.ArrayLike, *, first: int = BASELINE_RECORDINGS, lag: int = LAG) -> FloatArray:
+@dataclass(frozen=True)
+class Reference:
+    """The location and spread values are standardised by, from the values before them.
+
+    Attributes
+    ----------
+    location : ndarray
+        Mean of the values kept [unit].
+    spread : ndarray
+        Their standard deviation, at least :data:`RELATIVE_FLOOR` of ``|location|`` [unit].
+    count : ndarray
+        The values kept: the location's error is ``spread / sqrt(count)``, the spread's has
+        ``count - 1`` degrees of freedom [-].
+    """
+
+    location: FloatArray
+    spread: FloatArray
+    count: FloatArray
+
+
+def reference(history: npt.ArrayLike, *, robust_sigmas: float = ROBUST_SIGMAS) -> Reference:
+    """Mean and spread of values, those beyond ``robust_sigmas`` robust sigmas of their median left out.
+
+    Parameters
+    ----------
+    history : array_like
+        Values on the last axis (at least 3), any leading axes are series of their own [unit].
+    robust_sigmas : float, optional
+        The band kept about the median, in robust sigmas; ``inf`` keeps every value (the plain mean
+        and standard deviation) [-].
+
+    Returns
+    -------
+    Reference
+        Of the leading axes' shape.
+
+    Notes
+    -----
+    The robust sigma is the median absolute deviation from the median made consistent for the
+    normal distribution, with Croux and Rousseeuw's small-sample factor,
+
+        sigma_r = 1.4826 b_c median|x - median(x)|,   b_c = c / (c - 0.8),
+
+    ``c`` the number of values. Values with ``|x - median(x)| > k sigma_r`` are left out and the
+    mean and standard deviation are those of the rest. The median and the MAD are moved by one value,
+    however far, by at most one step of the order statistics (their breakdown point is a half), so a
+    misfire or a knock among the values cannot widen the band that decides what is kept, and when
+    kept a value lies within the band, which bounds the spread (tests/test_trends.py). When more
+    than half the values are equal the MAD is zero and says nothing of the spread: all are kept.
+
+    References
+    ----------
+    Croux, C. and Rousseeuw, P. J., "Time-efficient algorithms for two highly robust estimators of
+    scale", Computational Statistics 1, 1992 (the factor ``b_c``, for ``c > 9``).
+    Hampel, F. R., "The influence curve and its role in robust estimation", JASA 69, 1974,
+    doi:10.1080/01621459.1974.10482962 (the MAD, and rejecting values beyond it).
+    """
+    h = np.asarray(history, dtype=np.float64)
+    c = h.shape[-1]
+    if c < 3:
+        raise ValueError(f"history: {c} values; a reference needs at least 3")
+    median = np.median(h, axis=-1, keepdims=True)
+    deviation = np.abs(h - median)
+    robust = 1.4826 * c / (c - 0.8) * np.median(deviation, axis=-1, keepdims=True)
+    keep = (deviation <= robust_sigmas * robust) | (robust == 0.0)
+    count = keep.sum(axis=-1)
+    centred = np.where(keep, h - median, 0.0)  # about the median: no cancellation in the spread
+    offset = centred.sum(axis=-1) / count
+    variance = np.maximum((np.square(centred).sum(axis=-1) - count * offset * offset) / (count - 1), 0.0)
+    location = median[..., 0] + offset
+    spread = np.maximum(np.maximum(np.sqrt(variance), RELATIVE_FLOOR * np.abs(location)), 1e-300)
+    return Reference(location, spread, count.astype(np.float64))
+
+
+def standardised(
+    values: npt.ArrayLike,
+    *,
+    first: int = BASELINE_RECORDINGS,
+    lag: int = LAG,
+    robust_sigmas: float = ROBUST_SIGMAS,
+) -> FloatArray:
     """Each value from ``first`` on standardised by the values up to ``lag`` before it (module docstring).
 
     Parameters
     ----------
     values : array_like
-        In order [any unit].
+        In order on the last axis; any leading axes are series of their own [any unit].
     first : int, optional
         The first value standardised; the ones before it are the baseline period (at least 3).
     lag : int, optional
         Recordings between a value and the newest value of its estimates.
+    robust_sigmas : float, optional
+        Values of the history farther than this from its median are left out of the estimates
+        (:func:`reference`); ``inf``: none [-].
 
     Returns
     -------
     ndarray
-        ``u`` of each value; NaN before ``first`` [-].
+        ``u`` of each value, of the values' shape; NaN before ``first`` [-].
     """
     from scipy.special import ndtri, stdtr  # where it is used: scipy is slow to import
 
     x = np.asarray(values, dtype=np.float64)
-    u = np.full(x.size, np.nan)
-    if x.size <= first:
+    u = np.full(x.shape, np.nan)
+    size = x.shape[-1] if x.ndim else 0
+    if size <= first:
         return u
-    shifted = x - x[0]  # sums of values near the first: no cancellation in the spread
-    sums, squares = np.cumsum(shifted), np.cumsum(shifted * shifted)
-    for n in range(first, x.size):
+    t, freedom = np.empty((*x.shape[:-1], size - first)), np.empty((*x.shape[:-1], size - first))
+    for n in range(first, size):
         c = max(first, n - lag)  # values 0 .. c - 1 give the estimates
-        mean = sums[c - 1] / c
-        variance = max((squares[c - 1] - c * mean * mean) / (c - 1), 0.0)
-        spread = max(math.sqrt(variance), RELATIVE_FLOOR * abs(mean + x[0]), 1e-300)
-        t = (shifted[n] - mean) / (spread * math.sqrt(1.0 + 1.0 / c))
-        u[n] = float(np.clip(ndtri(stdtr(c - 1, t)), -_FAR, _FAR))
+        ref = reference(x[..., :c], robust_sigmas=robust_sigmas)
+        t[..., n - first] = (x[..., n] - ref.location) / (ref.spread * np.sqrt(1.0 + 1.0 / ref.count))
+        freedom[..., n - first] = ref.count - 1.0
+    u[..., first:] = np.clip(ndtri(stdtr(freedom, t)), -_FAR, _FAR)
     return u
 
 
@@ -291,6 +378,7 @@ def drift(
     unit: str = "",
     baseline: int = BASELINE_RECORDINGS,
     decision: float = DECISION,
+    robust_sigmas: float = ROBUST_SIGMAS,
 ) -> Drift | None:
     """The first drift of a quantity after its baseline period, or None.
 
@@ -306,6 +394,8 @@ def drift(
         Recordings of the baseline period (the first ones; at least 3).
     decision : float, optional
         H [-].
+    robust_sigmas : float, optional
+        The band of the history kept for its estimates (:func:`reference`); ``inf``: all of it [-].
 
     Returns
     -------
@@ -316,7 +406,7 @@ def drift(
     baseline = max(baseline, 3)
     if x.size <= baseline:
         return None
-    upper, lower = cusum(standardised(x, first=baseline)[baseline:])
+    upper, lower = cusum(standardised(x, first=baseline, robust_sigmas=robust_sigmas)[baseline:])
     found = [
         (int(np.flatnonzero(sums > decision)[0]), sums, direction)
         for sums, direction in ((upper, "up"), (lower, "down"))
@@ -327,9 +417,8 @@ def drift(
     at, sums, direction = min(found, key=lambda f: f[0])
     zeros = np.flatnonzero(sums[:at] == 0.0)
     start = baseline + (int(zeros[-1]) + 1 if zeros.size else 0)  # the change's first recording
-    before = x[:start]
-    mu = float(before.mean())
-    sigma = max(float(before.std(ddof=1)), RELATIVE_FLOOR * abs(mu), 1e-300)
+    before = reference(x[:start], robust_sigmas=robust_sigmas)  # its faults left out, as in the rule
+    mu, sigma = float(before.location), float(before.spread)
     shift = float(x[start : baseline + at + 1].mean() - mu)
     return Drift(
         quantity, unit, direction, times[baseline + at], times[start], shift, shift / sigma, mu, sigma
