@@ -36,7 +36,7 @@ START, END = "<!-- trend-rule: start -->", "<!-- trend-rule: end -->"
 QUANTITIES = 13  # judged quantities of a seven-cylinder engine with two bearing sensors
 HORIZONS = (30, 90, 365)  # nights after the baseline period
 MEAN = 10.0  # the simulated quantity's mean: its spread's floor (1 % of it) stays below its sigma of 1
-BANDS = (math.inf, 8.0, 5.0)  # none (the rule before), and the candidates, in robust sigmas
+BANDS = (math.inf, 8.0, 6.0, 5.0, 4.0)  # none (the rule before) and the candidates, in robust sigmas
 FAULTS = (  # (label, sizes in sigmas) of the faults among the baseline period's recordings
     ("none", ()),
     ("one misfire", (-30.0,)),
@@ -76,7 +76,9 @@ def _faulty(rng: np.random.Generator, clean: FloatArray, sizes: tuple[float, ...
 
 
 def _band(band: float) -> str:
-    return "none (the plain mean and spread)" if math.isinf(band) else f"{band:g} robust sigmas"
+    if math.isinf(band):
+        return "all (the plain mean and spread)"
+    return f"within {band:g} robust sigmas" + (" (the rule)" if band == ROBUST_SIGMAS else "")
 
 
 def main() -> None:

@@ -29,15 +29,21 @@ fail:
   (the estimates are off by a third of a sigma and more);
 - standardised by all the values before it (Hawkins' form, exact in
   control), it absorbs a shift into its estimates and misses most shifts of
-  two sigmas.
+  two sigmas;
+- with the plain mean and spread of that history, one misfire among an
+  engine's first ten recordings widens the spread twentyfold (a strength of
+  0 against 1.00 +- 0.015), and a cylinder falling by a third is then a
+  one-sigma change, not found.
 
 So value ``n`` is standardised by the mean ``m`` and spread ``s`` of the
 values up to :data:`LAG` recordings before it (at least the
 :data:`BASELINE_RECORDINGS` of the baseline period, the engine's first),
+those farther than :data:`ROBUST_SIGMAS` robust sigmas (the median absolute
+deviation, see :func:`reference`) from their median left out,
 
     t = (x_n - m) / (s sqrt(1 + 1/c)),   u = Phi^-1(F_{t, c-1}(t)),
 
-``c`` the values in ``m`` and ``s``, ``F_{t, c-1}`` Student's t distribution
+``c`` the values kept in ``m`` and ``s``, ``F_{t, c-1}`` Student's t distribution
 (for Gaussian values in control each ``u`` is standard normal whatever the
 unknown mean and spread); ``s`` is at least :data:`RELATIVE_FLOOR` of
 ``|m|`` (a quantity that hardly moved does not make every wobble a shift).
@@ -96,7 +102,7 @@ REFERENCE = 0.5  # K: half the shift, in sigmas, the CUSUM is tuned to [-]
 DECISION = 9.0  # H: the decision interval, in sigmas [-]
 LAG = 10  # recordings between a value and the newest of those it is standardised by [-]
 RELATIVE_FLOOR = 0.01  # sigma at least this share of the baseline's mean magnitude [-]
-ROBUST_SIGMAS = 5.0  # values farther than this from their median are left out of the estimates [-]
+ROBUST_SIGMAS = 8.0  # values farther than this from their median are left out of the estimates [-]
 JUDGED = ("strength", "order deviation", "impact", "rms velocity")  # quantity endings followed for drift
 
 

@@ -6,9 +6,9 @@ night 20, and main bearing 5 wears from night 11, its knocks' severity rising
 by 0.004 a night. Every night is diagnosed by ``batch`` against a baseline
 calibrated on another healthy recording, so each night's status is the
 single-recording diagnosis's. The night each trend finding is due is worked
-out here again from the rule as docs/trends.md states it (Student's t and the
-normal quantile from scipy.stats, not the product's code), on the values the
-store holds.
+out here again from the rule as docs/trends.md states it (the median absolute
+deviation, Student's t and the normal quantile from scipy.stats, not the
+product's code), on the values the store holds.
 """
 
 from __future__ import annotations
@@ -51,17 +51,25 @@ def _severity(night: int) -> float:
 
 
 def _rule_night(
-    values: list[float], *, baseline: int = 10, lag: int = 10, k: float = 0.5, h: float = 9.0
+    values: list[float],
+    *,
+    baseline: int = 10,
+    lag: int = 10,
+    k: float = 0.5,
+    h: float = 9.0,
+    band: float = 5.0,
 ) -> int | None:
     """The 1-based night the rule of docs/trends.md makes its finding on, worked out from its text."""
     upper = lower = 0.0
     for n in range(baseline, len(values)):
-        c = max(baseline, n - lag)
-        history = np.array(values[:c])
-        m = float(history.mean())
-        s = max(float(history.std(ddof=1)), 0.01 * abs(m))
-        t = (values[n] - m) / (s * math.sqrt(1 + 1 / c))
-        u = float(np.clip(stats.norm.ppf(stats.t.cdf(t, df=c - 1)), -8, 8))
+        history = np.array(values[: max(baseline, n - lag)])
+        c = history.size
+        robust = stats.median_abs_deviation(history, scale="normal") * c / (c - 0.8)
+        kept = history[np.abs(history - np.median(history)) <= band * robust] if robust > 0 else history
+        m = float(kept.mean())
+        s = max(float(kept.std(ddof=1)), 0.01 * abs(m))
+        t = (values[n] - m) / (s * math.sqrt(1 + 1 / kept.size))
+        u = float(np.clip(stats.norm.ppf(stats.t.cdf(t, df=kept.size - 1)), -8, 8))
         upper, lower = max(0.0, upper + u - k), max(0.0, lower - u - k)
         if upper > h or lower > h:
             return n + 1

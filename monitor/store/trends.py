@@ -258,7 +258,7 @@ def trend_document(
     findings : list of Drift
         In the order they were found.
     """
-    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, drift, judged
+    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, ROBUST_SIGMAS, drift, judged
 
     series: dict[str, list[TrendRow]] = {}
     for row in rows:
@@ -269,8 +269,10 @@ def trend_document(
         "analysis_version": analysis_version,
         "since": since.isoformat() if since else None,
         "rule": {
-            "method": "two-sided CUSUM, each value standardised by the values up to lag recordings before it",
+            "method": "two-sided CUSUM, each value standardised by the values up to lag recordings before "
+            "it, those beyond robust_sigmas of their median left out",
             "lag_recordings": LAG,
+            "robust_sigmas": ROBUST_SIGMAS,
             "baseline_recordings": BASELINE_RECORDINGS,
             "reference_sigmas": REFERENCE,
             "decision_sigmas": DECISION,
