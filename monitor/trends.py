@@ -68,8 +68,9 @@ tests/test_trends.py checks the sums against by simulation:
 
 from __future__ import annotations
 
+import bisect
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
@@ -314,9 +315,10 @@ def reference(history: npt.ArrayLike, *, robust_sigmas: float = ROBUST_SIGMAS) -
     doi:10.1080/01621459.1974.10482962 (the MAD, and rejecting values beyond it).
     """
     h = np.asarray(history, dtype=np.float64)
-    c = h.shape[-1]
+    c = h.shape[-1] if h.ndim else 0
     if c < 3:
         raise ValueError(f"history: {c} values; a reference needs at least 3")
+    _check_band(robust_sigmas)
     median = np.median(h, axis=-1, keepdims=True)
     deviation = np.abs(h - median)
     robust = 1.4826 * c / (c - 0.8) * np.median(deviation, axis=-1, keepdims=True)
@@ -328,6 +330,14 @@ def reference(history: npt.ArrayLike, *, robust_sigmas: float = ROBUST_SIGMAS) -
     location = median[..., 0] + offset
     spread = np.maximum(np.maximum(np.sqrt(variance), RELATIVE_FLOOR * np.abs(location)), 1e-300)
     return Reference(location, spread, count.astype(np.float64))
+
+
+def _check_band(robust_sigmas: float) -> None:
+    if not robust_sigmas >= 1.0:  # NaN too
+        raise ValueError(
+            f"robust_sigmas: {robust_sigmas!r}; expected at least 1 (the band then keeps at least the half "
+            "of the values within one MAD of their median), or inf to keep them all"
+        )
 
 
 def standardised(
@@ -358,19 +368,69 @@ def standardised(
     """
     from scipy.special import ndtri, stdtr  # where it is used: scipy is slow to import
 
+    _check_band(robust_sigmas)
     x = np.asarray(values, dtype=np.float64)
     u = np.full(x.shape, np.nan)
     size = x.shape[-1] if x.ndim else 0
     if size <= first:
         return u
-    t, freedom = np.empty((*x.shape[:-1], size - first)), np.empty((*x.shape[:-1], size - first))
-    for n in range(first, size):
-        c = max(first, n - lag)  # values 0 .. c - 1 give the estimates
-        ref = reference(x[..., :c], robust_sigmas=robust_sigmas)
-        t[..., n - first] = (x[..., n] - ref.location) / (ref.spread * np.sqrt(1.0 + 1.0 / ref.count))
-        freedom[..., n - first] = ref.count - 1.0
-    u[..., first:] = np.clip(ndtri(stdtr(freedom, t)), -_FAR, _FAR)
+    location, spread, count = (np.empty((*x.shape[:-1], size - first)) for _ in range(3))
+    if x.ndim == 1:  # one series, its history kept in order as it grows: no sort per value
+        for n, ref in enumerate(_growing(x, first=first, lag=lag, robust_sigmas=robust_sigmas)):
+            location[n], spread[n], count[n] = ref
+    else:
+        for n in range(first, size):
+            ref = reference(x[..., : max(first, n - lag)], robust_sigmas=robust_sigmas)
+            location[..., n - first], spread[..., n - first], count[..., n - first] = (
+                ref.location,
+                ref.spread,
+                ref.count,
+            )
+    t = (x[..., first:] - location) / (spread * np.sqrt(1.0 + 1.0 / count))
+    u[..., first:] = np.clip(ndtri(stdtr(count - 1.0, t)), -_FAR, _FAR)
     return u
+
+
+def _growing(
+    x: FloatArray, *, first: int, lag: int, robust_sigmas: float
+) -> Iterator[tuple[float, float, float]]:
+    """:func:`reference` of ``x[:max(first, n - lag)]`` for each ``n`` from ``first`` on, as its
+    ``(location, spread, count)``: the history kept sorted as values join it, its median and MAD read
+    from the middle outwards, the values left out walked off its ends."""
+    origin = float(x[0])  # sums of values near the first: no cancellation in the spread
+    ordered: list[float] = []
+    total = squares = 0.0
+    for n in range(first, x.size):
+        c = max(first, n - lag)
+        for value in x[len(ordered) : c].tolist():
+            bisect.insort(ordered, value)
+            total, squares = total + (value - origin), squares + (value - origin) ** 2
+        half = c // 2
+        median = ordered[half] if c % 2 else 0.5 * (ordered[half - 1] + ordered[half])
+        deviations: list[float] = []  # from the median, increasing: the two sides merged
+        low, high = half - 1, half
+        while len(deviations) <= half:
+            left = median - ordered[low] if low >= 0 else math.inf
+            right = ordered[high] - median if high < c else math.inf
+            if left <= right:
+                deviations.append(left)
+                low -= 1
+            else:
+                deviations.append(right)
+                high += 1
+        mad = deviations[half] if c % 2 else 0.5 * (deviations[half - 1] + deviations[half])
+        band = robust_sigmas * 1.4826 * c / (c - 0.8) * mad if mad > 0.0 else math.inf
+        start, stop = 0, c
+        while abs(ordered[start] - median) > band:
+            start += 1
+        while abs(ordered[stop - 1] - median) > band:
+            stop -= 1
+        left_out = ordered[:start] + ordered[stop:]
+        kept = stop - start
+        offset = (total - sum(v - origin for v in left_out)) / kept
+        variance = (squares - sum((v - origin) ** 2 for v in left_out) - kept * offset * offset) / (kept - 1)
+        mean = origin + offset
+        yield mean, max(math.sqrt(max(variance, 0.0)), RELATIVE_FLOOR * abs(mean), 1e-300), float(kept)
 
 
 _FAR = 8.0  # |u| at most this: a value the t distribution puts beyond double precision stays finite
