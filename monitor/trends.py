@@ -56,8 +56,11 @@ make a trend finding when either exceeds ``H``; ``K`` = :data:`REFERENCE`
 With the mean and spread known, ``H`` = 9 would give one false finding per
 quantity in some 26 000 recordings (Siegmund's approximation, below); the
 estimates' own error brings that down to what docs/trends.md measures (about
-6 % of quantities a year of nightly recordings), while a shift of two sigmas
-is found after about 8 nights and one of three after 5. Siegmund's
+5 % of quantities a year of nightly recordings, as with the plain mean and
+spread of the history), while a shift of two sigmas is found after about 8
+nights and one of three after 5, with or without a misfire among the first
+recordings; a band of 8 robust sigmas is the narrowest measured that keeps
+that false-finding rate. Siegmund's
 approximation of a side's average run length after a shift of ``d`` sigmas
 (``d = 0``: in control), with the mean and spread known, which
 tests/test_trends.py checks the sums against by simulation:
@@ -376,16 +379,13 @@ def standardised(
         return u
     location, spread, count = (np.empty((*x.shape[:-1], size - first)) for _ in range(3))
     if x.ndim == 1:  # one series, its history kept in order as it grows: no sort per value
-        for n, ref in enumerate(_growing(x, first=first, lag=lag, robust_sigmas=robust_sigmas)):
-            location[n], spread[n], count[n] = ref
+        for n, grown in enumerate(_growing(x, first=first, lag=lag, robust_sigmas=robust_sigmas)):
+            location[n], spread[n], count[n] = grown
     else:
         for n in range(first, size):
             ref = reference(x[..., : max(first, n - lag)], robust_sigmas=robust_sigmas)
-            location[..., n - first], spread[..., n - first], count[..., n - first] = (
-                ref.location,
-                ref.spread,
-                ref.count,
-            )
+            location[..., n - first], spread[..., n - first] = ref.location, ref.spread
+            count[..., n - first] = ref.count
     t = (x[..., first:] - location) / (spread * np.sqrt(1.0 + 1.0 / count))
     u[..., first:] = np.clip(ndtri(stdtr(count - 1.0, t)), -_FAR, _FAR)
     return u
