@@ -236,20 +236,26 @@ async def recording_view(request: Request, fleet_id: PageFleet, recording_id: Re
         _blocking(store.result, recording_id, ANALYSIS_VERSION, "diagnosis"),
         _blocking(store.result, recording_id, ANALYSIS_VERSION, "spectrum"),
     )
-    if diagnosis is None:  # not analysed yet (or failed): the state, and the findings when they come
+    analysis = None
+    if diagnosis is None:  # not analysed yet, or not to be: its state and why, in place of the findings
         diagnosis = {
             "recording": found.filename,
             "engine_id": found.engine_id,
-            "status": found.status if found.status in ("failed", "set_aside", "running") else "queued",
-            "findings": [],
-            "notes": [found.error] if found.error else [],
             "analysis_version": ANALYSIS_VERSION,
+        }
+        analysis = {
+            "state": found.status if found.status in ("queued", "running", "failed", "set_aside") else "none",
+            "attempts": found.attempts,
+            "error": found.error,
+            "retry_after": found.retry_after,
         }
     navigation = (
         f'<nav><a href="{_Links.fleet}">Fleet</a> <a href="{_Links.engine(found.engine_id)}">'
         f"{html.escape(found.engine_id)}</a></nav>"
     )
-    return _page(recording_page(diagnosis, spectrum, assets=STATIC_URL, navigation=navigation))
+    return _page(
+        recording_page(diagnosis, spectrum, assets=STATIC_URL, navigation=navigation, analysis=analysis)
+    )
 
 
 def add_views(app: FastAPI) -> None:

@@ -43,13 +43,13 @@
     if (options.integerX) { x.incrs = [1]; }
     var opts = Object.assign({
       width: width(box),
-      height: 260,
+      height: options.height || 260,
       scales: { x: { time: false } },
       series: series,
       axes: [x, { label: options.yLabel, size: 70, values: ticks }],
       cursor: { drag: { x: true, y: false } }
     }, options.extra || {});
-    if (options.logY) { opts.scales.y = { distr: 3 }; }
+    if (options.logY) { opts.scales.y = Object.assign({ distr: 3 }, opts.scales.y || {}); }
     var plot = new uPlot(opts, data, box);
     drawn.push(plot);
     return plot;
@@ -83,6 +83,45 @@
       extra: { scales: { x: { time: false, range: [0.5, n + 0.5] }, y: { range: [Math.min(0, Math.min.apply(null, lo.filter(function (v) { return v !== null; }).concat([0]))), 1.4] } } } });
   }
 
+  // A logarithmic axis cannot show zero, and the model's zeros come out near 1e-16 of the largest: so each
+  // chart has a floor, the decade below the smallest amplitude within RANGE of the largest, and smaller
+  // ones are drawn on it (a dashed line says where) with their own value in the legend, "below the floor".
+  var RANGE = 1e-4;  // 80 dB: the depth a chart shows; below, a value is a zero for the eye
+
+  function floorOf(columns) {
+    var values = [].concat.apply([], columns).filter(function (v) { return v !== null && isFinite(v) && v > 0; });
+    if (!values.length) { return 1e-12; }
+    var largest = Math.max.apply(null, values);
+    var shown = values.filter(function (v) { return v >= RANGE * largest; });
+    return Math.pow(10, Math.ceil(Math.log10(Math.min.apply(null, shown))) - 1);
+  }
+
+  function floored(values, floor) {
+    return values.map(function (v) { return v === null || !isFinite(v) ? null : Math.max(v, floor); });
+  }
+
+  function amplitudeSeries(label, raw, floor, style) {
+    // the legend shows the value itself, not the floor it is drawn at
+    return Object.assign({ label: label, value: function (u, v, s, i) {
+      if (i === null || raw[i] === null || raw[i] === undefined) { return "--"; }
+      return raw[i] < floor ? "below the floor " + number(floor, 1) + " (" + number(raw[i], 2) + ")"
+        : number(raw[i]);
+    } }, style);
+  }
+
+  function floorSeries(xs, floor) {
+    return [{ label: "floor (smaller values drawn on it)", stroke: "#757575", width: 1, dash: [2, 4],
+      points: { show: false }, value: function () { return number(floor, 1); } },
+      xs.map(function () { return floor; })];
+  }
+
+  function logRange(floor) {
+    // from just under the floor to the decade above the largest value
+    return function (u, min, max) {
+      return [floor / 2, Math.pow(10, Math.ceil(Math.log10(Math.max(max, floor) * 1.05)))];
+    };
+  }
+
   function comparisons(parent, diagnosis) {
     var channels = diagnosis.channels || {};
     Object.keys(channels).forEach(function (name, k) {
@@ -90,18 +129,18 @@
       if (!c.orders || !c.orders.length) { return; }
       var box = panel(parent, name + ": measured against predicted orders [" + c.unit + "]", "chart-channel-" + k);
       box.appendChild(element("p", { "class": "basis" }, "Predicted from: " + c.basis));
-      // amplitudes at or below a billionth of the largest are zeros the model predicts (nothing to draw on a
-      // logarithmic axis)
-      var largest = Math.max.apply(null, c.measured_amplitude.concat(c.predicted_amplitude).filter(isFinite));
-      var positive = function (values) {
-        return values.map(function (v) { return v > 1e-9 * largest ? v : null; });
-      };
+      var floor = floorOf([c.measured_amplitude, c.predicted_amplitude]);
+      var below = floorSeries(c.orders, floor);
       chart(box, [
         { label: "order" },
-        { label: "measured", stroke: COLOURS[0], points: { show: true, size: 7 }, width: 1 },
-        { label: "predicted", stroke: COLOURS[1], points: { show: true, size: 7 }, width: 1, dash: [4, 4] }
-      ], [c.orders, positive(c.measured_amplitude), positive(c.predicted_amplitude)],
-      { xLabel: "order [-]", yLabel: "amplitude [" + c.unit + "]", logY: true, integerX: true });
+        amplitudeSeries("measured", c.measured_amplitude, floor,
+          { stroke: COLOURS[0], points: { show: true, size: 7 }, width: 1 }),
+        amplitudeSeries("predicted", c.predicted_amplitude, floor,
+          { stroke: COLOURS[1], points: { show: true, size: 7 }, width: 1, dash: [4, 4] }),
+        below[0]
+      ], [c.orders, floored(c.measured_amplitude, floor), floored(c.predicted_amplitude, floor), below[1]],
+      { xLabel: "order [-]", yLabel: "amplitude [" + c.unit + "]", logY: true, integerX: true,
+        extra: { scales: { x: { time: false }, y: { range: logRange(floor) } } } });
     });
   }
 
@@ -111,11 +150,16 @@
       var s = spectrum.channels[name];
       if (!s.orders || !s.orders.length) { return; }
       var box = panel(parent, name + ": measured order spectrum [" + s.unit + "]", "chart-spectrum-" + k);
+      var floor = floorOf([s.amplitude]);
+      var below = floorSeries(s.orders, floor);
       chart(box, [
         { label: "order" },
-        { label: "amplitude", stroke: COLOURS[2], points: { show: true, size: 4 }, width: 1 }
-      ], [s.orders, s.amplitude.map(function (v) { return v > 0 ? v : null; })],
-      { xLabel: "order [-]", yLabel: "amplitude [" + s.unit + "]", logY: true });
+        amplitudeSeries("amplitude", s.amplitude, floor,
+          { stroke: COLOURS[2], points: { show: true, size: 4 }, width: 1 }),
+        below[0]
+      ], [s.orders, floored(s.amplitude, floor), below[1]],
+      { xLabel: "order [-]", yLabel: "amplitude [" + s.unit + "]", logY: true,
+        extra: { scales: { x: { time: false }, y: { range: logRange(floor) } } } });
     });
   }
 
@@ -139,26 +183,68 @@
     parent.appendChild(box);
   }
 
-  function trends(parent, data) {
-    var quantities = data.quantities || {};
-    Object.keys(quantities).forEach(function (name, k) {
-      var q = quantities[name];
-      if (!q.points || !q.points.length) { return; }
-      var xs = q.points.map(function (p) { return Date.parse(p.recorded_at) / 1000; });
-      var ys = q.points.map(function (p) { return p.value; });
-      var box = panel(parent, name + " [" + q.unit + "]" + (q.drift ? ": " + q.drift.summary : ""),
-        "chart-trend-" + k);
-      if (q.drift) { box.classList.add("drifting"); }
-      // a day either side of the recordings (all of them at one time would give no span to draw)
-      var first = Math.min.apply(null, xs), last = Math.max.apply(null, xs);
-      var pad = Math.max(86400, 0.03 * (last - first));
-      chart(box, [
-        {},
-        { label: name, stroke: q.drift ? COLOURS[1] : COLOURS[0], points: { show: true, size: 6 }, width: 1 }
-      ], [xs, ys], { xLabel: "recording time (UTC)", yLabel: "[" + q.unit + "]",
-        extra: { scales: { x: { time: true, range: [first - pad, last + pad] } },
-          tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1e3), "Etc/UTC"); } } });
+  // The engine's trend: a chart per group of quantities (the page's "groups", monitor/web/pages.py), one
+  // series per quantity, one x per recording (in time order: recordings at the same time stay apart).
+  function trendChart(box, trend, group) {
+    var quantities = trend.quantities || {};
+    var recordings = {}, order = [];
+    group.quantities.forEach(function (name) {
+      (quantities[name].points || []).forEach(function (p) {
+        if (!(p.recording_id in recordings)) {
+          recordings[p.recording_id] = { t: Date.parse(p.recorded_at) / 1000, id: p.recording_id };
+          order.push(recordings[p.recording_id]);
+        }
+      });
     });
+    if (!order.length) { return null; }
+    order.sort(function (a, b) { return a.t - b.t || a.id - b.id; });
+    var xs = order.map(function (r) { return r.t; });
+    var series = [{}], data = [xs], palette = COLOURS.filter(function (c) { return c !== COLOURS[1]; });
+    group.quantities.forEach(function (name, k) {
+      var byRecording = {};
+      (quantities[name].points || []).forEach(function (p) { byRecording[p.recording_id] = p.value; });
+      var drifting = group.drifting.indexOf(name) >= 0;
+      series.push({ label: name + (drifting ? " (drift)" : ""), spanGaps: true, points: { show: true, size: 6 },
+        stroke: drifting ? COLOURS[1] : palette[k % palette.length], width: drifting ? 3 : 1 });
+      data.push(order.map(function (r) { return r.id in byRecording ? byRecording[r.id] : null; }));
+    });
+    // a day either side of the recordings (all of them at one time would give no span to draw)
+    var first = xs[0], last = xs[xs.length - 1];
+    var pad = Math.max(86400, 0.03 * (last - first));
+    return chart(box, series, data, { xLabel: "recording time (UTC)", yLabel: "[" + group.unit + "]",
+      height: 220,
+      extra: { scales: { x: { time: true, range: [first - pad, last + pad] } },
+        tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1e3), "Etc/UTC"); } } });
+  }
+
+  function trends(parent, data) {
+    (data.groups || []).filter(function (g) { return g.shown; }).forEach(function (group, k) {
+      var title = group.title + (group.drifting.length ? ": drift in " + group.drifting.join(", ") : "");
+      var box = panel(parent, title, "chart-trend-" + k);
+      box.setAttribute("data-group", group.key);
+      if (group.drifting.length) { box.classList.add("drifting"); }
+      trendChart(box, data.trend, group);
+    });
+  }
+
+  function chooser(data) {
+    // the groups not shown, one at a time: the chosen one's chart replaces the last
+    var select = document.getElementById("trend-choice"), box = document.getElementById("chart-choice");
+    if (!select || !box) { return; }
+    var plot = null;
+    function show() {
+      if (plot) { drawn.splice(drawn.indexOf(plot), 1); plot.destroy(); plot = null; }
+      var group = (data.groups || []).filter(function (g) { return g.key === select.value; })[0];
+      box.setAttribute("data-group", group ? group.key : "");
+      if (group) { plot = trendChart(box, data.trend, group); }
+      count();
+    }
+    select.addEventListener("change", show);
+    show();
+  }
+
+  function count() {
+    document.body.setAttribute("data-charts", String(document.querySelectorAll(".uplot").length));
   }
 
   function draw() {
@@ -166,16 +252,17 @@
     var parent = document.getElementById("charts");
     if (!source || !parent || typeof uPlot === "undefined") { return; }
     var data = JSON.parse(source.textContent);
-    if (data.view === "recording") {
+    if (data.view === "recording" && data.diagnosis) {
       balance(parent, data.diagnosis);
       comparisons(parent, data.diagnosis);
       spectra(parent, data.spectrum);
       tables(parent, data.diagnosis);
     } else if (data.view === "engine" && data.trend) {
       if (data.latest) { balance(parent, data.latest); }
-      trends(parent, data.trend);
+      trends(parent, data);
+      chooser(data);
     }
-    document.body.setAttribute("data-charts", String(parent.querySelectorAll(".uplot").length));
+    count();
   }
 
   if (document.readyState === "loading") {
