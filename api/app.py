@@ -66,7 +66,7 @@ from api.baselines import router as baselines_router
 from api.engines import Source, visible_engine
 from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
-from api.validate import MAX_EXPANSION, Validation, validate
+from api.validate import MAX_EXPANSION, Validation, format_refusal, validate
 from api.views import add_views
 from api.worker import Worker, plot_path
 from monitor.batch import recording_plot_path
@@ -485,8 +485,6 @@ def create_app(settings: Settings) -> FastAPI:
         if not verdict.ok:
             message = verdict.message.replace(str(temporary), name)  # the reader names the file it read
             raise ApiError(422, "not_a_recording", message if name in message else f"{name}: {message}")
-        if len(verdict.engine_id) > 200 or "\x00" in verdict.engine_id:
-            raise ApiError(422, "not_a_recording", f"{name}: its engine id is longer than 200 characters")
         return verdict
 
     def keep(
@@ -526,7 +524,11 @@ def create_app(settings: Settings) -> FastAPI:
         "/recordings",
         status_code=201,
         response_model=UploadOut,
-        responses={**ERRORS, 200: {"model": UploadOut, "description": "the same content was stored before"}},
+        responses={
+            **ERRORS,
+            200: {"model": UploadOut, "description": "the same content was stored before"},
+            415: {"model": ErrorResponse, "description": "the body's bytes are neither HDF5 nor MCAP"},
+        },
         tags=["recordings"],
     )
     async def upload(
@@ -534,10 +536,12 @@ def create_app(settings: Settings) -> FastAPI:
         fleet_id: Fleet,
         filename: Annotated[str, Query(min_length=1, max_length=1024, description="the file's name")],
     ) -> Response:
-        """Upload a recording (HDF5 or MCAP) as the request body; its analysis is queued."""
+        """Upload a recording (HDF5 or MCAP) as the request body; its analysis is queued. The bytes tell
+        the format, whatever the content type says (curl --data-binary sends a form's); a multipart form
+        (curl -F) is refused."""
         name = _filename(filename)
         kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
-        if kind.startswith("multipart/") or kind == "application/x-www-form-urlencoded":
+        if kind.startswith("multipart/"):
             raise ApiError(
                 400,
                 "form_upload",
@@ -571,6 +575,9 @@ def create_app(settings: Settings) -> FastAPI:
                     return _error(400, "disconnected", "the client disconnected before the end of the body")
             if size == 0:
                 raise ApiError(400, "empty", "the request body is empty: send the recording's bytes")
+            refusal = await run_in_threadpool(format_refusal, Path(temporary))
+            if refusal is not None:
+                raise ApiError(415, "unsupported_format", f"{name}: {refusal}")
             verdict = await checked(fleet_id, name, Path(temporary))
             row, created = await run_in_threadpool(
                 keep, fleet_id, name, Path(temporary), content, size, verdict

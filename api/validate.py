@@ -16,6 +16,11 @@ compress little (noise does not compress; our HDF5 is not compressed at
 all; a channel of zeros among five makes 1.25), so only a file of almost
 nothing but constant samples comes near the limit of 100, while a gzip bomb
 of zeros reaches about 1000.
+
+Before all that, the bytes themselves must be a recording's: HDF5 or MCAP by
+their signatures (:func:`format_refusal`), whatever the request's content type
+said; anything else is refused unread, its message saying what the bytes look
+like.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MAX_EXPANSION", "Validation", "validate"]
+__all__ = ["MAX_EXPANSION", "Validation", "format_refusal", "validate"]
 
 #: Declared samples [bytes] per byte of file beyond which a file is refused unread.
 MAX_EXPANSION = 100.0
@@ -48,6 +53,32 @@ class Validation:
     start_time: str = ""
     channels: tuple[str, ...] = ()
     message: str = ""
+
+
+def format_refusal(path: Path) -> str | None:
+    """Why an uploaded file is not a recording by its signature (what its bytes look like), or None for
+    HDF5 or MCAP bytes.
+
+    Parameters
+    ----------
+    path : Path
+        The uploaded file.
+
+    Returns
+    -------
+    str or None
+    """
+    from monitor.io import looks_like, recording_format
+
+    if recording_format(path) is not None:
+        return None
+    with open(path, "rb") as fh:
+        seen = looks_like(fh.read(64))
+    return (
+        f"the body's bytes look like {seen}, not a recording: expected HDF5 (signature "
+        "\\x89HDF\\r\\n\\x1a\\n at byte 0, 512, 1024, ...) or MCAP (\\x89MCAP0\\r\\n at byte 0), the "
+        "file itself as the request body (curl --data-binary @FILE)"
+    )
 
 
 def _check(path: str, max_expansion: float) -> dict[str, object]:

@@ -11,10 +11,10 @@ with the job's completion in one transaction, once. A job that fails records
 why. The fleet's baseline of the recording's engine, if it set one
 (``POST /engines/{id}/baseline``), is the reference of the bearing
 comparisons, as ``batch --baseline`` gives one. A failure of the input
-itself (a :class:`~monitor.errors.MonitorError`:
-a file the reader refuses, an engine nobody described, a recording the
-diagnosis cannot use) is permanent and set aside at once, the reason in its
-status; any other (a process killed, a disk full) is retried after a backoff
+itself (:func:`input_fault`: a file the reader refuses, an engine nobody
+described, a recording the diagnosis cannot use) is permanent and set aside
+at once, the reason in its status in the product's words; any other (a
+process killed, a disk full, the store away) is retried after a backoff
 that doubles with each attempt, then set aside
 (:data:`monitor.store.MAX_ATTEMPTS`). Every change of a job's state is one
 log line of ``key=value`` fields.
@@ -41,16 +41,35 @@ from api.validate import NICE
 from monitor.batch import diagnose_file, plot_path, recording_plot_path
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
+from monitor.io.files import OutputFolderError
 from monitor.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
 
-__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "plot_path"]
+__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "input_fault", "plot_path"]
 
 log = logging.getLogger("engine_monitor.worker")
 
 HEARTBEAT = 5.0  # seconds between a running job's touches
 LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
 IDLE = 0.5  # seconds between looks at an empty queue
+
+
+def input_fault(error: BaseException) -> bool:
+    """Whether an analysis failed by the recording's own content, so that trying again gives the same
+    answer: an error the product raises on purpose (:class:`~monitor.errors.MonitorError`: a file its
+    readers refuse, an engine nobody described, a recording the diagnosis cannot use), but not the
+    store's nor a missing output folder's, which are the surroundings' and may pass.
+
+    Parameters
+    ----------
+    error : BaseException
+        What the analysis raised.
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(error, MonitorError) and not isinstance(error, StoreError | OutputFolderError)
 
 
 def analyse(*args: Any) -> dict[str, tuple[str, dict[str, Any]]]:
@@ -176,8 +195,11 @@ class Worker:
                 self._fresh_pool()
                 return
             except Exception as error:  # the input's fault is permanent, any other transient
-                permanent = isinstance(error, MonitorError) and not isinstance(error, StoreError)
-                self._failed(job, f"{type(error).__name__}: {error}", permanent=permanent)
+                permanent = input_fault(error)
+                said = str(error).replace(row.path, row.filename)  # the reader names the file: as uploaded
+                if not permanent:
+                    said = f"the analysis failed unexpectedly ({type(error).__name__}: {said})"
+                self._failed(job, said, permanent=permanent)
                 return
             stored = self.store.complete(job, documents)
             _log_state(job, "done" if stored else "taken back")

@@ -403,8 +403,10 @@ def _build_parser() -> argparse.ArgumentParser:
     keys = sub.add_parser("keys", help="the HTTP service's API keys: create, list, revoke")
     key_actions = keys.add_subparsers(dest="action", required=True, metavar="ACTION")
     create = key_actions.add_parser("create", help="a new key for a fleet (shown once)")
-    create.add_argument("--fleet", required=True, help="the fleet (created if new)")
-    create.add_argument("--label", default="", help="what the key is for")
+    create.add_argument(
+        "--fleet", required=True, help="the fleet (created if new): 1 to 200 printable characters"
+    )
+    create.add_argument("--label", default="", help="what the key is for (printable, at most 200 characters)")
     listing = key_actions.add_parser("list", help="the keys: id, fleet, label, created (never the key)")
     listing.add_argument("--fleet", help="only this fleet's")
     revoke = key_actions.add_parser("revoke", help="revoke a key by its id (refused at once)")
@@ -721,8 +723,13 @@ def _run_worker(args: argparse.Namespace) -> int:
 def _run_keys(args: argparse.Namespace) -> int:
     import os
 
+    from monitor.names import check_name
     from monitor.store import DEFAULT_URL_ENV, StoreError, open_store
 
+    if args.action == "create":  # both names checked before the fleet is made: a refusal stores nothing
+        check_name("--fleet", args.fleet)
+        if args.label:
+            check_name("--label", args.label)
     if args.store is None and DEFAULT_URL_ENV not in os.environ:  # the default SQLite file in DATA
         if args.action != "create" and not Path(args.data).is_dir():
             raise MonitorError(

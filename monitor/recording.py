@@ -29,6 +29,8 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import MonitorError
+from monitor.names import name_problem
+from monitor.plausible import rate_problem, start_problem, time_problem
 from monitor.types import FloatArray
 
 __all__ = [
@@ -212,8 +214,12 @@ class Channel:
 
     def __post_init__(self) -> None:
         where = f"channel {self.name!r}"
-        if not self.name or "/" in self.name:
-            raise FormatError(f"{where}: expected a non-empty name without '/'")
+        problem = name_problem(self.name, path_step=True)
+        if problem is not None:
+            raise FormatError(
+                f"channel {self.name[:40]!r}: name: {problem}; expected 1 to 200 printable characters "
+                "without '/'"
+            )
         if self.kind not in KINDS:
             raise FormatError(f"{where}: kind {self.kind!r} is unknown; expected one of {', '.join(KINDS)}")
         if self.unit not in UNITS[self.kind]:
@@ -235,10 +241,16 @@ class Channel:
                 )
             if self.data.size and (not np.all(np.isfinite(self.data)) or np.any(np.diff(self.data) <= 0)):
                 raise FormatError(f"{where}: event times must be finite and increasing")
+            if self.data.size and isinstance(self.data, np.ndarray):
+                for time in (float(self.data[0]), float(self.data[-1])):  # increasing: the ends bound them
+                    problem = time_problem(time)
+                    if problem is not None:
+                        raise FormatError(f"{where}: an event at {time!r} s: {problem}")
         else:
             rate = self.sample_rate
-            if rate is None or not (math.isfinite(rate) and rate > 0):
-                raise FormatError(f"{where}: sample rate {rate!r}: expected a positive rate in Hz")
+            problem = "expected a positive rate in Hz" if rate is None else rate_problem(rate)
+            if problem is not None:
+                raise FormatError(f"{where}: sample_rate_hz = {rate!r}: {problem}")
             if self.unit == "s":
                 raise FormatError(f"{where}: unit 's' is for event channels (edge times), not waveforms")
         if self.range is not None and not (
@@ -249,8 +261,9 @@ class Channel:
             raise FormatError(
                 f"{where}: range {self.range!r}: expected (minimum, maximum) with minimum < maximum"
             )
-        if not math.isfinite(self.start_offset):
-            raise FormatError(f"{where}: start offset {self.start_offset!r}: expected a finite time in s")
+        problem = time_problem(self.start_offset)
+        if problem is not None:
+            raise FormatError(f"{where}: start_offset_s = {self.start_offset!r}: {problem}")
         for name, required in KIND_FIELDS.get(self.kind, {}).items():
             if required and name not in self.fields:
                 raise FormatError(f"{where}: a {self.kind} channel needs the attribute {name!r}")
@@ -568,6 +581,12 @@ class Recording:
 
         if not self.engine_id:
             raise FormatError("recording: engine_id is empty; expected the id of an engine description")
+        problem = name_problem(self.engine_id)
+        if problem is not None:
+            raise FormatError(
+                f"recording: engine_id {self.engine_id[:40]!r}: {problem}; expected the id of an engine "
+                "description, 1 to 200 printable characters"
+            )
         try:
             parsed = datetime.fromisoformat(self.start_time.replace("Z", "+00:00"))
         except ValueError:
@@ -577,6 +596,9 @@ class Recording:
             ) from None
         if parsed.utcoffset() is None or parsed.utcoffset().total_seconds() != 0:  # type: ignore[union-attr]
             raise FormatError(f"recording: start_time {self.start_time!r} must be in UTC (end it with Z)")
+        problem = start_problem(parsed)
+        if problem is not None:
+            raise FormatError(f"recording: start_time {self.start_time!r}: {problem}")
         if self.cycle_phase_deg is not None and self.cycle_phase_deg not in (0.0, 360.0):
             raise FormatError(
                 f"recording: cycle_phase_deg = {self.cycle_phase_deg!r}: expected 0 or 360 (degrees)"

@@ -182,7 +182,7 @@ def test_bad_inputs_are_clear_4xx_and_nothing_is_half_stored(server: Server, tmp
     not_a_recording = tmp_path / "notes.h5"
     not_a_recording.write_text("hello")
     cases = [
-        (not_a_recording, "notes.h5", 422, "not_a_recording"),
+        (not_a_recording, "notes.h5", 415, "unsupported_format"),  # refused by its bytes, unread
         (truncated, "cut.h5", 422, "not_a_recording"),
         (too_big, "big.h5", 413, "too_large"),
         (SAMPLES / "7k98mc-baseline.h5", "../../etc/passwd", 400, "bad_filename"),

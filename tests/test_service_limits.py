@@ -41,6 +41,10 @@ def keys(tmp_path: Path) -> dict[str, str]:
         store.close()
 
 
+#: The HDF5 signature: the stand-in validator's bodies begin with it, as the upload checks before validating.
+HDF5 = b"\x89HDF\r\n\x1a\n"
+
+
 def _in_thread(call, *args):  # type: ignore[no-untyped-def]
     """Run ``call`` in a thread; the thread and a box that will hold its result."""
     box: dict[str, object] = {}
@@ -64,7 +68,7 @@ def test_validations_wait_without_threads_and_one_fleet_never_takes_every_slot(
     entered: list[str] = []
 
     async def validator(path: Path, **_: object) -> Validation:
-        body = path.read_bytes()
+        body = path.read_bytes()[len(HDF5) :]  # after the signature the upload's check asks for
         entered.append(body[:4].decode())
         while body.startswith(b"SLOW") and not release.is_set():
             await asyncio.sleep(0.01)
@@ -108,12 +112,12 @@ def test_validations_wait_without_threads_and_one_fleet_never_takes_every_slot(
         def read(fleet: str) -> int:
             return httpx.get(f"{url}/recordings", headers={"X-API-Key": keys[fleet]}, timeout=60).status_code
 
-        slow = [_in_thread(upload, "a", b"SLOW" + bytes([i])) for i in range(8)]
+        slow = [_in_thread(upload, "a", HDF5 + b"SLOW" + bytes([i])) for i in range(8)]
         while not entered and time.monotonic() < deadline:
             time.sleep(0.01)
         time.sleep(0.5)  # the other seven arrive and wait for fleet a's slot
         assert entered == ["SLOW"]  # fleet a validates one file at a time: the others wait their turn
-        for call, args in ((upload, ("b", b"FAST")), (read, ("b",)), (read, ("a",))):
+        for call, args in ((upload, ("b", HDF5 + b"FAST")), (read, ("b",)), (read, ("a",))):
             thread, box = _in_thread(call, *args)
             thread.join(STUCK_S)
             assert not thread.is_alive(), (

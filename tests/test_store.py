@@ -60,7 +60,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     try:
         with again.db.connect() as c:
             version = c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one()
-        assert version == head == "0006"
+        assert version == head == "0007"
     finally:
         again.close()
 
@@ -613,3 +613,86 @@ def test_a_summary_says_what_a_view_says_in_every_state_of_the_analysis(store: S
         ids[5]: ("set_aside", "", False),
     }
     assert store.recording_summary(store.create_fleet("b"), ids[0], "1") is None
+
+
+#: Fleet names and key labels that are not printable names: empty, white space, a tab, a right-to-left
+#: override (which makes a name display as another), a zero-width space, padding, 5000 characters.
+BAD_NAMES = ["", " ", "\t", "a\u202eb", "a\u200bb", " fleet", "fleet ", "x" * 5000]
+
+
+@pytest.mark.parametrize("bad", BAD_NAMES, ids=repr)
+def test_a_fleet_name_or_key_label_that_is_not_a_printable_name_is_refused_and_nothing_stored(
+    store_url: str, bad: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same refusal on both stores (PostgreSQL's column limit no longer decides, with a DataError
+    'of engine-monitor'), from the store and from ``keys create`` (exit 2, one line, no traceback),
+    before anything is written: no fleet made for a key whose label is refused."""
+    from monitor.cli import main
+    from monitor.errors import MonitorError
+
+    store = open_store(store_url)
+    try:
+        for option in (
+            (["--fleet", bad], ["--fleet", "other", "--label", bad]) if bad else (["--fleet", bad],)
+        ):
+            assert main(["keys", "create", *option, "--store", store_url]) == 2
+            said = capsys.readouterr()
+            assert said.out == "" and "Traceback" not in said.err and "unexpected" not in said.err
+            assert f"{option[-2]} " in said.err and "printable characters" in said.err, said.err
+        with pytest.raises(MonitorError, match="expected 1 to 200 printable characters"):
+            store.create_fleet(bad)
+        if bad:  # an empty label is no label
+            with pytest.raises(MonitorError, match="key label"):
+                store.create_key(store.create_fleet("good"), bad)
+        with store.db.connect() as c:
+            fleets = c.execute(sa.text("SELECT name FROM fleets")).scalars().all()
+        assert fleets == (["good"] if bad else [])
+        assert store.list_keys() == []
+    finally:
+        store.close()
+
+
+def test_a_revoked_key_s_id_is_never_given_to_a_later_key(store: Store) -> None:
+    """On SQLite a plain integer key reused the largest id once its row was deleted: ``keys revoke 2``
+    written down for the old key would revoke the new one. PostgreSQL's sequences never reuse."""
+    fleet = store.create_fleet("a")
+    store.create_key(fleet, "first")
+    store.create_key(fleet, "second")
+    old = [k.id for k in store.list_keys()]
+    assert store.revoke_key(old[-1])
+    store.create_key(fleet, "third")
+    new = [k.id for k in store.list_keys()][-1]
+    assert new not in old, (old, new)
+
+
+def test_migration_0007_keeps_every_key_and_its_id(store_url: str) -> None:
+    """A store at 0006 with three keys: opened, it is at 0007 with the same keys, ids and digests, and
+    the next key after revoking the newest does not take its id."""
+    from alembic import command
+    from alembic.config import Config
+
+    engine = sa.create_engine(store_url)
+    config = Config()
+    config.set_main_option("script_location", str(Path(__file__).parents[1] / "monitor/store/migrations"))
+    with engine.begin() as connection:
+        config.attributes["connection"] = connection
+        command.upgrade(config, "0006")
+    now = datetime.now(UTC)
+    with engine.begin() as c:
+        c.execute(sa.text("INSERT INTO fleets (name, created_at) VALUES ('a', :t)"), {"t": now})
+        for i in (1, 2, 3):
+            c.execute(
+                sa.text("INSERT INTO api_keys (fleet_id, digest, label, created_at) VALUES (1, :d, :l, :t)"),
+                {"d": f"{i}" * 64, "l": f"key {i}", "t": now},
+            )
+    engine.dispose()
+    store = open_store(store_url)
+    try:
+        with store.db.connect() as c:
+            kept = c.execute(sa.text("SELECT id, digest, label FROM api_keys ORDER BY id")).all()
+        assert [tuple(r) for r in kept] == [(i, f"{i}" * 64, f"key {i}") for i in (1, 2, 3)]
+        assert store.revoke_key(3)
+        store.create_key(1)
+        assert [k.id for k in store.list_keys()] == [1, 2, 4]
+    finally:
+        store.close()

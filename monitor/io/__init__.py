@@ -7,35 +7,24 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from monitor.errors import MonitorError
+from monitor.io.signatures import (
+    HDF5_SIGNATURE,
+    MCAP_MAGIC,
+    file_signature,
+    looks_like,
+    recording_format,
+)
 from monitor.recording import FormatError, Recording
 
-__all__ = ["HDF5_SIGNATURE", "MCAP_MAGIC", "file_signature", "open_recording", "read_recording"]
-
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-
-
-def file_signature(path: str | Path) -> bytes:
-    """The first eight bytes of a file, which tell HDF5 from MCAP.
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    bytes
-
-    Raises
-    ------
-    FormatError
-        If the file cannot be read.
-    """
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(8)
-    except OSError as error:
-        raise FormatError(f"{path}: cannot read: {error}") from None
+__all__ = [
+    "HDF5_SIGNATURE",
+    "MCAP_MAGIC",
+    "file_signature",
+    "looks_like",
+    "open_recording",
+    "read_recording",
+    "recording_format",
+]
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -57,24 +46,30 @@ def read_recording(path: str | Path) -> Recording:
         channel if one, and what is wrong; a file cut short says so).
     """
     source = Path(path)
-    head = file_signature(source)
-    if head == HDF5_SIGNATURE:
+    kind = recording_format(source)
+    if kind == "HDF5":
         from monitor.io.hdf5 import read_hdf5
 
         with _reader_failures(source, "HDF5"):
             return read_hdf5(source)
-    if head == MCAP_MAGIC:
+    if kind == "MCAP":
         from monitor.io.mcap_io import read_mcap
 
         with _reader_failures(source, "MCAP"):
             return read_mcap(source)
+    head = file_signature(source)
     if not head:
         raise FormatError(f"{source}: the file is empty; expected a recording (HDF5 or MCAP)")
     signatures = {"HDF5": HDF5_SIGNATURE, "MCAP": MCAP_MAGIC}
     started = " or ".join(name for name, sign in signatures.items() if sign.startswith(head))
     if len(head) < len(MCAP_MAGIC) and started:
         raise FormatError(f"{source}: cut short ({len(head)} bytes) inside its {started} signature")
-    raise FormatError(f"{source}: neither HDF5 nor MCAP (unknown signature); expected a recording file")
+    with open(source, "rb") as fh:
+        seen = looks_like(fh.read(64))
+    raise FormatError(
+        f"{source}: neither HDF5 nor MCAP: its bytes look like {seen}; expected a recording file "
+        "(HDF5 or MCAP, known by their signatures)"
+    )
 
 
 @contextlib.contextmanager
@@ -95,14 +90,14 @@ def open_recording(path: str | Path) -> Iterator[Recording]:
         Valid while the context is open.
     """
     source = Path(path)
-    head = file_signature(source)
+    kind = recording_format(source)
     with contextlib.ExitStack() as stack:
-        if head == HDF5_SIGNATURE:
+        if kind == "HDF5":
             from monitor.io.hdf5 import open_hdf5
 
             with _reader_failures(source, "HDF5"):  # the opening only: the caller's errors are its own
                 recording = stack.enter_context(open_hdf5(source))
-        elif head == MCAP_MAGIC:
+        elif kind == "MCAP":
             from monitor.io.mcap_io import open_mcap
 
             with _reader_failures(source, "MCAP"):

@@ -29,8 +29,9 @@ from typing import Any
 import h5py
 import numpy as np
 
-from monitor.io import HDF5_SIGNATURE, file_signature
+from monitor.io import recording_format
 from monitor.io.files import in_existing_folder, publish
+from monitor.plausible import rate_problem
 from monitor.recording import KIND_FIELDS, Channel, FormatError, Recording, SampleReader, field_value
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
@@ -201,8 +202,8 @@ def open_hdf5(path: str | Path) -> Iterator[Recording]:
 
 
 def _open(source: Path) -> h5py.File:
-    if file_signature(source) != HDF5_SIGNATURE:
-        raise FormatError(f"{source}: not an HDF5 file (no HDF5 signature at its start)")
+    if recording_format(source) != "HDF5":
+        raise FormatError(f"{source}: not an HDF5 file (no HDF5 signature at 0, 512, 1024, ... bytes)")
     try:
         return h5py.File(source, "r")
     except OSError as error:
@@ -312,8 +313,24 @@ class Hdf5Samples(SampleReader):
             ) from None
 
 
+#: The deepest nesting of groups read: the format's is 2 (``/channels/NAME``); a file may hold groups of
+#: its own beside it, but one nested thousands deep is a hostile file's, refused before it is walked.
+MAX_DEPTH = 8
+
+
 def _refuse_links(f: h5py.File, source: Path) -> None:
-    def visit(group: h5py.Group, prefix: str) -> None:
+    """Refuse the links and datasets that can read other files, and groups nested past :data:`MAX_DEPTH`.
+
+    Walked with a stack of its own, not by recursion, so the depth of a file's nesting is the file's
+    fault to report, never the interpreter's recursion limit."""
+    pending: list[tuple[h5py.Group, str, int]] = [(f, "", 0)]
+    while pending:
+        group, prefix, depth = pending.pop()
+        if depth > MAX_DEPTH:
+            raise FormatError(
+                f"{source}: groups nested more than {MAX_DEPTH} deep ({prefix[:80]}...); the format "
+                f"nests 2 (/channels/NAME): refused"
+            )
         for name in group:
             link = group.get(name, getlink=True)
             where = f"{prefix}/{name}"
@@ -326,7 +343,7 @@ def _refuse_links(f: h5py.File, source: Path) -> None:
                 raise FormatError(f"{source}: {where} is a soft link; the format has none")
             item = group[name]
             if isinstance(item, h5py.Group):
-                visit(item, where)
+                pending.append((item, where, depth + 1))
             elif isinstance(item, h5py.Dataset):
                 if item.is_virtual:
                     raise FormatError(
@@ -334,8 +351,6 @@ def _refuse_links(f: h5py.File, source: Path) -> None:
                     )
                 if item.external:
                     raise FormatError(f"{source}: {where} keeps its data in external files; refused")
-
-    visit(f, "")
 
 
 def _read_channel(group: h5py.Group, name: str, source: Path, *, lazy: bool) -> Channel:
@@ -365,6 +380,9 @@ def _read_channel(group: h5py.Group, name: str, source: Path, *, lazy: bool) -> 
             rate = 1.0 / increment
         else:
             raise FormatError(f"{where}: missing attribute 'sample_rate_hz' (or NI 'wf_increment')")
+        problem = rate_problem(rate)
+        if problem is not None:
+            raise FormatError(f"{where}: sample_rate_hz = {rate!r}: {problem}")
     offset = float(a.get("start_offset_s", a.get("wf_start_offset", 0.0)))
     fields: dict[str, float | int | str] = {}
     for key in KIND_FIELDS.get(kind, {}):

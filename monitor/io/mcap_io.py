@@ -36,7 +36,6 @@ from __future__ import annotations
 import calendar
 import contextlib
 import json
-import math
 import os
 import struct
 import tempfile
@@ -63,6 +62,7 @@ from monitor import __version__
 from monitor.io import MCAP_MAGIC, file_signature
 from monitor.io.files import in_existing_folder, publish
 from monitor.io.proto.engine_monitor import recording_pb2
+from monitor.plausible import rate_problem
 from monitor.recording import (
     INTEGER_FIELDS,
     KIND_FIELDS,
@@ -749,8 +749,9 @@ def _assemble(
     dtype = _dtype(where, meta)
     data = np.concatenate([p[1] for p in parts]).astype(dtype, copy=False) if parts else np.empty(0, dtype)
     if rate is not None and parts:
-        if not (math.isfinite(rate) and rate > 0):
-            raise FormatError(f"{where}: sample_rate_hz {rate!r}: expected a positive rate in Hz")
+        problem = rate_problem(rate)
+        if problem is not None:
+            raise FormatError(f"{where}: sample_rate_hz = {rate!r}: {problem}")
         expected = _number(where, meta, "start_offset_s", float, 0.0)
         for start, values in parts:  # blocks must follow each other without gaps or overlaps
             if abs(start - expected) > 0.5 / rate:
@@ -949,8 +950,9 @@ class McapSamples(SampleReader):
         where = f"{source}: channel {topic.lstrip('/')!r}"
         pulses = meta["kind"] in ("keyphasor", "tooth", "cam")  # pulse channels sit at their rails by design
         rate = _number(where, meta, "sample_rate_hz", float)
-        if not (math.isfinite(rate) and rate > 0):
-            raise FormatError(f"{where}: sample_rate_hz {rate!r}: expected a positive rate in Hz")
+        problem = rate_problem(rate)
+        if problem is not None:
+            raise FormatError(f"{where}: sample_rate_hz = {rate!r}: {problem}")
         super().__init__(
             where,
             _number(where, meta, "samples", int),

@@ -43,6 +43,7 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, CursorResult, Engine
 
 from monitor.errors import MonitorError
+from monitor.names import check_name
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
@@ -391,7 +392,10 @@ class Store:
 
     # ------------------------------------------------------------------------------- fleets, keys
     def create_fleet(self, name: str) -> int:
-        """A new fleet's id (a fleet of that name already there is refused)."""
+        """A new fleet's id (a fleet of that name already there is refused, and so is a name that is
+        not 1 to 200 printable characters without white space at either end:
+        :func:`monitor.names.check_name`)."""
+        check_name("fleet name", name)
         with self.transaction() as c:
             if c.execute(sa.select(fleets.c.id).where(fleets.c.name == name)).first() is not None:
                 raise StoreError(f"fleet {name!r} exists already")
@@ -415,7 +419,13 @@ class Store:
         return int(row.id)
 
     def create_key(self, fleet_id: int, label: str = "") -> str:
-        """A new API key for a fleet; only its digest is stored, so this is the one time it is seen."""
+        """A new API key for a fleet; only its digest is stored, so this is the one time it is seen.
+
+        A label, if given, is a name as a fleet's is (:func:`monitor.names.check_name`). Key ids are
+        never reused: a revoked key's id names no later key (on SQLite too, migration 0007).
+        """
+        if label:
+            check_name("key label", label)
         key = secrets.token_urlsafe(32)
         with self.transaction() as c:
             c.execute(

@@ -3,6 +3,7 @@
 - ``fleets``: who owns engines and recordings;
 - ``api_keys``: a fleet's keys, stored as SHA-256 digests (the keys are random
   tokens of 256 bits, so a fast digest suffices; the key itself is never stored);
+  their ids are never reused, so a revoked key's id never names another;
 - ``engines``: a fleet's engine descriptions (the validated TOML as JSON);
 - ``recordings``: stored recordings by content hash (the same content is
   stored once per fleet), the file's place in the recording folder;
@@ -67,6 +68,7 @@ api_keys = sa.Table(
     sa.Column("digest", sa.String(64), nullable=False, unique=True),
     sa.Column("label", sa.String(200), nullable=False, server_default=""),
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sqlite_autoincrement=True,  # a revoked key's id is never a later key's (as PostgreSQL's sequences)
 )
 
 engines = sa.Table(
