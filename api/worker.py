@@ -8,9 +8,11 @@ lease). Only the job's taker may complete or fail it (its token). The
 analysis runs in a separate process: its crash fails the job and a fresh
 process takes the next, never stopping the worker. The result is written
 with the job's completion in one transaction, once. A job that fails records
-why. The fleet's baseline of the recording's engine, if it set one
-(``POST /engines/{id}/baseline``), is the reference of the bearing
-comparisons, as ``batch --baseline`` gives one. A failure of the input
+why. The diagnosis plot is kept in the data folder's ``plots/``, named as the
+batch names it, and recorded with the diagnosis: the service finds it by the
+recording's id, through the store. The fleet's baseline of the recording's
+engine, if it set one (``POST /engines/{id}/baseline``), is the reference of
+the bearing comparisons, as ``batch --baseline`` gives one. A failure of the input
 itself (a :class:`~monitor.errors.MonitorError`:
 a file the reader refuses, an engine nobody described, a recording the
 diagnosis cannot use) is permanent and set aside at once, the reason in its
@@ -38,13 +40,13 @@ from pathlib import Path
 from typing import Any
 
 from api.validate import NICE
-from monitor.batch import diagnose_file, plot_path, recording_plot_path
+from monitor.batch import diagnose_file, recording_plot
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
 
-__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "plot_path"]
+__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse"]
 
 log = logging.getLogger("engine_monitor.worker")
 
@@ -154,13 +156,14 @@ class Worker:
             return
         engine = self.store.engine(row.fleet_id, row.engine_id)
         baseline = self.store.baseline(row.fleet_id, row.engine_id)  # the bearing comparisons' reference
+        plot = recording_plot(self.store, row.id)  # named as the batch names it, recorded with the diagnosis
         # a pool broken by an earlier analysis is replaced before this one is submitted
         future = self._fresh_pool().submit(
             analyse,
             row.path,
             engine,
             None if baseline is None else baseline.document,
-            str(recording_plot_path(self.data_dir, self.store, row.id)),  # named as the batch names it
+            str(self.data_dir / plot),
             row.filename,
         )
         while True:
@@ -179,7 +182,7 @@ class Worker:
                 permanent = isinstance(error, MonitorError) and not isinstance(error, StoreError)
                 self._failed(job, f"{type(error).__name__}: {error}", permanent=permanent)
                 return
-            stored = self.store.complete(job, documents)
+            stored = self.store.complete(job, documents, plot=plot)
             _log_state(job, "done" if stored else "taken back")
             return
 
