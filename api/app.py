@@ -68,8 +68,7 @@ from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, format_refusal, validate
 from api.views import add_views
-from api.worker import Worker, plot_path
-from monitor.batch import recording_plot_path
+from api.worker import Worker
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.engine import bundled_engines
 from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, open_store
@@ -703,14 +702,18 @@ def create_app(settings: Settings) -> FastAPI:
         tags=["results"],
     )
     def get_plot(fleet_id: Fleet, recording_id: RecordingId) -> FileResponse:
-        """The diagnosis plot (PNG): measured against predicted orders, cylinder strengths."""
+        """The diagnosis plot (PNG): measured against predicted orders, cylinder strengths. It is served
+        from the file the store recorded with the recording's diagnosis, and from nowhere else."""
         result(fleet_id, recording_id, "diagnosis")
-        # named after the recording (the batch's and the worker's way), or by id (plots kept before)
-        path = recording_plot_path(settings.data_dir, store(), recording_id)
-        if not path.exists():
-            path = plot_path(settings.data_dir, recording_id)
-        if not path.exists():
-            raise ApiError(404, "not_found", f"recording {recording_id}: no plot was kept")
+        kept = store().plot(fleet_id, recording_id, ANALYSIS_VERSION)  # by id, never by a file's name
+        path = settings.data_dir / kept if kept is not None else None
+        if path is None or not path.is_file():
+            raise ApiError(
+                404,
+                "not_found",
+                f"recording {recording_id}: no plot is kept"
+                + ("" if path is None else " in this server's data folder (its file is missing)"),
+            )
         return FileResponse(path, media_type="image/png")
 
     def checked_engine(engine_id: str, description: dict[str, Any]) -> dict[str, Any]:

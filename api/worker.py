@@ -8,7 +8,9 @@ lease). Only the job's taker may complete or fail it (its token). The
 analysis runs in a separate process: its crash fails the job and a fresh
 process takes the next, never stopping the worker. The result is written
 with the job's completion in one transaction, once. A job that fails records
-why. The fleet's baseline of the recording's engine, if it set one
+why. The diagnosis plot is kept in the data folder's ``plots/``, named as the
+batch names it, and recorded with the diagnosis: the service finds it by the
+recording's id, through the store. The fleet's baseline of the recording's engine, if it set one
 (``POST /engines/{id}/baseline``), is the reference of the bearing
 comparisons, as ``batch --baseline`` gives one. A failure of the input
 itself (:func:`input_fault`: a file the reader refuses, an engine nobody
@@ -38,14 +40,14 @@ from pathlib import Path
 from typing import Any
 
 from api.validate import NICE
-from monitor.batch import diagnose_file, plot_path, recording_plot_path
+from monitor.batch import diagnose_file, recording_plot
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.io.files import OutputFolderError
 from monitor.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
 
-__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "input_fault", "plot_path"]
+__all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "input_fault"]
 
 log = logging.getLogger("engine_monitor.worker")
 
@@ -173,13 +175,14 @@ class Worker:
             return
         engine = self.store.engine(row.fleet_id, row.engine_id)
         baseline = self.store.baseline(row.fleet_id, row.engine_id)  # the bearing comparisons' reference
+        plot = recording_plot(self.store, row.id)  # named as the batch names it, recorded with the diagnosis
         # a pool broken by an earlier analysis is replaced before this one is submitted
         future = self._fresh_pool().submit(
             analyse,
             row.path,
             engine,
             None if baseline is None else baseline.document,
-            str(recording_plot_path(self.data_dir, self.store, row.id)),  # named as the batch names it
+            str(self.data_dir / plot),
             row.filename,
         )
         while True:
@@ -201,7 +204,7 @@ class Worker:
                     said = f"the analysis failed unexpectedly ({type(error).__name__}: {said})"
                 self._failed(job, said, permanent=permanent)
                 return
-            stored = self.store.complete(job, documents)
+            stored = self.store.complete(job, documents, plot=plot)
             _log_state(job, "done" if stored else "taken back")
             return
 

@@ -2,7 +2,8 @@
 
 ``engine-monitor batch PATH`` registers every recording file under ``PATH``
 (``.h5``, ``.hdf5``, ``.mcap``) in the store by its content hash (a file seen
-before, under any name, is not registered twice), queues a diagnosis job for
+before, under any name, is not registered twice: copies of one content are one
+recording, which keeps each name it was given), queues a diagnosis job for
 each recording that has no result at the current analysis version, and runs
 the queued jobs in a local process pool. A file that is not a readable
 recording (another format, damaged, or cut short before what a diagnosis
@@ -25,14 +26,20 @@ ones; baselines (``--baseline B.json``, one per engine) make the bearing
 comparisons.
 
 The summary covers the run's scope (the files under ``PATH``, or the store's
-recordings since ``DATE``): each recording with its diagnosis, made by this run
-or found already made, or with why it has none. Its exit status, as
+recordings since ``DATE``): each file with its diagnosis, made by this run
+or found already made, or with why it has none. A file is reported under its
+own name, with its recording's id: copies of one content share the id and the
+result, each under its name (with ``--since``, a recording is reported under
+every name it was stored under). Its exit status, as
 ``compare``'s, is the worst over the scope: 0 healthy, 1 warning, 2 alarm, 3
 inconclusive or not diagnosed (a job that failed or was set aside, a file that
 is not a readable recording). A run again on the same scope says the same.
 
 With a data folder, each diagnosis plot is kept in its ``plots/`` folder,
-named after its recording's file (:func:`plot_names`).
+named after its recording's file (:func:`plot_names`), for people browsing the
+folder; the store records that file with the diagnosis, and a plot is found by
+the recording's id through the store (:meth:`monitor.store.Store.plot`), never
+by a name.
 """
 
 from __future__ import annotations
@@ -50,8 +57,6 @@ from datetime import datetime, timedelta
 from pathlib import Path, PurePath
 from typing import Any
 
-import sqlalchemy as sa
-
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import Job, Store
@@ -64,8 +69,7 @@ __all__ = [
     "content_hash",
     "diagnose_file",
     "plot_names",
-    "plot_path",
-    "recording_plot_path",
+    "recording_plot",
     "register",
     "run_batch",
 ]
@@ -74,24 +78,7 @@ RECORDING_SUFFIXES = (".h5", ".hdf5", ".mcap")
 DIAGNOSIS = "diagnosis"  # the kind of result a job writes
 
 
-def plot_path(data_dir: Path, recording_id: int) -> Path:
-    """Where the service's worker keeps a recording's diagnosis plot, named by its store id.
-
-    The batch names its plots after the recordings (:func:`recording_plot_path`); this name
-    is the service's until it names them alike.
-
-    Parameters
-    ----------
-    data_dir : Path
-        The service's data folder.
-    recording_id : int
-        The recording's id in the store.
-    """
-    from monitor.diagnosis import ANALYSIS_VERSION
-
-    return data_dir / "plots" / f"{recording_id}-v{ANALYSIS_VERSION}.png"
-
-
+PLOTS = "plots"  # the data folder's folder of diagnosis plots
 PLOT_STEM_CHARACTERS = 120  # a plot's name keeps this much of its recording's stem
 
 
@@ -138,22 +125,22 @@ def plot_names(recordings: Iterable[tuple[int, str]]) -> dict[int, str]:
     return names
 
 
-def _plot_names(store: Store) -> dict[int, str]:
-    """:func:`plot_names` of every recording in the store (of every fleet: they share the data folder)."""
-    from monitor.store.schema import recordings
-
-    with store.db.connect() as c:
-        rows = c.execute(sa.select(recordings.c.id, recordings.c.filename)).all()
-    return plot_names((row.id, row.filename) for row in rows)
+def _plot_files(store: Store) -> dict[int, str]:
+    """The plot file of every recording in the store (of every fleet: they share the data folder),
+    relative to the data folder, by recording id (:func:`plot_names`)."""
+    return {i: f"{PLOTS}/{name}" for i, name in plot_names(store.registered_filenames()).items()}
 
 
-def recording_plot_path(data_dir: Path, store: Store, recording_id: int) -> Path:
-    """Where the batch keeps a recording's diagnosis plot: named after the recording (:func:`plot_names`).
+def recording_plot(store: Store, recording_id: int) -> str:
+    """Where a recording's diagnosis plot is to be kept, relative to the data folder: ``plots/NAME``,
+    named after the recording's file (:func:`plot_names`).
+
+    The batch and the service's worker write the plot there and record it with the diagnosis
+    (:meth:`monitor.store.Store.complete`); a reader finds it through the store
+    (:meth:`monitor.store.Store.plot`), never by this name.
 
     Parameters
     ----------
-    data_dir : Path
-        The service's data folder.
     store : Store
         The store the recording is registered in.
     recording_id : int
@@ -164,10 +151,10 @@ def recording_plot_path(data_dir: Path, store: Store, recording_id: int) -> Path
     MonitorError
         If no recording has that id.
     """
-    names = _plot_names(store)
-    if recording_id not in names:
+    files = _plot_files(store)
+    if recording_id not in files:
         raise MonitorError(f"recording {recording_id}: no such recording in the store")
-    return data_dir / "plots" / names[recording_id]
+    return files[recording_id]
 
 
 def content_hash(path: str | Path) -> str:
@@ -313,14 +300,16 @@ NOT_DIAGNOSED = 3  # a failed or set-aside job, an unreadable file: the batch co
 
 @dataclass(frozen=True)
 class RecordingOutcome:
-    """Where one recording of a batch's scope stands once the run is over.
+    """Where one file of a batch's scope stands once the run is over: its recording's.
 
     Attributes
     ----------
     id : int
-        The recording's id in the store.
+        The recording's id in the store (files of one content share it, and all that follows but
+        ``filename`` and ``path``).
     filename : str
-        Its file name, as registered.
+        The file's own name, as given to the run (with ``--since``: one of the names the recording
+        was stored under).
     engine_id : str
     recorded_at : str
         When it was recorded (ISO 8601, as the recording says; "" when it does not).
@@ -339,6 +328,8 @@ class RecordingOutcome:
         The diagnosis plot's path, when one is kept ("" otherwise).
     truncated : bool
         Whether the file was cut short (diagnosed on what it holds).
+    path : str
+        The file's path as given to the run ("" with ``--since``).
     """
 
     id: int
@@ -351,6 +342,7 @@ class RecordingOutcome:
     error: str = ""
     plot: str = ""
     truncated: bool = False
+    path: str = ""
 
     @property
     def exit_status(self) -> int:
@@ -362,6 +354,7 @@ class RecordingOutcome:
         return {
             "id": self.id,
             "file": self.filename,
+            "path": self.path or None,
             "engine_id": self.engine_id,
             "recorded_at": self.recorded_at or None,
             "status": self.status,
@@ -388,7 +381,8 @@ class BatchSummary:
     diagnosed : int
         Jobs completed in this run.
     failed : list of (str, str, str)
-        Jobs that failed: file, reason, new state ("queued" to retry, "set_aside").
+        Jobs that failed: the recording's names in the scope (:func:`_joined`), reason, new state
+        ("queued" to retry, "set_aside").
     requeued : int
         Jobs an earlier, interrupted run had left running, taken back and run by this one.
     held : int
@@ -401,10 +395,10 @@ class BatchSummary:
     by_engine : dict of str to Counter
         Per engine, the statuses of the diagnoses of this run.
     findings : dict of str to list of str
-        Per engine, the findings' summaries of this run (prefixed with the file name).
+        Per engine, the findings' summaries of this run (prefixed with the recording's names).
     recordings : list of RecordingOutcome
-        Every recording of the run's scope, as it stands once the run is over, diagnosed in this run
-        or before it.
+        Every file of the run's scope, as its recording stands once the run is over, diagnosed in
+        this run or before it: files of one content share a recording, each under its own name.
     """
 
     registered: int = 0
@@ -428,8 +422,18 @@ class BatchSummary:
         worst = max((r.exit_status for r in self.recordings), default=0)
         return max(worst, NOT_DIAGNOSED) if self.unreadable else worst
 
+    def by_recording(self) -> dict[int, list[RecordingOutcome]]:
+        """The scope's files by recording (files of one content share one), in the order given."""
+        files: dict[int, list[RecordingOutcome]] = {}
+        for outcome in self.recordings:
+            files.setdefault(outcome.id, []).append(outcome)
+        return files
+
     def text(self) -> str:
-        """The summary for people: per engine, counts by status and the findings."""
+        """The summary for people: per engine, counts by status and the findings, each recording under
+        the names its files were given."""
+        files = self.by_recording()
+        names = {i: _joined(r.filename for r in outcomes) for i, outcomes in files.items()}
         lines = [
             f"batch: {self.registered} recording(s) registered, {self.known} already known, "
             f"{self.diagnosed} diagnosed, {len(self.failed)} failed"
@@ -447,7 +451,7 @@ class BatchSummary:
             status = ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
             lines.append(f"  {engine_id}: {status}")
             lines += [f"    {line}" for line in self.findings.get(engine_id, [])]
-        before = [r for r in self.recordings if r.diagnosed == "before"]
+        before = [outcomes[0] for outcomes in files.values() if outcomes[0].diagnosed == "before"]
         if before:
             counts = Counter(r.status for r in before)
             lines.append(
@@ -455,7 +459,12 @@ class BatchSummary:
                 + ", ".join(f"{counts[s]} {s}" for s in EXIT_STATUS if counts[s])
                 + ")"
             )
-            lines += [f"    {r.filename}: {f['summary']}" for r in before for f in r.findings]
+            lines += [f"    {names[r.id]}: {f['summary']}" for r in before for f in r.findings]
+        for recording_id, outcomes in files.items():
+            if len(outcomes) > 1:
+                lines.append(
+                    f"  one content, {len(outcomes)} files: {names[recording_id]} (recording {recording_id})"
+                )
         for name, reason in self.unreadable:
             lines.append(f"  not a readable recording: {name}: {reason}")
         for name in self.truncated:
@@ -464,11 +473,13 @@ class BatchSummary:
             again = "set aside (too many attempts)" if state == "set_aside" else "will be retried"
             lines.append(f"  failed: {name}: {reason} ({again})")
         failed_now = {name for name, _, _ in self.failed}
-        for r in self.recordings:  # jobs set aside by an earlier run, left alone by this one
-            if r.status not in EXIT_STATUS and r.filename not in failed_now:
-                lines.append(f"  not diagnosed ({r.status.replace('_', ' ')}): {r.filename}: {r.error}")
+        for outcomes in files.values():  # jobs set aside by an earlier run, left alone by this one
+            r = outcomes[0]
+            if r.status not in EXIT_STATUS and names[r.id] not in failed_now:
+                lines.append(f"  not diagnosed ({r.status.replace('_', ' ')}): {names[r.id]}: {r.error}")
         lines.append(
-            f"exit status {self.exit_status}: the worst over {len(self.recordings)} recording(s) in scope"
+            f"exit status {self.exit_status}: the worst over {len(files)} recording(s) in scope"
+            + (f" ({len(self.recordings)} files)" if len(self.recordings) != len(files) else "")
             + (f" and {len(self.unreadable)} unreadable file(s)" if self.unreadable else "")
             + " (0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed)"
         )
@@ -493,11 +504,16 @@ class BatchSummary:
                 "finished_elsewhere": self.finished_elsewhere,
                 "waited_s": self.waited_s,
                 "by_engine": {e: dict(self.by_engine[e]) for e in sorted(self.by_engine)},
-                "by_status": dict(Counter(r.status for r in self.recordings)),
+                "by_status": dict(Counter(outcomes[0].status for outcomes in self.by_recording().values())),
             },
             "recordings": [r.document() for r in self.recordings],
             "unreadable": [{"file": name, "error": reason} for name, reason in self.unreadable],
         }
+
+
+def _joined(names: Iterable[str]) -> str:
+    """A recording's names in a summary line: each once, in the order given, joined by commas."""
+    return ", ".join(dict.fromkeys(names))
 
 
 def _one_line(reason: str) -> str:
@@ -559,7 +575,7 @@ def run_batch(
     from monitor.diagnosis import ANALYSIS_VERSION
 
     summary = BatchSummary()
-    scope: list[int] = []
+    given: list[tuple[int, str, str]] = []  # each file in scope: its recording's id, its name, its path
     cut_short: set[int] = set()
     if path is not None:
         for file in _files(path):
@@ -576,13 +592,17 @@ def run_batch(
                 cut_short.add(recording_id)
             summary.registered += created
             summary.known += not created
-            scope.append(recording_id)
-    else:
+            given.append((recording_id, file.name, str(file)))
+    else:  # each recording under every name it was stored under
         offset = 0
         while page := store.recordings(fleet_id, since=since, offset=offset, limit=500):
-            scope += [r.id for r in page]
+            stored = store.recording_names(fleet_id, [r.id for r in page])
+            given += [(r.id, name, "") for r in page for name in stored.get(r.id, [r.filename])]
             offset += len(page)
-    scope = list(dict.fromkeys(scope))  # a file found twice (copies of one content) is one recording
+    scope = list(dict.fromkeys(i for i, _, _ in given))  # copies of one content are one recording
+    names: dict[int, list[str]] = defaultdict(list)
+    for recording_id, name, _ in given:
+        names[recording_id].append(name)
     # jobs of a batch or worker that died (a process of this host that is gone, or silent for the
     # lease) are taken back at once; those of a live one are waited for, after this run's own
     summary.requeued = store.requeue_stale(ANALYSIS_VERSION, lease, recording_ids=scope)
@@ -595,14 +615,13 @@ def run_batch(
         elif job.state == "running":
             held.append(recording_id)
     summary.held = len(held)
-    plots = {i: data_dir / "plots" / name for i, name in _plot_names(store).items()} if data_dir else {}
-    context = _Run(store, fleet_id, baselines or {}, plots, lease, summary, progress)
+    plots = _plot_files(store) if data_dir is not None else {}
+    context = _Run(store, fleet_id, baselines or {}, data_dir, plots, names, lease, summary, progress)
     total = len(pending) + len(held)
     if total > 0:
         _run_jobs(context, scheduler, workers, pending, held, total)
-    summary.recordings = [
-        _outcome(store, recording_id, context, truncated=recording_id in cut_short) for recording_id in scope
-    ]
+    outcomes = {i: _outcome(store, i, context, truncated=i in cut_short) for i in scope}
+    summary.recordings = [replace(outcomes[i], filename=name, path=file) for i, name, file in given]
     return summary
 
 
@@ -636,12 +655,14 @@ def _run_jobs(
 
 
 def _outcome(store: Store, recording_id: int, context: _Run, *, truncated: bool) -> RecordingOutcome:
-    """Where a recording of the scope stands: its diagnosis (stored), else its job's state."""
+    """Where a recording of the scope stands: its diagnosis (stored), else its job's state; its plot
+    where the store says its diagnosis kept it, if that file is in this run's data folder."""
     from monitor.diagnosis import ANALYSIS_VERSION
 
     row = store.recording(context.fleet_id, recording_id)
     assert row is not None  # in the scope: registered in this fleet
-    plot = context.plots.get(recording_id)
+    kept = store.plot(context.fleet_id, recording_id, ANALYSIS_VERSION)
+    plot = context.data_dir / kept if context.data_dir is not None and kept is not None else None
     outcome = RecordingOutcome(
         id=row.id,
         filename=row.filename,
@@ -674,7 +695,9 @@ class _Run:
     store: Store
     fleet_id: int
     baselines: dict[str, dict[str, Any]]
-    plots: dict[int, Path]  # where each recording's plot goes (none: no plots kept)
+    data_dir: Path | None  # where plots are kept (None: nowhere)
+    plots: dict[int, str]  # where each recording's plot goes in the data folder (none: no plots kept)
+    names: dict[int, list[str]]  # each recording's names in the scope
     lease: timedelta
     summary: BatchSummary
     progress: Callable[[int, int], None] | None
@@ -700,7 +723,7 @@ class _Run:
         Returns the recordings whose job another run took first (to be waited for).
         """
         store, summary, fleet_id, engines = self.store, self.summary, self.fleet_id, self.engines
-        running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str]] = {}
+        running: dict[Future[dict[str, tuple[str, dict[str, Any]]]], tuple[Job, str, str, str | None]] = {}
         queue = list(pending)
         taken: list[int] = []
 
@@ -715,33 +738,38 @@ class _Run:
                 assert row is not None
                 if row.engine_id not in engines:
                     engines[row.engine_id] = store.engine(fleet_id, row.engine_id)
-                plot = str(self.plots[row.id]) if row.id in self.plots else None
+                plot = self.plots.get(row.id)  # relative to the data folder
                 future = pool.submit(
                     diagnose_file,
                     row.path,
                     engines[row.engine_id],
                     self.baselines.get(row.engine_id),
-                    plot,
-                    row.filename,
+                    None if plot is None or self.data_dir is None else str(self.data_dir / plot),
+                    row.filename,  # the documents and the plot, one per content, name its first name
                 )
-                running[future] = (claimed, row.filename, row.engine_id)
+                running[future] = (
+                    claimed,
+                    _joined(self.names.get(row.id, [row.filename])),
+                    row.engine_id,
+                    plot,
+                )
 
-        for folder in {p.parent for p in self.plots.values()}:
-            folder.mkdir(parents=True, exist_ok=True)
+        if self.data_dir is not None and self.plots:
+            (self.data_dir / PLOTS).mkdir(parents=True, exist_ok=True)
         submit()
         while running:
             finished, _ = wait(list(running), timeout=self.beat, return_when=FIRST_COMPLETED)
-            for job, _, _ in running.values():  # the heartbeat of the jobs this batch runs
+            for job, *_ in running.values():  # the heartbeat of the jobs this batch runs
                 store.touch(job)
             for future in finished:
-                job, name, engine_id = running.pop(future)
+                job, name, engine_id, plot = running.pop(future)
                 try:
                     documents = future.result()
                 except Exception as error:  # a worker's failure is recorded, never fatal to the batch
                     reason = _one_line(f"{type(error).__name__}: {error}")
                     summary.failed.append((name, reason, store.fail(job, reason)))
                 else:
-                    store.complete(job, documents)
+                    store.complete(job, documents, plot=plot)
                     self.mine.add(job.recording_id)
                     status, document = documents[DIAGNOSIS]
                     summary.diagnosed += 1

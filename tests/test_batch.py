@@ -6,14 +6,18 @@ import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+import httpx
 import pytest
 import sqlalchemy as sa
 from hypothesis import example, given
@@ -421,3 +425,193 @@ def test_plot_names_never_collide_and_a_later_recording_renames_none(files: list
     for count in range(1, len(recordings)):
         earlier = plot_names(recordings[:count])
         assert all(names[i] == earlier[i] for i in earlier)
+
+
+# ------------------------------------------------------------- every name kept, artefacts by id
+STAND_IN_FINDING = "cylinder 1: a stand-in finding"
+
+
+def _stand_in_diagnosis(
+    path: str,
+    engine_description: dict[str, Any] | None,
+    baseline_document: dict[str, Any] | None,
+    plot: str | None = None,
+    name: str | None = None,
+) -> dict[str, tuple[str, dict[str, Any]]]:
+    """A stand-in for :func:`monitor.batch.diagnose_file` where what is tested is how results and
+    plots are named and found, not the analysis (seconds a recording): an alarm with one finding, and a
+    small PNG whose ``Title`` text is the name the batch gave the recording, so a test can tell whose
+    plot it was served."""
+    from PIL.PngImagePlugin import PngInfo
+
+    name = name or Path(path).name
+    if plot is not None:
+        info = PngInfo()
+        info.add_text("Title", name)
+        Image.new("RGB", (4, 4)).save(plot, pnginfo=info)
+    finding = {"kind": "misfire", "subject": "cylinder 1", "severity": "alarm", "summary": STAND_IN_FINDING}
+    document = {"recording": name, "status": "alarm", "findings": [finding]}
+    return {"diagnosis": ("alarm", document), "spectrum": ("alarm", {"recording": name, "channels": {}})}
+
+
+COPIES = ["copy1.h5", "copy2.h5", "copy3.h5"]
+
+
+def _copies_and_another(tmp_path: Path) -> tuple[Path, list[str]]:
+    """A folder of three copies of one content (:data:`COPIES`) and another file, ``other.h5``; and the
+    batch's options for a store and a data folder beside it (one worker)."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for name in COPIES:
+        shutil.copy(SAMPLES / "7k98mc-baseline.h5", folder / name)
+    shutil.copy(SAMPLES / "6l32-misfire-cyl3.h5", folder / "other.h5")
+    options = [
+        "--store",
+        f"sqlite:///{tmp_path / 's.db'}",
+        "--data",
+        str(tmp_path / "data"),
+        "--workers",
+        "1",
+    ]
+    return folder, options
+
+
+def test_every_file_given_is_reported_under_its_own_name_with_its_recording_s_id(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Three copies of one content and another file: four files, two recordings. --json lists every
+    file under its own name and path, the copies with their one recording's id and result; the text
+    says which files share a content; the store keeps every name; --since reports each recording under
+    every name it was stored under. (Before, copies were one entry under the first name: 24 files gave
+    9 entries.)"""
+    monkeypatch.setattr(batch_module, "diagnose_file", _stand_in_diagnosis)
+    folder, options = _copies_and_another(tmp_path)
+    capsys.readouterr()
+
+    status, document = _batch_json(["batch", str(folder), *options], capsys)
+    assert status == 2
+    files = {r["file"]: r for r in document["recordings"]}
+    assert sorted(files) == [*COPIES, "other.h5"] and len(document["recordings"]) == 4
+    shared = files["copy1.h5"]["id"]
+    assert files["other.h5"]["id"] != shared
+    for name in COPIES:
+        entry = files[name]
+        assert entry["path"] == str(folder / name)
+        same = {k: v for k, v in entry.items() if k not in ("file", "path")}
+        assert same == {k: v for k, v in files["copy1.h5"].items() if k not in ("file", "path")}
+    assert files["copy3.h5"]["id"] == shared and files["copy3.h5"]["status"] == "alarm"
+    assert files["copy3.h5"]["findings"][0]["summary"] == STAND_IN_FINDING
+    totals = document["totals"]
+    assert (totals["registered"], totals["known"], totals["diagnosed"]) == (2, 2, 2)
+    assert totals["by_status"] == {"alarm": 2}  # recordings, each once
+
+    assert main(["batch", str(folder), *options]) == 2  # run again: the text names every file
+    text = capsys.readouterr().out
+    assert f"one content, 3 files: copy1.h5, copy2.h5, copy3.h5 (recording {shared})" in text
+    assert f"copy1.h5, copy2.h5, copy3.h5: {STAND_IN_FINDING}" in text
+    assert "worst over 2 recording(s) in scope (4 files)" in text
+
+    status, since = _batch_json(["batch", "--since", "2000-01-01", *options], capsys)
+    assert sorted((r["file"], r["id"]) for r in since["recordings"]) == sorted(
+        (name, entry["id"]) for name, entry in files.items()
+    )
+    assert {r["path"] for r in since["recordings"]} == {None}
+    store = open_store(options[1])
+    try:
+        kept = store.recording_names(store.fleet_id("local"), [shared])
+    finally:
+        store.close()
+    assert kept == {shared: COPIES}
+
+
+def test_a_copy_given_alone_is_reported_under_its_own_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """After the folder's batch, 'batch copy3.h5' reports copy3.h5, with the id and the result its
+    content got as copy1.h5, in --json and in the text (before, it reported copy1.h5)."""
+    monkeypatch.setattr(batch_module, "diagnose_file", _stand_in_diagnosis)
+    folder, options = _copies_and_another(tmp_path)
+    capsys.readouterr()
+    _, document = _batch_json(["batch", str(folder), *options], capsys)
+    [shared] = {r["id"] for r in document["recordings"] if r["file"] in COPIES}
+
+    status, alone = _batch_json(["batch", str(folder / "copy3.h5"), *options], capsys)
+    [entry] = alone["recordings"]
+    assert status == 2 and (entry["file"], entry["id"], entry["diagnosed"]) == ("copy3.h5", shared, "before")
+    assert entry["path"] == str(folder / "copy3.h5") and entry["findings"][0]["summary"] == STAND_IN_FINDING
+    assert main(["batch", str(folder / "copy3.h5"), *options]) == 2
+    text = capsys.readouterr().out
+    assert f"copy3.h5: {STAND_IN_FINDING}" in text and "copy1.h5" not in text
+
+
+def _png_title(answer: Any) -> str:
+    """The ``Title`` text of a PNG answered by the service."""
+    import io
+
+    assert answer.status_code == 200 and answer.headers["content-type"] == "image/png", answer.text
+    with Image.open(io.BytesIO(answer.content)) as image:
+        return str(image.text["Title"])
+
+
+@contextmanager
+def _service(store_url: str, data: Path) -> Iterator[str]:
+    """The service (no analysis worker) on a loopback port, in a thread of this process: its URL."""
+    import threading
+
+    import uvicorn
+
+    from api.app import Settings, create_app
+
+    app = create_app(Settings(store_url=store_url, data_dir=data, workers=0))
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = int(probe.getsockname()[1])
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    serving = threading.Thread(target=server.run, daemon=True)
+    serving.start()
+    try:
+        deadline = time.monotonic() + 30
+        while not server.started:
+            assert time.monotonic() < deadline and serving.is_alive(), "the service did not start"
+            time.sleep(0.02)
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        serving.join(30)
+
+
+def test_a_missing_plot_is_404_and_never_another_fleet_s(
+    store_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Fleet a's recording is diagnosed by the batch into the service's data folder; fleet b's file is
+    named after a's recording id ('1.h5' for recording 1), so its plot is named as the service once
+    named a's by id. With a's plot file gone (deleted, a data folder restored without it, or kept by
+    a worker with another --data), a's plot is 404, as b's recording is to a: it was b's picture."""
+    monkeypatch.setattr(batch_module, "diagnose_file", _stand_in_diagnosis)
+    data = tmp_path / "data"
+    (tmp_path / "a").mkdir()
+    shutil.copy(SAMPLES / "7k98mc-baseline.h5", tmp_path / "a" / "engine-room.h5")
+    store = open_store(store_url)
+    try:
+        a, b = store.create_fleet("a"), store.create_fleet("b")
+        keys = {"a": store.create_key(a), "b": store.create_key(b)}
+        [mine] = run_batch(store, a, path=tmp_path / "a", workers=1, data_dir=data).recordings
+        (tmp_path / "b").mkdir()
+        shutil.copy(SAMPLES / "6l32-misfire-cyl3.h5", tmp_path / "b" / f"{mine.id}.h5")
+        [theirs] = run_batch(store, b, path=tmp_path / "b", workers=1, data_dir=data).recordings
+    finally:
+        store.close()
+    assert Path(theirs.plot).name == f"{mine.id}-v{ANALYSIS_VERSION}.png"  # the name plots had by id
+    with _service(store_url, data) as url, httpx.Client(base_url=url, timeout=30) as client:
+
+        def plot(fleet: str, recording: int) -> Any:
+            return client.get(f"/recordings/{recording}/plot", headers={"X-API-Key": keys[fleet]})
+
+        assert _png_title(plot("a", mine.id)) == "engine-room.h5"
+        assert _png_title(plot("b", theirs.id)) == f"{mine.id}.h5"
+        Path(mine.plot).unlink()
+        gone = plot("a", mine.id)
+        assert gone.status_code == 404 and gone.json()["error"]["code"] == "not_found", gone.content[:60]
+        assert "no plot is kept" in gone.json()["error"]["message"]
+        assert plot("b", mine.id).status_code == 404 and plot("a", theirs.id).status_code == 404
+        assert _png_title(plot("b", theirs.id)) == f"{mine.id}.h5"

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
+from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.store import MAX_ATTEMPTS, Store, StoreError, key_digest, open_store
 from monitor.store.schema import metadata
 
@@ -60,7 +61,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     try:
         with again.db.connect() as c:
             version = c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one()
-        assert version == head == "0007"
+        assert version == head == "0008"
     finally:
         again.close()
 
@@ -485,6 +486,97 @@ def test_the_migration_tags_results_stored_before_it_and_changes_none(store_url:
             assert (
                 c.exec_driver_sql("SELECT digest FROM results").scalar_one()
                 == hashlib.sha256(text.encode("utf-8")).hexdigest()
+            )
+    finally:
+        store.close()
+
+
+def test_every_name_a_content_is_given_is_kept_once_and_read_by_its_fleet_alone(store: Store) -> None:
+    """One content given under three names (one of them twice) is one recording that keeps each name
+    once, in the order given, the first the registered one; another fleet reads none of them."""
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    first = _recording(store, a)  # as r.h5
+    for name in ("copy-2.h5", "r.h5", "Copy 3.h5"):
+        row, created = store.add_recording(
+            a, content_hash="a" * 64, engine_id="man-b-w-7k98mc", filename=name, path="/y", size_bytes=10
+        )
+        assert (row.id, row.filename, created) == (first, "r.h5", False)
+    assert store.recording_names(a, [first, first + 100]) == {first: ["r.h5", "copy-2.h5", "Copy 3.h5"]}
+    assert store.recording_names(b, [first]) == {}
+    assert store.count("recordings") == 1 and store.count("recording_names") == 3
+
+
+def test_a_diagnosis_records_its_plot_which_its_fleet_alone_reads(store: Store) -> None:
+    """The plot file a diagnosis kept is recorded with it (not with the spectrum), read by the
+    recording's id and fleet; a file outside the data folder's plots/ is refused and nothing stored."""
+    a, b = store.create_fleet("a"), store.create_fleet("b")
+    recording = _recording(store, a)
+    job = store.claim_job(store.enqueue(recording, "1").id)
+    assert job is not None and store.plot(a, recording, "1") is None  # no diagnosis yet
+    documents = {"diagnosis": ("alarm", {"status": "alarm"}), "spectrum": ("alarm", {})}
+    for outside in ("../engine-monitor.db", "plots/../x.png", "/etc/passwd", "plots/a/b.png", "plots/"):
+        with pytest.raises(StoreError, match="expected a file name under plots/"):
+            store.complete(job, documents, plot=outside)
+    assert store.count("results") == 0
+    assert store.complete(job, documents, plot="plots/r-v1.png")
+    assert store.plot(a, recording, "1") == "plots/r-v1.png"
+    assert store.plot(b, recording, "1") is None and store.plot(a, recording, "2") is None
+    with store.db.connect() as c:
+        kept = dict(c.exec_driver_sql("SELECT kind, plot FROM results").all())
+    assert kept == {"diagnosis": "plots/r-v1.png", "spectrum": None}
+
+
+def test_the_migration_keeps_each_recording_s_name_and_records_the_plots_named_before_it(
+    store_url: str,
+) -> None:
+    """A store at revision 0006 with three recordings, two of one stem (compared ignoring case), each
+    diagnosed: opening it migrates to 0008, which keeps each recording's name and records each
+    diagnosis' plot under the name the batch and the worker gave it until then (the rule of
+    monitor.batch.plot_names, an independent copy of which the migration froze), none for a spectrum."""
+    from alembic import command
+    from alembic.config import Config
+
+    from monitor.batch import plot_names
+
+    engine = sa.create_engine(store_url)
+    config = Config()
+    config.set_main_option("script_location", str(Path(__file__).parents[1] / "monitor/store/migrations"))
+    with engine.begin() as connection:
+        config.attributes["connection"] = connection
+        command.upgrade(config, "0006")
+    files = {1: "night.h5", 2: "NIGHT.mcap", 3: "other night.h5"}
+    now = datetime.now(UTC)
+    with engine.begin() as c:
+        c.execute(sa.text("INSERT INTO fleets (name, created_at) VALUES ('a', :t)"), {"t": now})
+        for recording_id, name in files.items():
+            c.execute(
+                sa.text(
+                    "INSERT INTO recordings (id, fleet_id, content_hash, engine_id, filename, path, "
+                    "size_bytes, recorded_at, uploaded_at) VALUES (:i, 1, :h, 'e', :n, '/r', 1, '', :t)"
+                ),
+                {"i": recording_id, "h": f"{recording_id:064d}", "n": name, "t": now},
+            )
+            for kind in ("diagnosis", "spectrum"):
+                c.execute(
+                    sa.text(
+                        "INSERT INTO results (recording_id, analysis_version, kind, status, document, "
+                        "created_at) VALUES (:i, '7', :k, 'healthy', '{}', :t)"
+                    ),
+                    {"i": recording_id, "k": kind, "t": now},
+                )
+    engine.dispose()
+    store = open_store(store_url)
+    try:
+        assert store.recording_names(1, list(files)) == {i: [name] for i, name in files.items()}
+        names = plot_names(files.items())
+        assert {i: store.plot(1, i, "7") for i in files} == {
+            i: f"plots/{names[i].removesuffix(f'-v{ANALYSIS_VERSION}.png')}-v7.png" for i in files
+        }
+        assert store.plot(1, 2, "7") == "plots/NIGHT+2-v7.png"
+        with store.db.connect() as c:
+            assert (
+                c.exec_driver_sql("SELECT plot FROM results WHERE kind = 'spectrum'").scalars().all()
+                == [None] * 3
             )
     finally:
         store.close()

@@ -16,6 +16,11 @@ A result is written once and never changed: its JSON text is stored with the
 text's SHA-256, so a read hands out the stored text as it is
 (:meth:`Store.stored_result`), tagged by that digest, without parsing it.
 
+A recording is stored once per fleet and content, and keeps every file name it
+was given (:meth:`Store.recording_names`). Its artefacts are found by its id:
+a diagnosis records the plot file it kept (:meth:`Store.plot`), relative to the
+data folder, and no reader looks for a plot by a file name.
+
 Jobs move ``queued -> running -> done``; a failure records why and puts the
 job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
 A job whose taker stopped touching it (a crash), or whose taker was a process
@@ -46,8 +51,17 @@ from monitor.errors import MonitorError
 from monitor.names import check_name
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
-from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
+from monitor.store.schema import (
+    api_keys,
+    engines,
+    fleets,
+    jobs,
+    metadata,
+    recordings,
+    results,
+)
 from monitor.store.schema import baselines as baseline_rows
+from monitor.store.schema import recording_names as name_rows
 from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
 
 __all__ = [
@@ -343,6 +357,20 @@ def _view_job(row: Any, analysis_version: str) -> Job | None:
     )
 
 
+def _plot_file(relative: str) -> bool:
+    """Whether a recorded plot is a plain file name in the data folder's ``plots/`` (nothing that
+    reaches elsewhere: no other folder, no ``..``, not absolute)."""
+    folder, slash, name = relative.partition("/")
+    return (
+        folder == "plots"
+        and bool(slash)
+        and name not in ("", ".", "..")
+        and "/" not in name
+        and "\\" not in name
+        and "\x00" not in name
+    )
+
+
 def _document_value(c: Connection, text: str) -> Any:
     """The stored JSON text as the value of a ``document`` column: as it is (SQLite keeps JSON as text;
     PostgreSQL's ``json`` keeps the exact text it is given)."""
@@ -537,7 +565,9 @@ class Store:
     ) -> tuple[RecordingRow, bool]:
         """Store a recording's row, or find the one with the same content: ``(row, created)``.
 
-        Concurrent uploads of the same content store one row (the unique key decides, atomically).
+        Concurrent uploads of the same content store one row (the unique key decides, atomically). The
+        row keeps the file name the content was first given; every name it is given is kept besides
+        (:meth:`recording_names`), in the same transaction.
         """
         if len(engine_id) > 200 or len(filename) > 255 or "\x00" in engine_id + filename:
             raise StoreError(
@@ -560,7 +590,47 @@ class Store:
                 ["fleet_id", "content_hash"],
             )
             where = (recordings.c.fleet_id == fleet_id) & (recordings.c.content_hash == content_hash)
-            return _recording(c.execute(sa.select(recordings).where(where)).one()), created
+            row = _recording(c.execute(sa.select(recordings).where(where)).one())
+            _insert_new(
+                c,
+                name_rows,
+                {"recording_id": row.id, "filename": filename, "created_at": _now()},
+                ["recording_id", "filename"],
+            )
+            return row, created
+
+    def recording_names(self, fleet_id: int, recording_ids: list[int]) -> dict[int, list[str]]:
+        """Every file name each of a fleet's recordings was given, in the order they were first given.
+
+        Parameters
+        ----------
+        fleet_id : int
+        recording_ids : list of int
+            Another fleet's ids, and unknown ones, are left out of the answer.
+
+        Returns
+        -------
+        dict of int to list of str
+            The names, by recording id; the first is the name the recording was registered under.
+        """
+        with self.db.connect() as c:
+            rows = c.execute(
+                sa.select(name_rows.c.recording_id, name_rows.c.filename)
+                .join(recordings, recordings.c.id == name_rows.c.recording_id)
+                .where((recordings.c.fleet_id == fleet_id) & recordings.c.id.in_(recording_ids))
+                .order_by(name_rows.c.recording_id, name_rows.c.id)
+            )
+            names: dict[int, list[str]] = {}
+            for recording_id, filename in rows:
+                names.setdefault(int(recording_id), []).append(str(filename))
+            return names
+
+    def registered_filenames(self) -> list[tuple[int, str]]:
+        """Every recording of every fleet, by id: its id and the file name it was registered under (the
+        batch names the plots of a shared data folder after them, :func:`monitor.batch.plot_names`)."""
+        with self.db.connect() as c:
+            rows = c.execute(sa.select(recordings.c.id, recordings.c.filename).order_by(recordings.c.id))
+            return [(int(r.id), str(r.filename)) for r in rows]
 
     def recording(self, fleet_id: int, recording_id: int) -> RecordingRow | None:
         """A fleet's recording by id (another fleet's answers None, as an unknown one)."""
@@ -778,13 +848,27 @@ class Store:
         """The job, still running under this taker's token (not taken back meanwhile)."""
         return (jobs.c.id == job.id) & (jobs.c.state == "running") & (jobs.c.token == job.token)
 
-    def complete(self, job: Job, documents: dict[str, tuple[str, dict[str, Any]]]) -> bool:
+    def complete(
+        self, job: Job, documents: dict[str, tuple[str, dict[str, Any]]], *, plot: str | None = None
+    ) -> bool:
         """Store a job's results (``kind -> (status, document)``) and mark it done, in one transaction.
 
         A result already stored for the same recording, version and kind is kept as it is. Returns
         False if the job had been taken back from this taker meanwhile (its results are kept all the
         same: they are the analysis of the same recording at the same version).
+
+        Parameters
+        ----------
+        job : Job
+            As its taker got it (:meth:`claim`, :meth:`claim_job`).
+        documents : dict of str to (str, dict)
+            The results by kind: their status and document.
+        plot : str, optional
+            The diagnosis plot the analysis kept, relative to the data folder (``plots/NAME.png``),
+            recorded with the diagnosis (:meth:`plot`); None: none was kept.
         """
+        if plot is not None and not _plot_file(plot):
+            raise StoreError(f"plot {plot!r}: expected a file name under plots/ of the data folder")
         texts = {kind: document_text(document) for kind, (_, document) in documents.items()}
         with self.transaction() as c:
             for kind, (status, _) in documents.items():
@@ -798,6 +882,7 @@ class Store:
                         "status": status,
                         "document": _document_value(c, texts[kind]),
                         "digest": _text_digest(texts[kind]),
+                        "plot": plot if kind == DIAGNOSIS_KIND else None,
                         "created_at": _now(),
                     },
                     ["recording_id", "analysis_version", "kind"],
@@ -930,6 +1015,28 @@ class Store:
         if row.result_id is not None:
             stored = StoredResult(row.text, row.digest or _text_digest(row.text))
         return ResultRead(_view_job(row, analysis_version), stored)
+
+    def plot(self, fleet_id: int, recording_id: int, analysis_version: str) -> str | None:
+        """The plot file a fleet's recording's diagnosis kept, relative to the data folder; None while
+        there is no diagnosis, when it kept none, or for another fleet's recording.
+
+        Parameters
+        ----------
+        fleet_id, recording_id : int
+        analysis_version : str
+        """
+        with self.db.connect() as c:
+            row = c.execute(
+                sa.select(results.c.plot)
+                .join(recordings, recordings.c.id == results.c.recording_id)
+                .where(
+                    (recordings.c.id == recording_id)
+                    & (recordings.c.fleet_id == fleet_id)
+                    & (results.c.analysis_version == analysis_version)
+                    & (results.c.kind == DIAGNOSIS_KIND)
+                )
+            ).first()
+        return None if row is None or row.plot is None or not _plot_file(row.plot) else str(row.plot)
 
     def jobs_by_state(self, analysis_version: str) -> dict[str, int]:
         """How many jobs of an analysis version are in each state (the states with none left out)."""

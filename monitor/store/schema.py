@@ -6,7 +6,11 @@
   their ids are never reused, so a revoked key's id never names another;
 - ``engines``: a fleet's engine descriptions (the validated TOML as JSON);
 - ``recordings``: stored recordings by content hash (the same content is
-  stored once per fleet), the file's place in the recording folder;
+  stored once per fleet), the file's place in the recording folder, and the
+  file name it was first registered under;
+- ``recording_names``: every file name a recording was given (a batch's
+  copies of one content, an upload of it again under another name), once
+  each: several names may share one stored content;
 - ``jobs``: one analysis of one recording at one analysis version, with its
   state (queued, running, done, failed, set_aside), attempts, last error,
   the token and process of its current taker, and the time before which a
@@ -14,6 +18,9 @@
 - ``results``: the documents an analysis wrote, at most one per recording,
   analysis version and kind, each with the SHA-256 of its stored JSON text
   (the entity tag the service answers it with; a result is never rewritten);
+  a diagnosis records the file of the plot it kept, relative to the data
+  folder (``plots/NAME.png``; NULL: none kept), so the plot is found by the
+  recording's id alone, never by a file name;
 - ``trend_points``: the quantities of each stored diagnosis an engine's
   condition is followed by (speed, load, each cylinder's strength, each bearing
   sensor's order deviations, impact score and rms velocity), one row each, at
@@ -43,6 +50,7 @@ __all__ = [
     "fleets",
     "jobs",
     "metadata",
+    "recording_names",
     "recordings",
     "results",
     "trend_points",
@@ -130,7 +138,18 @@ results = sa.Table(
     sa.Column("document", sa.JSON, nullable=False),
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     sa.Column("digest", sa.String(64), nullable=False, server_default=""),
+    sa.Column("plot", sa.String(1024), nullable=True),
     sa.UniqueConstraint("recording_id", "analysis_version", "kind", name="uq_results_recording_version_kind"),
+)
+
+recording_names = sa.Table(
+    "recording_names",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer, sa.ForeignKey("recordings.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("filename", sa.String(255), nullable=False),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.UniqueConstraint("recording_id", "filename", name="uq_recording_names_recording_filename"),
 )
 
 trend_points = sa.Table(
