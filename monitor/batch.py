@@ -52,6 +52,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
+from monitor.delivery import DeliveryPolicy, deliver_due
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import Job, Store
@@ -603,6 +604,7 @@ def run_batch(
     summary.recordings = [
         _outcome(store, recording_id, context, truncated=recording_id in cut_short) for recording_id in scope
     ]
+    deliver_due(store, DeliveryPolicy(), fleet_id=fleet_id)  # the alerts its diagnoses made (docs/service.md)
     return summary
 
 

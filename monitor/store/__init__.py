@@ -48,6 +48,7 @@ from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
 from monitor.store.schema import baselines as baseline_rows
 from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
+from monitor.store.webhooks import enqueue_events
 
 __all__ = [
     "DEFAULT_URL_ENV",
@@ -777,8 +778,9 @@ class Store:
         """
         texts = {kind: document_text(document) for kind, (_, document) in documents.items()}
         with self.transaction() as c:
+            created = set()
             for kind, (status, _) in documents.items():
-                _insert_new(
+                if _insert_new(
                     c,
                     results,
                     {
@@ -791,9 +793,12 @@ class Store:
                         "created_at": _now(),
                     },
                     ["recording_id", "analysis_version", "kind"],
-                )
+                ):
+                    created.add(kind)
             if DIAGNOSIS_KIND in documents:  # its quantities, for the engine's trends
                 write_trend_points(c, job.recording_id, job.analysis_version, documents[DIAGNOSIS_KIND][1])
+            if DIAGNOSIS_KIND in created:  # its new findings' alerts, queued once: with the diagnosis
+                enqueue_events(c, job.recording_id, job.analysis_version, documents[DIAGNOSIS_KIND][1])
             mine = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))
