@@ -15,6 +15,9 @@ kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
 A result is written once and never changed: its JSON text is stored with the
 text's SHA-256, so a read hands out the stored text as it is
 (:meth:`Store.stored_result`), tagged by that digest, without parsing it.
+The transaction that stores a diagnosis also stores its trend points
+(:mod:`monitor.store.trends`) and queues the alerts of its new findings for
+the fleet's webhooks (:mod:`monitor.store.webhooks`).
 
 Jobs move ``queued -> running -> done``; a failure records why and puts the
 job back in the queue until :data:`MAX_ATTEMPTS`, after which it is set aside.
