@@ -8,8 +8,8 @@ of the fleet as one signed JSON event (:mod:`monitor.delivery`), by a
 deliverer this router runs beside the service (started and stopped with it),
 and retried with back-off while the receiver does not take it.
 
-The URL must be ``http`` or ``https`` with a host, without user and password
-(they would be shown in every listing), at most 2048 characters. The secret
+The URL must be ``http`` or ``https`` with a host, in ASCII, without user and
+password (they would be shown in every listing), at most 2048 characters. The secret
 (16 to 256 printable ASCII characters, or made by the service when none is
 given) is answered once, by ``POST``, and never again. A fleet has at most
 :data:`MAX_WEBHOOKS` webhooks. ``DELETE`` stops its events and cancels those
@@ -148,6 +148,10 @@ def _checked_url(url: str) -> str:
             problem = "it has a fragment (#...), which is never sent"
         elif any(ord(ch) <= 0x20 or ord(ch) == 0x7F for ch in url):
             problem = "it holds spaces or control characters"
+        elif not url.isascii():
+            problem = (
+                "it holds characters outside ASCII (write the host in punycode, the path percent-encoded)"
+            )
         elif port == 0:
             problem = "its port is 0"
     if problem:

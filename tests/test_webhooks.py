@@ -254,6 +254,7 @@ def test_webhooks_are_the_fleet_s_own_and_bad_ones_are_refused(tmp_path: Path, k
             "http://h:99999/",
             "http://host/" + "x" * 2048,
             "http://host/a b",
+            "http://hôte/x",
         ):
             answer = client.post("/webhooks", json={"url": url}, headers=a)
             assert answer.status_code == 422, url
