@@ -167,7 +167,8 @@ def _attempt(store: Store, policy: DeliveryPolicy, due: DueDelivery) -> str:
             retry_at = None
     with store.transaction() as c:
         state = record_attempt(c, held, status=status, error=error, delivered=delivered, retry_at=retry_at)
-    log.info(
+    log.log(
+        logging.INFO if delivered else logging.WARNING,  # a receiver that does not take its events is seen
         "delivery=%d webhook=%d event=%s attempt=%d state=%s%s",
         held.id,
         held.webhook_id,
