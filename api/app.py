@@ -41,7 +41,7 @@ import time
 from collections import Counter, defaultdict
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from functools import partial
 from pathlib import Path
@@ -68,7 +68,9 @@ from api.errors import ApiError, ErrorResponse
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, format_refusal, validate
 from api.views import add_views
+from api.webhooks import router as webhooks_router
 from api.worker import Worker
+from monitor.delivery import DeliveryPolicy
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.engine import bundled_engines
 from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, open_store
@@ -124,6 +126,8 @@ class Settings:
         Threads that run the reads' queries at once on PostgreSQL (each holds a connection; more would
         only take turns at the interpreter's lock, fewer would leave the round trips unoverlapped). On
         SQLite a read's query runs on the event loop.
+    alerts : DeliveryPolicy
+        How the webhooks' events are posted and retried (:mod:`api.webhooks`).
     """
 
     store_url: str
@@ -146,6 +150,7 @@ class Settings:
     calibration_timeout_s: float = 300.0
     session_s: float = SESSION_S
     read_threads: int = 8
+    alerts: DeliveryPolicy = field(default_factory=DeliveryPolicy)
 
 
 def _error(status: int, code: str, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
@@ -458,6 +463,7 @@ def create_app(settings: Settings) -> FastAPI:
 
     app.include_router(docs.router)
     app.include_router(baselines_router)
+    app.include_router(webhooks_router)
     add_views(app)
 
     @app.get("/health", response_model=Health, tags=["service"])

@@ -57,6 +57,7 @@ from datetime import datetime, timedelta
 from pathlib import Path, PurePath
 from typing import Any
 
+from monitor.delivery import DeliveryPolicy, deliver_due
 from monitor.errors import MonitorError
 from monitor.processes import analysis_pool
 from monitor.store import Job, Store
@@ -622,6 +623,7 @@ def run_batch(
         _run_jobs(context, scheduler, workers, pending, held, total)
     outcomes = {i: _outcome(store, i, context, truncated=i in cut_short) for i in scope}
     summary.recordings = [replace(outcomes[i], filename=name, path=file) for i, name, file in given]
+    deliver_due(store, DeliveryPolicy(), fleet_id=fleet_id)  # the alerts its diagnoses made (docs/service.md)
     return summary
 
 

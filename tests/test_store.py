@@ -61,7 +61,7 @@ def test_opening_twice_migrates_once(store: Store) -> None:
     try:
         with again.db.connect() as c:
             version = c.execute(sa.text("SELECT version_num FROM alembic_version")).scalar_one()
-        assert version == head == "0008"
+        assert version == head == "0009"
     finally:
         again.close()
 

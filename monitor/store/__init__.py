@@ -15,6 +15,9 @@ kind) a no-op, so a resumed batch or a restarted worker never duplicates one.
 A result is written once and never changed: its JSON text is stored with the
 text's SHA-256, so a read hands out the stored text as it is
 (:meth:`Store.stored_result`), tagged by that digest, without parsing it.
+The transaction that stores a diagnosis also stores its trend points
+(:mod:`monitor.store.trends`) and queues the alerts of its new findings for
+the fleet's webhooks (:mod:`monitor.store.webhooks`).
 
 A recording is stored once per fleet and content, and keeps every file name it
 was given (:meth:`Store.recording_names`). Its artefacts are found by its id:
@@ -63,6 +66,7 @@ from monitor.store.schema import (
 from monitor.store.schema import baselines as baseline_rows
 from monitor.store.schema import recording_names as name_rows
 from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
+from monitor.store.webhooks import enqueue_events
 
 __all__ = [
     "DEFAULT_URL_ENV",
@@ -871,8 +875,9 @@ class Store:
             raise StoreError(f"plot {plot!r}: expected a file name under plots/ of the data folder")
         texts = {kind: document_text(document) for kind, (_, document) in documents.items()}
         with self.transaction() as c:
+            created = set()
             for kind, (status, _) in documents.items():
-                _insert_new(
+                if _insert_new(
                     c,
                     results,
                     {
@@ -886,9 +891,12 @@ class Store:
                         "created_at": _now(),
                     },
                     ["recording_id", "analysis_version", "kind"],
-                )
+                ):
+                    created.add(kind)
             if DIAGNOSIS_KIND in documents:  # its quantities, for the engine's trends
                 write_trend_points(c, job.recording_id, job.analysis_version, documents[DIAGNOSIS_KIND][1])
+            if DIAGNOSIS_KIND in created:  # its new findings' alerts, queued once: with the diagnosis
+                enqueue_events(c, job.recording_id, job.analysis_version, documents[DIAGNOSIS_KIND][1])
             mine = c.execute(
                 sa.update(jobs)
                 .where(self._mine(job))

@@ -29,7 +29,16 @@
   one per fleet and engine: the calibration document (``engine-monitor
   calibrate``'s JSON), the stored recording it was calibrated on, and the
   analysis version that calibrated it; later analyses of that engine's
-  recordings compare their bearing orders through it.
+  recordings compare their bearing orders through it;
+- ``webhooks``: a fleet's alert receivers (``POST /webhooks``): the URL, the
+  secret its events are signed with, and whether it is still active (a deleted
+  one is kept inactive, with its delivery log);
+- ``webhook_deliveries``: the outbox and delivery log of alerts
+  (:mod:`monitor.alerts`, :mod:`monitor.delivery`): one row per webhook and
+  event, written in the transaction that stores the diagnosis that made the
+  event (at most one per webhook and event id), with the body as it is sent,
+  its state (pending, delivered, failed, cancelled), the attempts, the time of
+  the next one, and the last answer or error.
 
 Each read of the service is one indexed query: a key by its digest (unique),
 a recording by id, its job and results by their unique keys, and a fleet's
@@ -43,6 +52,7 @@ from __future__ import annotations
 import sqlalchemy as sa
 
 __all__ = [
+    "DELIVERY_STATES",
     "JOB_STATES",
     "api_keys",
     "baselines",
@@ -54,9 +64,12 @@ __all__ = [
     "recordings",
     "results",
     "trend_points",
+    "webhook_deliveries",
+    "webhooks",
 ]
 
 JOB_STATES = ("queued", "running", "done", "failed", "set_aside")
+DELIVERY_STATES = ("pending", "delivered", "failed", "cancelled")
 
 metadata = sa.MetaData()
 
@@ -182,4 +195,39 @@ baselines = sa.Table(
     sa.Column("document", sa.JSON, nullable=False),
     sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     sa.UniqueConstraint("fleet_id", "engine_id", name="uq_baselines_fleet_engine"),
+)
+
+webhooks = sa.Table(
+    "webhooks",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("fleet_id", sa.Integer, sa.ForeignKey("fleets.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("url", sa.String(2048), nullable=False),
+    sa.Column("secret", sa.String(256), nullable=False),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("active", sa.Boolean, nullable=False, server_default=sa.true()),
+    sa.Index("ix_webhooks_fleet", "fleet_id"),
+)
+
+webhook_deliveries = sa.Table(
+    "webhook_deliveries",
+    metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("webhook_id", sa.Integer, sa.ForeignKey("webhooks.id", ondelete="CASCADE"), nullable=False),
+    sa.Column("event_id", sa.String(64), nullable=False),
+    sa.Column("event_type", sa.String(64), nullable=False),
+    sa.Column("body", sa.Text, nullable=False),
+    sa.Column("state", sa.String(16), nullable=False),
+    sa.Column("attempts", sa.Integer, nullable=False, server_default="0"),
+    sa.Column("next_attempt_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("last_attempt_at", sa.DateTime(timezone=True), nullable=True),
+    sa.Column("last_status", sa.Integer, nullable=True),
+    sa.Column("last_error", sa.Text, nullable=False, server_default=""),
+    sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
+    sa.Column("delivered_at", sa.DateTime(timezone=True), nullable=True),
+    sa.UniqueConstraint("webhook_id", "event_id", name="uq_webhook_deliveries_webhook_event"),
+    sa.CheckConstraint(
+        f"state IN ({', '.join(repr(s) for s in DELIVERY_STATES)})", name="ck_webhook_deliveries_state"
+    ),
+    sa.Index("ix_webhook_deliveries_due", "state", "next_attempt_at"),
 )
