@@ -43,6 +43,7 @@ import sqlalchemy as sa
 from sqlalchemy.engine import Connection, CursorResult, Engine
 
 from monitor.errors import MonitorError
+from monitor.store.outage import Outage
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
 from monitor.store.schema import api_keys, engines, fleets, jobs, metadata, recordings, results
@@ -367,11 +368,19 @@ class Store:
     ----------
     engine : sqlalchemy.engine.Engine
         Connected to a migrated database.
+
+    Attributes
+    ----------
+    outage : monitor.store.outage.Outage
+        Whether the store is down (callers report its failures); a new connection made to it ends an
+        outage.
     """
 
     def __init__(self, engine: Engine) -> None:
         self.db = engine
         self.readers = Readers(engine, POOL_SIZE)  # the reads the service answers most
+        self.outage = Outage()
+        sa.event.listen(engine, "connect", lambda *_: self.outage.back())
 
     @property
     def dialect(self) -> str:
@@ -524,10 +533,13 @@ class Store:
         path: str,
         size_bytes: int,
         recorded_at: str = "",
+        queue: str | None = None,
     ) -> tuple[RecordingRow, bool]:
         """Store a recording's row, or find the one with the same content: ``(row, created)``.
 
         Concurrent uploads of the same content store one row (the unique key decides, atomically).
+        With ``queue`` (an analysis version) its analysis job is queued, if it has none at that
+        version, in the same transaction: a recording is never stored without its job.
         """
         if len(engine_id) > 200 or len(filename) > 255 or "\x00" in engine_id + filename:
             raise StoreError(
@@ -550,7 +562,24 @@ class Store:
                 ["fleet_id", "content_hash"],
             )
             where = (recordings.c.fleet_id == fleet_id) & (recordings.c.content_hash == content_hash)
-            return _recording(c.execute(sa.select(recordings).where(where)).one()), created
+            row = _recording(c.execute(sa.select(recordings).where(where)).one())
+            if queue is not None:
+                self._enqueue(c, row.id, queue)
+            return row, created
+
+    def content_stored(self, content_hash: str) -> bool:
+        """Whether any fleet's recording has this content (its file in the data folder is in use).
+
+        Parameters
+        ----------
+        content_hash : str
+            The SHA-256 (hex) of the file.
+        """
+        with self.db.connect() as c:
+            found = c.execute(
+                sa.select(recordings.c.id).where(recordings.c.content_hash == content_hash).limit(1)
+            ).first()
+        return found is not None
 
     def recording(self, fleet_id: int, recording_id: int) -> RecordingRow | None:
         """A fleet's recording by id (another fleet's answers None, as an unknown one)."""
@@ -696,25 +725,28 @@ class Store:
     # ------------------------------------------------------------------------------- jobs, results
     def enqueue(self, recording_id: int, analysis_version: str) -> Job:
         """The job of a recording at an analysis version, queued if it did not exist."""
-        now = _now()
         with self.transaction() as c:
-            _insert_new(
-                c,
-                jobs,
-                {
-                    "recording_id": recording_id,
-                    "analysis_version": analysis_version,
-                    "state": "queued",
-                    "attempts": 0,
-                    "error": "",
-                    "token": "",
-                    "created_at": now,
-                    "updated_at": now,
-                },
-                ["recording_id", "analysis_version"],
-            )
-            where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
-            return _job(c.execute(sa.select(jobs).where(where)).one())
+            return self._enqueue(c, recording_id, analysis_version)
+
+    def _enqueue(self, c: Connection, recording_id: int, analysis_version: str) -> Job:
+        now = _now()
+        _insert_new(
+            c,
+            jobs,
+            {
+                "recording_id": recording_id,
+                "analysis_version": analysis_version,
+                "state": "queued",
+                "attempts": 0,
+                "error": "",
+                "token": "",
+                "created_at": now,
+                "updated_at": now,
+            },
+            ["recording_id", "analysis_version"],
+        )
+        where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
+        return _job(c.execute(sa.select(jobs).where(where)).one())
 
     def _take(self, c: Connection, job_id: int) -> Job | None:
         token = secrets.token_hex(16)
