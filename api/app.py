@@ -210,7 +210,7 @@ class Health(BaseModel):
 # bidirectional overrides (a name that displays as another), matched whole (``$`` would allow a final "\n")
 _NAME = re.compile("[^/\\\\\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]{1,255}")
 ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422, 503)
+    code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422, 503, 507)
 }
 #: the errors of a read, and its answer to a client whose copy is current
 READ: dict[int | str, dict[str, Any]] = {
@@ -554,7 +554,7 @@ def create_app(settings: Settings) -> FastAPI:
                 if moved:
                     remove_unregistered(final, content, store(), placing)
                 raise
-        app.state.data_folder.stored()
+        app.state.data_folder.has_room()  # a folder full before: logs once it has room again
         return row, created
 
     @app.post(

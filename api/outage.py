@@ -11,7 +11,7 @@ What a client is answered, with the service's one error body:
   disk is full" for a store file in it): 507 ``data_folder_full``; the disk
   of a store elsewhere full: 507 ``store_full``. ``/health`` answers 503
   ``data_folder_full`` from an upload refused for lack of room until the
-  folder has room for it again (or an upload is stored), :class:`DataFolder`.
+  folder has room for it again, :class:`DataFolder`.
 
 An upload never leaves a file without its row: one whose registration fails
 after its file was moved into ``recordings/`` removes that file, unless
@@ -76,8 +76,8 @@ class DataFolder:
     """Whether the service's data folder has room, as the last write that found none left it.
 
     A write that finds the folder full (:meth:`filled`) logs it once; the folder counts as full until
-    it has room for that write again (:meth:`has_room`, at least :data:`MIN_ROOM`) or a write
-    succeeds (:meth:`stored`), which logs the end, once.
+    it has room for that write again (:meth:`has_room`, at least :data:`MIN_ROOM`), which logs the
+    end, once.
 
     Parameters
     ----------
@@ -106,8 +106,8 @@ class DataFolder:
                 self.free(),
             )
 
-    def stored(self) -> None:
-        """A write in the folder succeeded: it has room (logs the end of its being full, once)."""
+    def _emptied(self) -> None:
+        """The folder has room again (logs the end of its being full, once)."""
         with self._lock:
             was, self.needed = self.needed, None
         if was is not None:
@@ -120,7 +120,7 @@ class DataFolder:
             return True
         if self.free() < needed:
             return False
-        self.stored()
+        self._emptied()
         return True
 
 

@@ -74,7 +74,12 @@ def store_fault(error: BaseException) -> Fault | None:
 
 
 def fault_reason(error: BaseException) -> str:
-    """The driver's message of a store's error, on one line (no SQL, no parameters)."""
+    """The driver's message of a store's error, on one line (no SQL, no parameters).
+
+    Parameters
+    ----------
+    error : BaseException
+    """
     original = getattr(error, "orig", None) or error
     lines = [line.strip() for line in str(original).splitlines() if line.strip()]
     return "; ".join(lines)[:300] or type(original).__name__
