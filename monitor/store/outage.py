@@ -21,7 +21,11 @@ them apart from the rest:
 :class:`Outage` keeps whether the store is down: its first failure logs one
 line (``store unreachable: REASON``), and the first connection made to it
 again, or any caller's success it reports, logs one more (``store
-reachable again after S s``), with the failures counted meanwhile. A store
+reachable again after S s``), with the failures counted meanwhile. Failures
+within :data:`STRAGGLERS_S` of its end are of requests that met the outage
+before it ended (a query sent on a connection cut meanwhile): they are
+not taken for a new outage (a store down again is logged at its
+next failure after that). A store
 has one (:attr:`monitor.store.Store.outage`), shared by every part of a
 process that uses it (the service's requests and its analysis worker).
 """
@@ -35,7 +39,7 @@ from typing import Literal
 
 import sqlalchemy as sa
 
-__all__ = ["Fault", "Outage", "fault_reason", "store_fault"]
+__all__ = ["STRAGGLERS_S", "Fault", "Outage", "fault_reason", "store_fault"]
 
 log = logging.getLogger("engine_monitor.store")
 
@@ -45,6 +49,8 @@ Fault = Literal["unavailable", "full"]
 _SQLITE_UNAVAILABLE = ("database is locked", "unable to open database file", "disk i/o error")
 _SQLITE_FULL = ("database or disk is full",)
 _PG_DISK_FULL = "53100"
+#: After the store is back, failures for this long are stragglers of the outage, not a new one [s].
+STRAGGLERS_S = 2.0
 
 
 def store_fault(error: BaseException) -> Fault | None:
@@ -96,6 +102,7 @@ class Outage:
         self._lock = threading.Lock()
         self.since: float | None = None  # time.monotonic() of the outage's first failure, None while up
         self.failures = 0  # failures reported during the current outage
+        self._ended = -STRAGGLERS_S  # time.monotonic() when the last outage ended
 
     @property
     def down(self) -> bool:
@@ -105,10 +112,13 @@ class Outage:
     def failed(self, error: BaseException) -> None:
         """A caller found the store unreachable (or full): logs the outage's beginning, once."""
         with self._lock:
-            self.failures += 1
+            now = time.monotonic()
             if self.since is not None:
+                self.failures += 1
                 return
-            self.since = time.monotonic()
+            if now - self._ended < STRAGGLERS_S:
+                return
+            self.since, self.failures = now, 1
         log.warning(
             "store unreachable: %s; answering 'try again later' until it is back",
             fault_reason(error),
@@ -121,6 +131,7 @@ class Outage:
         with self._lock:
             if self.since is None:
                 return
-            lasted, failures = time.monotonic() - self.since, self.failures
+            self._ended = time.monotonic()
+            lasted, failures = self._ended - self.since, self.failures
             self.since, self.failures = None, 0
         log.warning("store reachable again after %.1f s (%d failures meanwhile)", lasted, failures)
