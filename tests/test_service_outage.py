@@ -243,3 +243,51 @@ def test_a_full_data_folder_is_507_and_leaves_nothing_behind(
     if log.count("full: uploads answer 507") != 1 or log.count("has room again") != 1:
         seen.append("not one log line when the data folder filled and one when it had room again")
     assert not seen, "\n".join(seen)
+
+
+def test_store_faults_are_told_apart_from_the_statement_s_own_errors() -> None:
+    """The driver's errors of a store that cannot serve (or whose disk is full) are told from errors of
+    the statement itself, which stay faults of the service (500, with their traceback)."""
+    import sqlite3
+
+    import psycopg
+    import sqlalchemy as sa
+
+    from monitor.store.outage import store_fault
+
+    def wrapped(error: Exception, kind: type[sa.exc.DBAPIError] = sa.exc.OperationalError) -> Exception:
+        return kind("SELECT 1", {}, error)
+
+    assert store_fault(wrapped(sqlite3.OperationalError("database is locked"))) == "unavailable"
+    assert store_fault(wrapped(sqlite3.OperationalError("database or disk is full"))) == "full"
+    assert store_fault(wrapped(sqlite3.OperationalError("no such table: recordings"))) is None
+    assert store_fault(wrapped(psycopg.errors.AdminShutdown("terminating connection"))) == "unavailable"
+    assert store_fault(wrapped(psycopg.OperationalError("connection refused"))) == "unavailable"
+    assert store_fault(wrapped(psycopg.errors.DiskFull("could not extend file"))) == "full"
+    unique = psycopg.errors.UniqueViolation("duplicate key")
+    assert store_fault(wrapped(unique, sa.exc.IntegrityError)) is None
+    assert store_fault(OSError("not the store's")) is None
+
+
+def test_an_outage_is_logged_once_when_it_begins_and_once_when_it_ends(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Many failures make one line; the first connection after makes one more; failures just after it
+    ended are stragglers of that outage, not a new one."""
+    import sqlalchemy as sa
+
+    from monitor.store.outage import Outage
+
+    outage = Outage()
+    error = sa.exc.OperationalError("SELECT 1", {}, Exception("connection refused"))
+    with caplog.at_level("INFO", logger="engine_monitor.store"):
+        for _ in range(50):
+            outage.failed(error)
+        assert outage.down
+        outage.back()
+        outage.back()
+        outage.failed(error)  # a request sent before the end
+    lines = [record.getMessage() for record in caplog.records]
+    assert len(lines) == 2 and not outage.down, lines
+    assert lines[0].startswith("store unreachable: connection refused")
+    assert "(50 failures meanwhile)" in lines[1]
