@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Annotated, Any, TypeVar
 from urllib.parse import urlencode
 
+import sqlalchemy as sa
 from anyio import CapacityLimiter, to_thread
 from fastapi import FastAPI, Query, Request
 from fastapi import Path as FastPath
@@ -65,6 +66,7 @@ from api.baselines import calibration_limits
 from api.baselines import router as baselines_router
 from api.engines import Source, visible_engine
 from api.errors import ApiError, ErrorResponse
+from api.outage import DataFolder, Placing, dependency_error, disk_full, remove_unregistered
 from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, format_refusal, validate
 from api.views import add_views
@@ -201,6 +203,8 @@ class EngineOut(BaseModel):
 
 
 class Health(BaseModel):
+    """The service answers, with its store and its data folder (else 503, which says which does not)."""
+
     status: str
     store: str
     analysis_version: str
@@ -210,7 +214,7 @@ class Health(BaseModel):
 # bidirectional overrides (a name that displays as another), matched whole (``$`` would allow a final "\n")
 _NAME = re.compile("[^/\\\\\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]{1,255}")
 ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422)
+    code: {"model": ErrorResponse} for code in (400, 401, 404, 409, 413, 422, 503, 507)
 }
 #: the errors of a read, and its answer to a client whose copy is current
 READ: dict[int | str, dict[str, Any]] = {
@@ -352,6 +356,7 @@ def create_app(settings: Settings) -> FastAPI:
         app.state.keys = KeyCache(settings.key_ttl_s)
         app.state.sessions = Sessions(session_secret(settings.data_dir), settings.session_s)
         app.state.settings = settings
+        app.state.data_folder = DataFolder(settings.data_dir)
         app.state.calibrations, app.state.calibrating = calibration_limits(settings.calibrations)
         app.state.readers = CapacityLimiter(settings.read_threads)
         worker = (
@@ -419,6 +424,17 @@ def create_app(settings: Settings) -> FastAPI:
         parts = [f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()]
         return _error(422, "invalid_request", "; ".join(parts))
 
+    @app.exception_handler(sa.exc.DBAPIError)
+    @app.exception_handler(OSError)
+    async def dependency_failed(request: Request, error: Exception) -> JSONResponse:
+        """The store unreachable or full, the disk full: 503 or 507 (api.outage), logged once per
+        outage; any other error of these kinds, as every unexpected one: 500, with its traceback."""
+        found = dependency_error(error, store(), app.state.data_folder, settings.data_dir)
+        if found is None:
+            log.error("%s %s: the service failed", request.method, request.url.path, exc_info=error)
+            return await unexpected(request, error)
+        return _error(found.status, found.code, found.message, found.headers)
+
     @app.exception_handler(Exception)
     async def unexpected(_: Request, error: Exception) -> JSONResponse:
         return _error(500, "internal_error", f"the service failed ({type(error).__name__}); it was logged")
@@ -466,10 +482,20 @@ def create_app(settings: Settings) -> FastAPI:
     app.include_router(webhooks_router)
     add_views(app)
 
-    @app.get("/health", response_model=Health, tags=["service"])
+    @app.get("/health", response_model=Health, responses={503: {"model": ErrorResponse}}, tags=["service"])
     def health() -> dict[str, str]:
-        """Whether the service and its store answer (no key needed)."""
+        """Whether the service, its store and its data folder answer (no key needed); else 503, whose
+        code says which does not: ``store_unavailable`` or ``data_folder_full``."""
         store().count("fleets")
+        store().outage.back()
+        if not app.state.data_folder.has_room():
+            raise ApiError(
+                503,
+                "data_folder_full",
+                f"the service's data folder is full: uploads are refused until space is freed there "
+                f"({app.state.data_folder.free()} bytes free)",
+                headers={"Retry-After": "60"},
+            )
         return {"status": "ok", "store": store().dialect, "analysis_version": ANALYSIS_VERSION}
 
     slots = asyncio.Semaphore(settings.validations)  # each child may take validation_memory_bytes
@@ -477,6 +503,7 @@ def create_app(settings: Settings) -> FastAPI:
         lambda: asyncio.Semaphore(settings.validations_per_fleet)
     )
     uploading: Counter[int] = Counter()  # uploads in progress per fleet
+    placing = Placing()  # contents whose files uploads are moving in and registering now
 
     async def checked(fleet_id: int, name: str, temporary: Path) -> Validation:
         """The validator's verdict on an uploaded file, awaited in the fleet's turn (no thread held)."""
@@ -506,23 +533,31 @@ def create_app(settings: Settings) -> FastAPI:
         with open(temporary, "rb") as fh:
             suffix = ".mcap" if fh.read(8).startswith(b"\x89MCAP") else ".h5"
         final = settings.data_dir / "recordings" / f"{content}{suffix}"
-        if not final.exists():
-            os.replace(temporary, final)
-            directory = os.open(final.parent, os.O_RDONLY)
+        with placing.hold(content):
+            moved = not final.exists()
             try:
-                os.fsync(directory)
-            finally:
-                os.close(directory)
-        row, created = store().add_recording(
-            fleet_id,
-            content_hash=content,
-            engine_id=checked.engine_id,
-            filename=name,
-            path=str(final),
-            size_bytes=size,
-            recorded_at=checked.start_time,
-        )
-        store().enqueue(row.id, ANALYSIS_VERSION)
+                if moved:
+                    os.replace(temporary, final)
+                    directory = os.open(final.parent, os.O_RDONLY)
+                    try:
+                        os.fsync(directory)
+                    finally:
+                        os.close(directory)
+                row, created = store().add_recording(  # the row and its queued job, in one transaction
+                    fleet_id,
+                    content_hash=content,
+                    engine_id=checked.engine_id,
+                    filename=name,
+                    path=str(final),
+                    size_bytes=size,
+                    recorded_at=checked.start_time,
+                    queue=ANALYSIS_VERSION,
+                )
+            except BaseException:  # no file without its row: the one this upload moved in goes
+                if moved:
+                    remove_unregistered(final, content, store(), placing)
+                raise
+        app.state.data_folder.has_room()  # a folder full before: logs once it has room again
         return row, created
 
     @app.post(
@@ -587,6 +622,10 @@ def create_app(settings: Settings) -> FastAPI:
             row, created = await run_in_threadpool(
                 keep, fleet_id, name, Path(temporary), content, size, verdict
             )
+        except OSError as error:  # the data folder full: it is so until it has room for this upload
+            if disk_full(error):
+                app.state.data_folder.filled(int(declared) if declared and declared.isdigit() else 0)
+            raise
         finally:
             uploading[fleet_id] -= 1
             if os.path.exists(temporary):

@@ -21,6 +21,16 @@ that doubles with each attempt, then set aside
 (:data:`monitor.store.MAX_ATTEMPTS`). Every change of a job's state is one
 log line of ``key=value`` fields.
 
+The store unreachable a while (:func:`monitor.store.outage.store_fault`) is
+ridden out: the worker looks again, less and less often (up to every
+:data:`OUTAGE_WAIT` s), an analysis that runs meanwhile runs on, and its
+result, or its failure, is written once the store is back; one log line when
+the outage begins and one when it ends (:class:`monitor.store.outage.Outage`,
+shared with the service's requests), not a traceback per look. A job taken
+before the outage stays its taker's, so it is neither lost nor run twice
+(unless the outage outlasts the lease, when another worker may take it back
+and the first result written is kept).
+
 Analyses run at a lower CPU priority than the server (:data:`NICE`): the
 server answers reads in milliseconds, an analysis takes seconds, so where
 both want the same core the reads go first and the analysis takes what is
@@ -33,11 +43,13 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, TimeoutError
 from concurrent.futures.process import BrokenProcessPool
 from datetime import timedelta
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from api.validate import NICE
 from monitor.batch import diagnose_file, recording_plot
@@ -46,6 +58,7 @@ from monitor.errors import MonitorError
 from monitor.io.files import OutputFolderError
 from monitor.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store, StoreError
+from monitor.store.outage import store_fault
 
 __all__ = ["HEARTBEAT", "LEASE", "NICE", "Worker", "analyse", "input_fault"]
 
@@ -54,6 +67,13 @@ log = logging.getLogger("engine_monitor.worker")
 HEARTBEAT = 5.0  # seconds between a running job's touches
 LEASE = timedelta(seconds=30)  # a running job untouched this long has lost its worker
 IDLE = 0.5  # seconds between looks at an empty queue
+OUTAGE_WAIT = 5.0  # longest wait between looks at a store that does not answer [s]
+
+T = TypeVar("T")
+
+
+class _Stopped(Exception):
+    """The worker was stopped while it waited for the store."""
 
 
 def input_fault(error: BaseException) -> bool:
@@ -143,6 +163,7 @@ class Worker:
 
     def _loop(self) -> None:
         last_sweep = 0.0
+        wait = IDLE  # between looks at a store that does not answer: doubled up to OUTAGE_WAIT
         while not self._stop.is_set():
             try:
                 now = time.monotonic()
@@ -150,15 +171,41 @@ class Worker:
                     self.store.requeue_stale(ANALYSIS_VERSION, self.lease)
                     last_sweep = now
                 job = self.store.claim(ANALYSIS_VERSION)
+                self.store.outage.back()
+                wait = IDLE
                 if job is None:
                     self._wake.wait(IDLE)
                     self._wake.clear()
                     continue
                 _log_state(job, "running")
                 self._run(job)
-            except Exception:  # the store unreachable a moment, ...: log, wait, go on; never stop the loop
-                log.exception("analysis worker: an error outside an analysis; going on")
-                self._stop.wait(IDLE)
+            except _Stopped:
+                return
+            except Exception as error:  # log, wait, go on; never stop the loop
+                if store_fault(error) is None:
+                    log.exception("analysis worker: an error outside an analysis; going on")
+                else:  # the store down: logged once per outage, looked at less often
+                    self.store.outage.failed(error)
+                self._stop.wait(wait)
+                wait = min(2 * wait, OUTAGE_WAIT)
+
+    def _stored(self, function: Callable[..., T], *args: Any) -> T:
+        """``function(*args)``, a call to the store, again and again while the store does not answer
+        (waits doubled up to :data:`OUTAGE_WAIT`); :class:`_Stopped` if the worker stops meanwhile."""
+        wait = IDLE
+        while True:
+            try:
+                found = function(*args)
+            except Exception as error:
+                if store_fault(error) is None:
+                    raise
+                self.store.outage.failed(error)
+                if self._stop.wait(wait):
+                    raise _Stopped from None
+                wait = min(2 * wait, OUTAGE_WAIT)
+                continue
+            self.store.outage.back()
+            return found
 
     def _fresh_pool(self) -> ProcessPoolExecutor:
         with self._lock:
@@ -169,13 +216,15 @@ class Worker:
             return self._pool
 
     def _run(self, job: Job) -> None:
-        row = self.store.recording_by_id(job.recording_id)
+        row = self._stored(self.store.recording_by_id, job.recording_id)
         if row is None:  # deleted meanwhile
-            self.store.fail(job, "the recording is no longer stored")
+            self._stored(self.store.fail, job, "the recording is no longer stored")
             return
-        engine = self.store.engine(row.fleet_id, row.engine_id)
-        baseline = self.store.baseline(row.fleet_id, row.engine_id)  # the bearing comparisons' reference
-        plot = recording_plot(self.store, row.id)  # named as the batch names it, recorded with the diagnosis
+        engine = self._stored(self.store.engine, row.fleet_id, row.engine_id)
+        # the bearing comparisons' reference
+        baseline = self._stored(self.store.baseline, row.fleet_id, row.engine_id)
+        # named as the batch names it, recorded with the diagnosis
+        plot = self._stored(recording_plot, self.store, row.id)
         # a pool broken by an earlier analysis is replaced before this one is submitted
         future = self._fresh_pool().submit(
             analyse,
@@ -191,7 +240,12 @@ class Worker:
             except TimeoutError:
                 if self._stop.is_set():
                     return  # the lease hands the job to the next worker
-                self.store.touch(job)
+                try:
+                    self.store.touch(job)
+                except Exception as error:  # the store down: the analysis runs on, its result waits
+                    if store_fault(error) is None:
+                        raise
+                    self.store.outage.failed(error)
                 continue
             except BrokenProcessPool:  # the analysis process died (killed, out of memory): transient
                 self._failed(job, "the analysis process died (killed, or out of memory)", permanent=False)
@@ -204,12 +258,12 @@ class Worker:
                     said = f"the analysis failed unexpectedly ({type(error).__name__}: {said})"
                 self._failed(job, said, permanent=permanent)
                 return
-            stored = self.store.complete(job, documents, plot=plot)
+            stored = self._stored(partial(self.store.complete, plot=plot), job, documents)
             _log_state(job, "done" if stored else "taken back")
             return
 
     def _failed(self, job: Job, reason: str, *, permanent: bool) -> None:
-        state = self.store.fail(job, reason, permanent=permanent, backoff=self.backoff)
+        state = self._stored(partial(self.store.fail, permanent=permanent, backoff=self.backoff), job, reason)
         _log_state(job, state, reason=reason, kind="permanent" if permanent else "transient")
 
 

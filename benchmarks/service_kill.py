@@ -1,6 +1,7 @@
 """The service killed with ``kill -9`` mid-analysis, again and again (``make bench-kill``).
 
-``python -m benchmarks.service_kill [--sqlite-runs 20] [--postgresql-runs 5]``. Each run starts on a
+``python -m benchmarks.service_kill [--sqlite-runs 20] [--postgresql-runs 5] [--outage-cycles 3]
+[--outage-s 20] [--disk-full-mib 12]``. Each run starts on a
 fresh store a server, and in every other run a separate worker (the server then only queues),
 uploads three recordings, waits until an analysis runs, then kills with SIGKILL the process that runs
 it (the server itself, or the worker): that process alone, not its group. It then checks that
@@ -8,6 +9,12 @@ nothing of the killed process is left running (its analysis processes die with i
 once on the same port, and waits until every analysis is done. Counted per store: uploads lost (a
 recording answered 201 and not stored, or never analysed), results duplicated, 5xx answers,
 processes left behind, restarts that failed. It writes its section of docs/service.md.
+
+Then the service while its surroundings fail (:mod:`benchmarks.service_outage`): PostgreSQL stopped
+(through a proxy) ``--outage-cycles`` times for ``--outage-s`` seconds, and the data folder full
+(a tmpfs of ``--disk-full-mib``), each under readers and uploaders; each writes a section of its own.
+A count of 0 (``--sqlite-runs 0 --postgresql-runs 0``, ``--outage-cycles 0``, ``--disk-full-mib 0``)
+leaves a run out and its section as it was.
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from typing import Any
 import httpx
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import POSTGRES, _free_port, _postgres_database, _recordings
+from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database
 from monitor.processes import session_processes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,6 +60,17 @@ class Tally:
     restart_failures: int = 0
     restart_s: list[float] = field(default_factory=list)
     finish_s: list[float] = field(default_factory=list)
+
+
+def _recordings(folder: Path, count: int, seconds: float) -> list[Path]:
+    """Distinct recordings to upload (``seconds`` of the 6L32 baseline scene, one seed each)."""
+    from monitor.io.hdf5 import write_hdf5
+
+    paths = []
+    for i, recording in enumerate(_bases(count, seconds)):
+        paths.append(folder / f"kill-{i}.h5")
+        write_hdf5(recording, paths[-1])
+    return paths
 
 
 def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
@@ -194,7 +212,43 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--postgres", default=POSTGRES, help="an administrator's URL of the server on loopback"
     )
+    parser.add_argument("--outage-cycles", type=int, default=3, help="times PostgreSQL is stopped (0: none)")
+    parser.add_argument("--outage-s", type=float, default=20.0, help="how long it is stopped each time [s]")
+    parser.add_argument(
+        "--disk-full-mib", type=int, default=12, help="the full data folder's size (0: no run)"
+    )
     args = parser.parse_args(argv)
+    if args.sqlite_runs + args.postgresql_runs > 0:
+        _kill_runs(args)
+    _outage_runs(args, " ".join(["python -m benchmarks.service_kill", *(argv or sys.argv[1:])]))
+
+
+def _outage_runs(args: argparse.Namespace, command: str) -> None:
+    from benchmarks.service_outage import (
+        DISK_END,
+        DISK_START,
+        OUTAGE_END,
+        OUTAGE_START,
+        disk_full_run,
+        disk_full_section,
+        outage_run,
+        outage_section,
+    )
+
+    moment, python = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), platform.python_version()
+    if args.outage_cycles > 0:
+        section = outage_section(
+            outage_run(args.postgres, args.outage_cycles, args.outage_s), command, moment, python
+        )
+        replace_section(DOC, OUTAGE_START, OUTAGE_END, section)
+        print(section, flush=True)
+    if args.disk_full_mib > 0:
+        section = disk_full_section(disk_full_run(args.disk_full_mib, refused=6), command, moment, python)
+        replace_section(DOC, DISK_START, DISK_END, section)
+        print(section, flush=True)
+
+
+def _kill_runs(args: argparse.Namespace) -> None:
     tallies: dict[str, Tally] = {}
     note = (
         f"Each run: {UPLOADS} recordings of 6 s uploaded, SIGKILL of the server (even runs) or of the "

@@ -52,6 +52,7 @@ from sqlalchemy.engine import Connection, CursorResult, Engine
 
 from monitor.errors import MonitorError
 from monitor.names import check_name
+from monitor.store.outage import Outage
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.readers import Readers
 from monitor.store.schema import (
@@ -400,11 +401,19 @@ class Store:
     ----------
     engine : sqlalchemy.engine.Engine
         Connected to a migrated database.
+
+    Attributes
+    ----------
+    outage : monitor.store.outage.Outage
+        Whether the store is down (callers report its failures); a new connection made to it ends an
+        outage.
     """
 
     def __init__(self, engine: Engine) -> None:
         self.db = engine
         self.readers = Readers(engine, POOL_SIZE)  # the reads the service answers most
+        self.outage = Outage()
+        sa.event.listen(engine, "connect", lambda *_: self.outage.back())
 
     @property
     def dialect(self) -> str:
@@ -566,12 +575,15 @@ class Store:
         path: str,
         size_bytes: int,
         recorded_at: str = "",
+        queue: str | None = None,
     ) -> tuple[RecordingRow, bool]:
         """Store a recording's row, or find the one with the same content: ``(row, created)``.
 
         Concurrent uploads of the same content store one row (the unique key decides, atomically). The
         row keeps the file name the content was first given; every name it is given is kept besides
-        (:meth:`recording_names`), in the same transaction.
+        (:meth:`recording_names`), in the same transaction. With ``queue`` (an analysis version)
+        its analysis job is queued, if it has none at that version, in the same transaction: a recording is
+        never stored without its job.
         """
         if len(engine_id) > 200 or len(filename) > 255 or "\x00" in engine_id + filename:
             raise StoreError(
@@ -601,6 +613,8 @@ class Store:
                 {"recording_id": row.id, "filename": filename, "created_at": _now()},
                 ["recording_id", "filename"],
             )
+            if queue is not None:
+                self._enqueue(c, row.id, queue)
             return row, created
 
     def recording_names(self, fleet_id: int, recording_ids: list[int]) -> dict[int, list[str]]:
@@ -635,6 +649,20 @@ class Store:
         with self.db.connect() as c:
             rows = c.execute(sa.select(recordings.c.id, recordings.c.filename).order_by(recordings.c.id))
             return [(int(r.id), str(r.filename)) for r in rows]
+
+    def content_stored(self, content_hash: str) -> bool:
+        """Whether any fleet's recording has this content (its file in the data folder is in use).
+
+        Parameters
+        ----------
+        content_hash : str
+            The SHA-256 (hex) of the file.
+        """
+        with self.db.connect() as c:
+            found = c.execute(
+                sa.select(recordings.c.id).where(recordings.c.content_hash == content_hash).limit(1)
+            ).first()
+        return found is not None
 
     def recording(self, fleet_id: int, recording_id: int) -> RecordingRow | None:
         """A fleet's recording by id (another fleet's answers None, as an unknown one)."""
@@ -780,25 +808,28 @@ class Store:
     # ------------------------------------------------------------------------------- jobs, results
     def enqueue(self, recording_id: int, analysis_version: str) -> Job:
         """The job of a recording at an analysis version, queued if it did not exist."""
-        now = _now()
         with self.transaction() as c:
-            _insert_new(
-                c,
-                jobs,
-                {
-                    "recording_id": recording_id,
-                    "analysis_version": analysis_version,
-                    "state": "queued",
-                    "attempts": 0,
-                    "error": "",
-                    "token": "",
-                    "created_at": now,
-                    "updated_at": now,
-                },
-                ["recording_id", "analysis_version"],
-            )
-            where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
-            return _job(c.execute(sa.select(jobs).where(where)).one())
+            return self._enqueue(c, recording_id, analysis_version)
+
+    def _enqueue(self, c: Connection, recording_id: int, analysis_version: str) -> Job:
+        now = _now()
+        _insert_new(
+            c,
+            jobs,
+            {
+                "recording_id": recording_id,
+                "analysis_version": analysis_version,
+                "state": "queued",
+                "attempts": 0,
+                "error": "",
+                "token": "",
+                "created_at": now,
+                "updated_at": now,
+            },
+            ["recording_id", "analysis_version"],
+        )
+        where = (jobs.c.recording_id == recording_id) & (jobs.c.analysis_version == analysis_version)
+        return _job(c.execute(sa.select(jobs).where(where)).one())
 
     def _take(self, c: Connection, job_id: int) -> Job | None:
         token = secrets.token_hex(16)

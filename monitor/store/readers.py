@@ -11,8 +11,10 @@ and give it back after. psycopg prepares a statement a connection has run a
 few times, so a kept connection also runs the reads' statements prepared.
 
 A kept connection that the server dropped meanwhile (PostgreSQL restarted) is
-found by the failure of the next query on it; that read is tried once more on
-a new connection. Any other failure closes the connection it came on.
+found by the failure of the next query on it. The other kept connections are
+as old as it and are dropped with it (they would fail the same way, one read
+each), and that read is tried once more on a new connection, which the pool
+checks before use. Any other failure closes the connection it came on.
 """
 
 from __future__ import annotations
@@ -44,22 +46,25 @@ class Readers:
         self.keep = keep
         self._kept: list[Connection] = []  # list.pop and list.append are atomic: threads share it
 
-    def _connection(self) -> Connection:
+    def _connection(self, kept: bool = True) -> Connection:
         try:
-            return self._kept.pop()
+            if kept:
+                return self._kept.pop()
         except IndexError:
-            return self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
+            pass
+        return self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
 
     def read(self, statement: Any, values: dict[str, Any], rows: Callable[[CursorResult[Any]], T]) -> T:
         """``rows(result)`` of one statement, on a kept connection (or a new one)."""
         for attempt in (1, 2):
-            connection = self._connection()
+            connection = self._connection(kept=attempt == 1)
             try:
                 found = rows(connection.execute(statement, values))
             except sa.exc.DBAPIError as error:
                 connection.close()
                 if attempt == 1 and error.connection_invalidated:
-                    continue  # a connection the server dropped while it was kept: once more, anew
+                    self.close()  # kept as long as the one the server dropped: dropped too
+                    continue  # once more, on a new connection
                 raise
             except BaseException:
                 connection.close()
