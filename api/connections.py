@@ -259,9 +259,9 @@ class _Registry:
                     f"the server holds {self.active} connections, its most, each with a request in "
                     "progress: try again shortly"
                 )
+            self.shedding.note(connection.loop, victim.host, self)
             self.release(victim)
             victim.transport.close()
-            self.shedding.note(connection.loop, victim.host, self)
         self.active += 1
         self.per_client[host] += 1
         connection.counted = True
