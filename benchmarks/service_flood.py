@@ -303,8 +303,7 @@ def document(rows: list[Row], connections: int, clients: int, seconds: float, lo
         "",
         f"Target: `/health` answers within {TARGET_S:g} s while {connections} idle connections are "
         f"held (the rows *held*): {'met' if met else 'not met'}. The rows *re-opened* add a "
-        "connection rate no target was set for; in front of the API, the proxy's per-client "
-        "limits (below) meet it before the server does.",
+        "connection rate no target was set for.",
         END,
     ]
     return "\n".join(lines)
