@@ -738,6 +738,7 @@ def _run_serve(args: argparse.Namespace) -> int:
             log_level="info",
             access_log=args.access_log,
             http=protocol,
+            backlog=4096,  # a flood's handshakes wait here for their accept (net.core.somaxconn caps it)
             ws="none",  # no route upgrades; an upgraded connection would leave the protocol's count
         )
     except SystemExit as stop:  # uvicorn's own exit (it could not start): the documented status
