@@ -92,10 +92,11 @@ proto: $(STAMP)
 	cd monitor/io/proto && ../../../$(BIN)/python -m grpc_tools.protoc -I. --python_out=. --pyi_out=. \
 		engine_monitor/recording.proto
 
-## bench-kill: the service killed with kill -9 mid-analysis and restarted (20 runs on SQLite, 5 on PostgreSQL);
-## rewrites its section of docs/service.md
+## bench-kill: the service killed with kill -9 mid-analysis and restarted (20 runs on SQLite, 5 on PostgreSQL),
+## then flooded with 20 000 idle connections while /health is timed; rewrites their sections of docs/service.md
 bench-kill: $(STAMP)
 	$(BIN)/python -m benchmarks.service_kill --sqlite-runs 20 --postgresql-runs 5
+	$(BIN)/python -m benchmarks.service_flood --connections 20000 --clients 2 --seconds 30
 
 ## samples: regenerate the small recordings in recordings/samples/ from their scenes (deterministic)
 SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3

@@ -68,6 +68,16 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 0 or more")
+    return value
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -379,6 +389,7 @@ def _build_parser() -> argparse.ArgumentParser:
         help="seconds before an analysis that failed for a passing reason is tried again, "
         "doubled after each attempt (default 10)",
     )
+    _add_connection_options(serve)
 
     work = sub.add_parser(
         "worker",
@@ -629,6 +640,71 @@ def _run_batch(args: argparse.Namespace) -> int:
     return summary.exit_status
 
 
+def _add_connection_options(serve: argparse.ArgumentParser) -> None:
+    """serve's limits on connections (api/connections.py; docs/service.md, "Connections")."""
+    serve.add_argument(
+        "--header-timeout",
+        type=_positive_float,
+        default=10.0,
+        metavar="S",
+        help="longest time for a connection to send a complete request head, from its accept or its "
+        "previous response; then 408 and closed [s] (default 10)",
+    )
+    serve.add_argument(
+        "--idle-timeout",
+        type=_positive_float,
+        default=5.0,
+        metavar="S",
+        help="a connection without a request in progress that sends nothing for this long after its "
+        "accept or its previous response is closed [s] (default 5)",
+    )
+    serve.add_argument(
+        "--max-connections",
+        type=_positive_int,
+        metavar="N",
+        help="connections held at once; one more closes the oldest idle one (default: what the "
+        "open-file limit holds, at most 10000; more than it holds is refused at start-up)",
+    )
+    serve.add_argument(
+        "--connections-per-client",
+        type=_count,
+        default=64,
+        metavar="N",
+        help="connections held at once from one client address; one more is answered 503 "
+        "(default 64; 0: no cap, behind a proxy that caps them)",
+    )
+
+
+def _connection_protocol(args: argparse.Namespace) -> type:
+    """The HTTP protocol with serve's connection limits, the cap sized to the open-file limit."""
+    from api.connections import ConnectionLimits, descriptor_budget, protocol_class
+
+    budget = descriptor_budget()
+    default = ConnectionLimits.max_connections
+    if args.max_connections is not None and args.max_connections > budget.connections:
+        raise MonitorError(
+            f"--max-connections {args.max_connections}: the open-file limit holds {budget.connections} "
+            f"({budget.summary()}); raise the limit (ulimit -n, systemd's LimitNOFILE=, compose's "
+            "ulimits) or give fewer"
+        )
+    if budget.connections < 1:
+        raise MonitorError(f"no room for connections: {budget.summary()}; raise the limit (ulimit -n)")
+    cap = args.max_connections or min(default, budget.connections)
+    limits = ConnectionLimits(
+        header_timeout_s=args.header_timeout,
+        idle_timeout_s=args.idle_timeout,
+        max_connections=cap,
+        per_client=args.connections_per_client,
+    )
+    per_client = limits.per_client or "no cap"
+    print(
+        f"connections: at most {cap} ({per_client} per client address), request head within "
+        f"{limits.header_timeout_s:g} s, idle {limits.idle_timeout_s:g} s; {budget.summary()}",
+        file=sys.stderr,
+    )
+    return protocol_class(limits)
+
+
 def _service_store_url(given: str | None, data: str) -> str:
     from monitor.store import default_url
 
@@ -654,9 +730,18 @@ def _run_serve(args: argparse.Namespace) -> int:
         upload_min_rate=args.upload_min_rate,
     )
     _check_listening(args.host, args.port)
+    app = create_app(settings)
+    protocol = _connection_protocol(args)
     try:
         uvicorn.run(
-            create_app(settings), host=args.host, port=args.port, log_level="info", access_log=args.access_log
+            app,
+            host=args.host,
+            port=args.port,
+            log_level="info",
+            access_log=args.access_log,
+            http=protocol,
+            backlog=4096,  # a flood's handshakes wait here for their accept (net.core.somaxconn caps it)
+            ws="none",  # no route upgrades; an upgraded connection would leave the protocol's count
         )
     except SystemExit as stop:  # uvicorn's own exit (it could not start): the documented status
         if stop.code not in (0, None):
