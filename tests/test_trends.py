@@ -289,7 +289,8 @@ def test_trend_reads_the_stores_only_fleet_and_names_the_fleets_when_there_are_m
     finally:
         store.close()
     assert main(["trend", "man-b-w-7k98mc", "--data", data]) == 2
-    assert "the store holds the fleets 'my-fleet', 'other': choose one with --fleet" in capsys.readouterr().err
+    said = capsys.readouterr().err
+    assert "the store holds the fleets 'my-fleet', 'other': choose one with --fleet" in said
     assert main(["trend", "man-b-w-7k98mc", "--data", data, "--fleet", "my-fleet"]) == 0
     capsys.readouterr()
     assert main(["trend", "man-b-w-7k98mc", "--data", data, "--fleet", "nobody"]) == 2
