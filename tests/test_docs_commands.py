@@ -29,6 +29,7 @@ import os
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -186,6 +187,7 @@ def _script(found: list[Command], log: Path) -> str:
                 f'__servers="$__servers $!"; echo $! > {out}.server',
                 f"for __i in $(seq 600); do curl -q -s -o /dev/null {url} && break; sleep 0.1; done",
                 f"curl -q -s -o /dev/null {url}; echo $? > {out}.status",
+                f'[ "$(cat {out}.status)" = 0 ] || exit 100',
             ]
             continue
         parts += [
@@ -235,9 +237,12 @@ def test_the_documents_shell_examples_run_as_written(document: Path, tmp_path: P
     log.mkdir()
     script = folder / ".commands.sh"
     script.write_text(_script(found, log))
+    shell = subprocess.Popen([*runner, str(script)], env=environment, start_new_session=True)
     try:
-        subprocess.run([*runner, str(script)], env=environment, timeout=TIMEOUT_S, check=False)
+        shell.wait(timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired:
+        os.killpg(shell.pid, signal.SIGKILL)  # its server too, which would outlive it in its namespace
+        shell.wait()
         pytest.fail(f"{document.name}: its commands did not end within {TIMEOUT_S} s")
     name = document.relative_to(ROOT)
     for n, command in enumerate(found):
