@@ -472,10 +472,37 @@ def create_app(settings: Settings) -> FastAPI:
             raise ApiError(404, "not_found", f"no recording {recording_id}")
         return found
 
+    plain_openapi = app.openapi
+
+    def openapi_markdown() -> dict[str, Any]:
+        """The OpenAPI document, its descriptions (from docstrings) as the Markdown the docs page renders."""
+        return docs.markdown_descriptions(plain_openapi())
+
+    app.openapi = openapi_markdown  # type: ignore[method-assign]
+
     @app.get("/openapi.json", include_in_schema=False)
     def openapi(_: Fleet) -> JSONResponse:
         """The OpenAPI document (with a key or a session, as every route but /health)."""
         return JSONResponse(app.openapi())
+
+    @app.get("/", include_in_schema=False, response_model=None)
+    def root(request: Request) -> Response:
+        """Where to go (no key needed): a browser is sent to the web pages, any other client is answered
+        the service's entry points."""
+        if "text/html" in request.headers.get("accept", ""):
+            return RedirectResponse("/ui", status_code=303)
+        return JSONResponse(
+            {
+                "service": "engine-monitor",
+                "ui": "/ui",
+                "docs": "/docs",
+                "openapi": "/openapi.json",
+                "health": "/health",
+                "message": "the web pages are at /ui and the API's documentation at /docs (in a browser, "
+                "after the login); the OpenAPI document at /openapi.json (with an X-API-Key); /health "
+                "needs no key",
+            }
+        )
 
     app.include_router(docs.router)
     app.include_router(baselines_router)

@@ -712,6 +712,8 @@ def _service_store_url(given: str | None, data: str) -> str:
 
 
 def _run_serve(args: argparse.Namespace) -> int:
+    import signal
+
     import uvicorn
 
     from api.app import Settings, create_app
@@ -732,6 +734,11 @@ def _run_serve(args: argparse.Namespace) -> int:
     _check_listening(args.host, args.port)
     app = create_app(settings)
     protocol = _connection_protocol(args)
+    # uvicorn stops on SIGTERM as on Ctrl-C, then raises the signal again: under the default action the
+    # process would die of it there, before its exit handlers release what it holds (the analysis
+    # pool's semaphores, which the resource tracker then reports as leaked) and with status -15. A
+    # SIGTERM raised again after the shutdown ends the process as a normal exit, status 0.
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         uvicorn.run(
             app,
@@ -742,6 +749,7 @@ def _run_serve(args: argparse.Namespace) -> int:
             http=protocol,
             backlog=4096,  # a flood's handshakes wait here for their accept (net.core.somaxconn caps it)
             ws="none",  # no route upgrades; an upgraded connection would leave the protocol's count
+            log_config=_service_log_config(),
         )
     except SystemExit as stop:  # uvicorn's own exit (it could not start): the documented status
         if stop.code not in (0, None):
@@ -749,6 +757,22 @@ def _run_serve(args: argparse.Namespace) -> int:
                 f"the service on {args.host}:{args.port} stopped (uvicorn status {stop.code})"
             ) from None
     return 0
+
+
+def _exit_on_sigterm(*_: object) -> None:
+    raise SystemExit(0)
+
+
+def _service_log_config() -> dict[str, Any]:
+    """uvicorn's logging, with the service's own loggers (``engine_monitor.*``: the worker's job states, the
+    uploads' notes) at INFO on its handler: without it their lines reach no handler and are dropped."""
+    import copy
+
+    from uvicorn.config import LOGGING_CONFIG
+
+    config: dict[str, Any] = copy.deepcopy(LOGGING_CONFIG)
+    config["loggers"]["engine_monitor"] = {"handlers": ["default"], "level": "INFO", "propagate": False}
+    return config
 
 
 def _check_listening(host: str, port: int) -> None:
@@ -770,7 +794,19 @@ def _check_listening(host: str, port: int) -> None:
             ) from None
 
 
+def _worker_log_config() -> dict[str, Any]:
+    """The worker's job states (``engine_monitor.*`` at INFO) on standard error, one line each."""
+    return {
+        "version": 1,
+        "disable_existing_loggers": False,
+        "formatters": {"plain": {"format": "%(asctime)s %(levelname)s %(name)s: %(message)s"}},
+        "handlers": {"stderr": {"class": "logging.StreamHandler", "formatter": "plain"}},
+        "loggers": {"engine_monitor": {"handlers": ["stderr"], "level": "INFO", "propagate": False}},
+    }
+
+
 def _run_worker(args: argparse.Namespace) -> int:
+    import logging.config
     import signal
     import threading
     from datetime import timedelta
@@ -790,6 +826,7 @@ def _run_worker(args: argparse.Namespace) -> int:
     )
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    logging.config.dictConfig(_worker_log_config())
     worker.start()
     print(
         f"worker: {worker.processes} process(es) on {store.dialect}; stop with SIGTERM or Ctrl-C",

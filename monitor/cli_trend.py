@@ -47,7 +47,11 @@ def add_trend_parser(sub: Any) -> None:
     trend.add_argument(
         "--data", default="data", metavar="DIR", help="the service's data folder (default ./data)"
     )
-    trend.add_argument("--fleet", default="local", help="the fleet the engine belongs to (default 'local')")
+    trend.add_argument(
+        "--fleet",
+        help="the fleet the engine belongs to (default: the store's only fleet: 'local' of 'batch', or the "
+        "service's fleet of 'keys create --fleet')",
+    )
     trend.add_argument("--since", metavar="DATE", help="only recordings from DATE on (ISO 8601, UTC)")
     trend.add_argument(
         "--quantity",
@@ -87,13 +91,19 @@ def run_trend(args: argparse.Namespace) -> int:
     """
     from monitor.diagnosis import ANALYSIS_VERSION
     from monitor.errors import MonitorError
-    from monitor.store import default_url, open_store
+    from monitor.store import StoreError, default_url, open_store
     from monitor.store.trends import fill_trend_points, read_trend, trend_document
 
     since = _since(args.since)
     store = open_store(args.store or default_url(Path(args.data)))
     try:
-        fleet_id = store.fleet_id(args.fleet)
+        fleet = args.fleet if args.fleet is not None else _only_fleet(store.fleet_names())
+        try:
+            fleet_id = store.fleet_id(fleet)
+        except StoreError:
+            raise MonitorError(
+                f"--fleet {fleet!r}: no such fleet in the store; its fleets: {_listed(store.fleet_names())}"
+            ) from None
         with store.transaction() as c:
             fill_trend_points(c, fleet_id)  # results stored before the trend table
             rows = read_trend(
@@ -109,13 +119,13 @@ def run_trend(args: argparse.Namespace) -> int:
     if not rows:
         wanted = f" of {', '.join(repr(q) for q in args.quantity)}" if args.quantity else ""
         raise MonitorError(
-            f"no diagnosis{wanted} of engine {args.engine!r} in fleet {args.fleet!r}"
+            f"no diagnosis{wanted} of engine {args.engine!r} in fleet {fleet!r}"
             + (f" since {since:%Y-%m-%d %H:%M}" if since else "")
             + " in the store: run 'engine-monitor batch' on its recordings first (quantity names as "
             "'engine-monitor trend ENGINE' lists them)"
         )
     document, series, findings = trend_document(
-        rows, engine_id=args.engine, fleet=args.fleet, analysis_version=ANALYSIS_VERSION, since=since
+        rows, engine_id=args.engine, fleet=fleet, analysis_version=ANALYSIS_VERSION, since=since
     )
     if args.plot:
         _plot(series, {f.quantity: f for f in findings}, args.plot, args.engine)
@@ -125,6 +135,24 @@ def run_trend(args: argparse.Namespace) -> int:
         return 0
     print(_table(series, document, args.quantity))
     return 0
+
+
+def _listed(names: list[str]) -> str:
+    return ", ".join(repr(name) for name in names) if names else "none"
+
+
+def _only_fleet(names: list[str]) -> str:
+    """The fleet ``trend`` reads without ``--fleet``: the store's only one, else an error naming them."""
+    from monitor.errors import MonitorError
+
+    if len(names) == 1:
+        return names[0]
+    if not names:
+        raise MonitorError(
+            "the store holds no fleet: diagnose recordings first ('engine-monitor batch', or upload them to "
+            "the service)"
+        )
+    raise MonitorError(f"the store holds the fleets {_listed(names)}: choose one with --fleet")
 
 
 def _table(series: dict[str, list[Any]], document: dict[str, Any], shown: list[str]) -> str:

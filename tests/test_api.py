@@ -674,7 +674,7 @@ def test_fifty_readers_and_four_uploads_at_once(server: Server, tmp_path: Path) 
 
 def test_a_separate_worker_runs_the_analyses_of_a_server_without_one(server: Server) -> None:
     """A server started with --workers 0 queues; 'engine-monitor worker' on the same store and data runs
-    the job, and stops cleanly on SIGTERM."""
+    the job, logs its states (``job=... state=...``) and stops cleanly on SIGTERM."""
     server.kill()
     server.workers = 0
     server.start()
@@ -694,14 +694,17 @@ def test_a_separate_worker_runs_the_analyses_of_a_server_without_one(server: Ser
                 str(server.data),
             ],
             stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
             cwd=ROOT,
         )
         try:
             assert _wait_done(client, recording)["diagnosis_status"] == "alarm"
         finally:
             worker.send_signal(signal.SIGTERM)
-            assert worker.wait(timeout=30) == 0
+            _, said = worker.communicate(timeout=30)
+            assert worker.returncode == 0
+    for state in ("running", "done"):
+        assert re.search(rf"job=\d+ recording={recording} attempt=1 state={state}\b", said.decode()), said
 
 
 # ------------------------------------------------------------------------ property-based (OpenAPI)

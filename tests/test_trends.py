@@ -371,3 +371,35 @@ def test_the_fleet_summary_gives_each_engine_its_latest_verdict(tmp_path: Path, 
     assert big.latest_filename in ("7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5")
     assert big.latest_status == ("alarm" if big.latest_filename.startswith("7k98mc-misfire") else "healthy")
     assert summary["medium-speed-6l32"].latest_status == "alarm"
+
+
+def test_trend_reads_the_stores_only_fleet_and_names_the_fleets_when_there_are_more(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Without --fleet, ``trend`` reads the store's only fleet (the service's, of ``keys create --fleet``,
+    not the batch's default 'local'); with several, it says which there are and to choose with --fleet."""
+    from monitor.cli import main
+    from monitor.store import default_url, open_store
+
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    shutil.copy(SAMPLES / "7k98mc-baseline.h5", folder / "7k98mc-baseline.h5")
+    data = str(tmp_path / "data")
+    assert main(["batch", str(folder), "--data", data, "--workers", "1", "--fleet", "my-fleet"]) == 0
+    capsys.readouterr()
+    assert main(["trend", "man-b-w-7k98mc", "--data", data]) == 0
+    assert "engine man-b-w-7k98mc (fleet my-fleet): 1 diagnosed recordings" in capsys.readouterr().out
+    store = open_store(default_url(Path(data)))
+    try:
+        store.create_fleet("other")
+    finally:
+        store.close()
+    assert main(["trend", "man-b-w-7k98mc", "--data", data]) == 2
+    said = capsys.readouterr().err
+    assert "the store holds the fleets 'my-fleet', 'other': choose one with --fleet" in said
+    assert main(["trend", "man-b-w-7k98mc", "--data", data, "--fleet", "my-fleet"]) == 0
+    capsys.readouterr()
+    assert main(["trend", "man-b-w-7k98mc", "--data", data, "--fleet", "nobody"]) == 2
+    assert "--fleet 'nobody': no such fleet in the store; its fleets: 'my-fleet', 'other'" in (
+        capsys.readouterr().err
+    )

@@ -451,6 +451,11 @@ class Store:
             raise StoreError(f"no fleet {fleet_id}")
         return str(row.name)
 
+    def fleet_names(self) -> list[str]:
+        """The names of the store's fleets, sorted."""
+        with self.db.connect() as c:
+            return sorted(str(name) for name in c.execute(sa.select(fleets.c.name)).scalars())
+
     def fleet_id(self, name: str) -> int:
         """The id of a fleet by name."""
         with self.db.connect() as c:
