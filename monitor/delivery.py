@@ -41,6 +41,7 @@ from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING
 
 from monitor.alerts import DELIVERY_HEADER, EVENT_HEADER, SIGNATURE_HEADER, TIMESTAMP_HEADER, sign
+from monitor.store.outage import store_fault
 from monitor.store.webhooks import DueDelivery, claim, due_deliveries, record_attempt
 
 if TYPE_CHECKING:
@@ -259,6 +260,9 @@ class Deliverer:
         while not self._stop.is_set():
             try:
                 deliver_due(self.store, self.policy, stop=self._stop)
-            except Exception:  # the store unreachable a moment: log, wait, go on; never stop the loop
-                log.exception("alerts: a pass failed; trying again")
+            except Exception as error:  # never stop the loop: log, wait, go on
+                if store_fault(error) is None:
+                    log.exception("alerts: a pass failed; trying again")
+                else:  # the store away: the outage's one line (monitor.store.outage), not a traceback a pass
+                    self.store.outage.failed(error)
             self._stop.wait(self.policy.poll_s)
