@@ -53,7 +53,7 @@ bench-performance: $(STAMP)
 
 ## screenshots: the web pages' pictures in docs/images/, taken by the browser tests themselves
 screenshots: $(STAMP) browser
-	ENGINE_MONITOR_SCREENSHOTS=docs/images $(BIN)/pytest -q tests/test_web.py -k service
+	ENGINE_MONITOR_SCREENSHOTS=docs/images $(BIN)/pytest -q tests/report/test_web.py -k service
 
 ## bench-trends: the drift rule's false findings and delays with its baseline estimated; rewrites its
 ## section of docs/trends.md

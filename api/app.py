@@ -22,7 +22,7 @@ Thin: it validates, stores, queues and serves; all computing is in ``monitor``.
   tag, 304 for a client that has it, keys remembered for a second.
 
 Run it with ``engine-monitor serve`` (uvicorn); the OpenAPI document is at
-``/openapi.json``, and its page at ``/docs`` (:mod:`api.docs`), both with a
+``/openapi.json``, and its page at ``/docs`` (:mod:`api.login`), both with a
 key or a session.
 """
 
@@ -60,7 +60,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import ClientDisconnect
 
-from api import docs
+from api import login
 from api.auth import SESSION_S, Fleet, LoginRequired, Sessions, session_secret
 from api.baselines import calibration_limits
 from api.baselines import router as baselines_router
@@ -71,10 +71,10 @@ from api.reads import KEY_TTL_S, KeyCache, conditional, json_body, json_time
 from api.validate import MAX_EXPANSION, Validation, format_refusal, validate
 from api.views import add_views
 from api.webhooks import router as webhooks_router
-from api.worker import Worker
-from monitor.delivery import DeliveryPolicy
 from monitor.diagnosis import ANALYSIS_VERSION
-from monitor.engine import bundled_engines
+from monitor.jobs.delivery import DeliveryPolicy
+from monitor.jobs.worker import Worker
+from monitor.model.engine import bundled_engines
 from monitor.store import RecordingRow, RecordingSummary, Store, StoredResult, open_store
 
 log = logging.getLogger("engine_monitor.api")
@@ -476,7 +476,7 @@ def create_app(settings: Settings) -> FastAPI:
 
     def openapi_markdown() -> dict[str, Any]:
         """The OpenAPI document, its descriptions (from docstrings) as the Markdown the docs page renders."""
-        return docs.markdown_descriptions(plain_openapi())
+        return login.markdown_descriptions(plain_openapi())
 
     app.openapi = openapi_markdown  # type: ignore[method-assign]
 
@@ -504,7 +504,7 @@ def create_app(settings: Settings) -> FastAPI:
             }
         )
 
-    app.include_router(docs.router)
+    app.include_router(login.router)
     app.include_router(baselines_router)
     app.include_router(webhooks_router)
     add_views(app)
@@ -789,8 +789,8 @@ def create_app(settings: Settings) -> FastAPI:
         return FileResponse(path, media_type="image/png")
 
     def checked_engine(engine_id: str, description: dict[str, Any]) -> dict[str, Any]:
-        from monitor.engine import parse_engine
         from monitor.errors import MonitorError
+        from monitor.model.engine import parse_engine
 
         try:
             engine = parse_engine(description, origin="engine")

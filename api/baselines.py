@@ -5,7 +5,7 @@ engine, as ``engine-monitor calibrate`` does (:mod:`api.calibrate`: in a
 process of its own at low priority, within a time and memory limit, one per
 fleet at once), and stores it, replacing the engine's previous one; the
 analyses that run after it compare that engine's bearing orders through it
-(:class:`api.worker.Worker`). Results already stored are kept as they are.
+(:class:`monitor.jobs.worker.Worker`). Results already stored are kept as they are.
 A calibration the product refuses (an unhealthy recording, no bearing
 channel, a faulty sensor) answers 422 with the product's message, and
 nothing is stored. ``GET`` reads the stored baseline, 404 while there is none.

@@ -44,9 +44,9 @@ class Calibration:
 def _calibrate(
     path: str, engine_description: dict[str, Any] | None, load: float, name: str
 ) -> dict[str, Any]:
-    from monitor.batch import recording_engine
     from monitor.diagnosis import calibrate
-    from monitor.pipeline import open_recording
+    from monitor.jobs.batch import recording_engine
+    from monitor.signal.measure import open_recording
 
     with open_recording(path) as recording:
         engine = recording_engine(recording, engine_description)
@@ -99,7 +99,7 @@ async def calibrate_stored(
 
 
 def main() -> None:
-    from monitor.processes import die_with_parent
+    from monitor.runtime.processes import die_with_parent
 
     die_with_parent(int(sys.argv[1]))
     limit = int(sys.argv[2])

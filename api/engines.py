@@ -1,10 +1,10 @@
 """The engines a fleet's recordings may name: the fleet's own descriptions, then the bundled ones.
 
 A fleet's own description of an id takes precedence over the bundled engine of
-the same id, as in the analysis (:func:`monitor.batch.diagnose_file` is given
+the same id, as in the analysis (:func:`monitor.jobs.batch.diagnose_file` is given
 the fleet's description when there is one, else reads the bundled file). The
 bundled descriptions are the TOML files shipped in the package
-(:func:`monitor.engine.bundled_engines`), answered as their content in JSON,
+(:func:`monitor.model.engine.bundled_engines`), answered as their content in JSON,
 the form in which a fleet sends its own.
 """
 
@@ -14,7 +14,7 @@ import tomllib
 from functools import lru_cache
 from typing import Any, Literal
 
-from monitor.engine import bundled_engines
+from monitor.model.engine import bundled_engines
 from monitor.store import Store
 
 __all__ = ["Source", "bundled_description", "visible_engine"]

@@ -38,9 +38,9 @@ from starlette.concurrency import run_in_threadpool
 from api.auth import Fleet, PageFleet
 from api.errors import ApiError, ErrorResponse
 from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.report.web import STATIC, engine_page, fleet_page, recording_page
 from monitor.store import Store
 from monitor.store.trends import fill_trend_points, fleet_summary, read_trend, trend_document
-from monitor.web import STATIC, engine_page, fleet_page, recording_page
 
 __all__ = ["add_views", "router"]
 

@@ -3,8 +3,8 @@ delivery log, ``GET /webhooks/{id}/deliveries``.
 
 Each new finding of a diagnosis of the fleet's recordings (a warning or an
 alarm the engine's previous diagnosis did not have, or a trend finding found
-at that recording: :mod:`monitor.alerts`) is posted to every active webhook
-of the fleet as one signed JSON event (:mod:`monitor.delivery`), by a
+at that recording: :mod:`monitor.report.events`) is posted to every active webhook
+of the fleet as one signed JSON event (:mod:`monitor.jobs.delivery`), by a
 deliverer this router runs beside the service (started and stopped with it),
 and retried with back-off while the receiver does not take it.
 
@@ -33,7 +33,7 @@ from starlette.concurrency import run_in_threadpool
 from api.auth import Fleet
 from api.errors import ApiError, ErrorResponse
 from api.reads import json_time
-from monitor.delivery import Deliverer, DeliveryPolicy
+from monitor.jobs.delivery import Deliverer, DeliveryPolicy
 from monitor.store import Store
 from monitor.store.webhooks import (
     DeliveryRow,

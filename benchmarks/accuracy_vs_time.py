@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from monitor import __version__
-from monitor import kinematics as kin
-from monitor.crankshaft import EngineModel
-from monitor.engine import Engine, bundled_engines, load_engine
-from monitor.forces import STANDARD_GRAVITY
-from monitor.model_orders import predict_orders
-from monitor.orders import cycle_grid, order_coefficients, synthesize
+from monitor.fourier import cycle_grid, order_coefficients, synthesize
+from monitor.model import kinematics as kin
+from monitor.model.crankshaft import EngineModel
+from monitor.model.engine import Engine, bundled_engines, load_engine
+from monitor.model.forces import STANDARD_GRAVITY
+from monitor.model.predicted import predict_orders
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "accuracy-vs-time.md"
@@ -212,8 +212,8 @@ def published_values() -> list[str]:
 def paper_003_rows() -> list[str]:
     """Paper 003's printed numbers for the moving parts at 500 rpm, motored with the spark-plug hole open
     (no gas force: ``--gas none``), beside the model (its inertia forces of piston and rod summed at the
-    crank pin, as the paper's F12: no weight, no crank unbalance; tests/test_paper003.py)."""
-    from monitor.forces import CrankTrain
+    crank pin, as the paper's F12: no weight, no crank unbalance; tests/model/test_paper003.py)."""
+    from monitor.model.forces import CrankTrain
 
     train = CrankTrain.of(load_engine("zubaydi-1cyl-2stroke"))
     w = 500 * math.pi / 30

@@ -20,10 +20,10 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from benchmarks.sections import replace_section
+from monitor.errors import SignalError
 from monitor.signal import angle_domain
 from monitor.signal.angle_domain import order_spectrum, to_angle_domain
 from monitor.signal.anglemap import AngleMap
-from monitor.signal.pulses import SignalError
 
 FS = 25600.0
 SECONDS = 60.0

@@ -139,7 +139,7 @@ def run_case(seed: int, duration_s: float) -> Outcome:
     import numpy as np
 
     from monitor.diagnosis import calibrate, diagnose
-    from monitor.engine import load_engine
+    from monitor.model.engine import load_engine
     from validation.simulator import healthy_twin, random_case
 
     start = time.perf_counter()

@@ -35,7 +35,7 @@ import httpx
 
 from benchmarks.sections import replace_section
 from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database
-from monitor.processes import session_processes
+from monitor.runtime.processes import session_processes
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "service.md"

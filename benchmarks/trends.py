@@ -4,9 +4,9 @@
 independent Gaussian values, the engine's first ten recordings its baseline
 period, then nights in control, or shifted by 1, 2 or 3 sigmas from the first
 night after the baseline. Each series goes through the product's
-standardisation (:func:`monitor.trends.standardised`, the history's mean and
+standardisation (:func:`monitor.diagnosis.trends.standardised`, the history's mean and
 spread, values far from its median left out) and the CUSUM with the product's
-K and H; a sample of series is checked against :func:`monitor.trends.drift`
+K and H; a sample of series is checked against :func:`monitor.diagnosis.trends.drift`
 itself. It writes between its markers in docs/trends.md: how often the rule
 finds drift where there is none within a month, a quarter and a year of
 nights, for one quantity and for an engine following 13 (a seven-cylinder
@@ -28,7 +28,15 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.sections import replace_section
-from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, ROBUST_SIGMAS, drift, standardised
+from monitor.diagnosis.trends import (
+    BASELINE_RECORDINGS,
+    DECISION,
+    LAG,
+    REFERENCE,
+    ROBUST_SIGMAS,
+    drift,
+    standardised,
+)
 from monitor.types import FloatArray
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "trends.md"
@@ -58,7 +66,7 @@ def _nights(values: FloatArray, band: float) -> FloatArray:
 
 
 def _checked(values: FloatArray, found: FloatArray, band: float, series: int = 20) -> None:
-    """The nights of the first series as :func:`monitor.trends.drift` finds them, or an error."""
+    """The nights of the first series as :func:`monitor.diagnosis.trends.drift` finds them, or an error."""
     times = [datetime(2026, 1, 1, tzinfo=UTC) + timedelta(days=n) for n in range(values.shape[1])]
     for row, night in zip(values[:series], found[:series], strict=True):
         finding = drift(times, row, robust_sigmas=band)

@@ -3,9 +3,9 @@
 The library compares the orders measured on an engine (crank-angle domain
 spectra of bearing accelerations and crank speed) with the orders the
 engine's physics predicts. Physics lives in pure-function modules:
-:mod:`monitor.kinematics`, :mod:`monitor.gas`, :mod:`monitor.forces`,
-:mod:`monitor.crankshaft`, :mod:`monitor.orders`; the predicted order table
-of an operating point is :func:`monitor.model_orders.predict_orders`.
+:mod:`monitor.model.kinematics`, :mod:`monitor.model.gas`, :mod:`monitor.model.forces`,
+:mod:`monitor.model.crankshaft`, :mod:`monitor.fourier`; the predicted order table
+of an operating point is :func:`monitor.model.predicted.predict_orders`.
 """
 
 from importlib.metadata import PackageNotFoundError, version

@@ -29,3 +29,31 @@ class DiagnosisError(MonitorError, ValueError):
 
 class DataQualityWarning(UserWarning):
     """Suspect but usable data; the message says how to fix it."""
+
+
+class SignalError(MonitorError, ValueError):
+    """A signal cannot be decoded as asked (no pulses, no gap, inconsistent pulse train)."""
+
+
+class PlotError(MonitorError, ValueError):
+    """A figure's path that cannot be written: an unknown format, a folder that does not exist."""
+
+
+class SceneError(ModelError):
+    """A scene that cannot be simulated as written (names what is wrong and what is expected)."""
+
+
+class NamingError(MonitorError, ValueError):
+    """A name that is empty, too long, not printable or padded with white space."""
+
+
+class FormatError(MonitorError, ValueError):
+    """A recording file, or a channel in it, breaks the format; the message names which and how."""
+
+
+class StoreError(MonitorError):
+    """The store cannot do what was asked (unreachable database, unknown fleet, ...)."""
+
+
+class OutputFolderError(MonitorError, FileNotFoundError):
+    """An output file's folder does not exist: the product makes no folder it was not asked for."""

@@ -15,19 +15,15 @@ from __future__ import annotations
 
 import unicodedata
 
-from monitor.errors import MonitorError
+from monitor.errors import NamingError
 
-__all__ = ["MAX_NAME", "NamingError", "check_name", "name_problem"]
+__all__ = ["MAX_NAME", "check_name", "name_problem"]
 
 #: The most characters of a name (the store's columns hold 200).
 MAX_NAME = 200
 #: Unicode categories of characters that do not print: controls, format characters (bidirectional
 #: controls, zero-width characters, the byte order mark), surrogates, line and paragraph separators.
 _UNPRINTABLE = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
-
-
-class NamingError(MonitorError, ValueError):
-    """A name that is empty, too long, not printable or padded with white space."""
 
 
 def name_problem(

@@ -69,16 +69,16 @@ NOT_RUN = {
     "make test": NotRun("it runs the whole test suite, this test included", "make -n test"),
     "make wheelhouse && docker compose -f docker/compose.yaml up -d --build": NotRun(
         "it builds the container image and runs the stack (a Docker daemon, minutes)",
-        "tests/test_container.py",
+        "tests/api/test_container.py",
     ),
     "make wheelhouse": NotRun(
         "it downloads the pinned dependencies as wheels (network, minutes)", "make -n wheelhouse"
     ),
     "docker compose -f docker/compose.yaml up -d --build": NotRun(
-        "a Docker daemon and minutes", "tests/test_container.py"
+        "a Docker daemon and minutes", "tests/api/test_container.py"
     ),
     "docker compose -f docker/compose.yaml exec api engine-monitor keys create --fleet my-fleet": NotRun(
-        "the compose stack running", "tests/test_container.py"
+        "the compose stack running", "tests/api/test_container.py"
     ),
 }
 

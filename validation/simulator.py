@@ -1,9 +1,9 @@
 """A second engine simulator, independent of the product's, for validating its diagnosis.
 
 Everything here is written from first principles and shares no code with the product's scene
-simulator or physics (``monitor.scene``, ``monitor.crankshaft``, ``monitor.gas``,
-``monitor.forces``, ``monitor.model_orders``, ``monitor.torsion``). From ``monitor`` it uses only
-the recording containers (:class:`~monitor.recording.Channel`, :class:`~monitor.recording.Recording`),
+simulator or physics (``monitor.scene``, ``monitor.model.crankshaft``, ``monitor.model.gas``,
+``monitor.model.forces``, ``monitor.model.predicted``, ``monitor.torsion``). From ``monitor`` it uses only
+the recording containers (:class:`~monitor.io.recording.Channel`, :class:`~monitor.io.recording.Recording`),
 their clipping check, and the engine-description parser, to prove that the description it writes
 for each case is one the product accepts.
 
@@ -97,8 +97,8 @@ from scipy import signal
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from monitor.engine import Engine, parse_engine
-from monitor.recording import Channel, Recording, quality_spans
+from monitor.io.recording import Channel, Recording, quality_spans
+from monitor.model.engine import Engine, parse_engine
 
 __all__ = [
     "AMBIENT_PRESSURE",
@@ -1739,7 +1739,7 @@ def engine_description(engine: SimEngine) -> str:
     Returns
     -------
     str
-        TOML text accepted by ``monitor.engine.parse_engine`` (checked before returning).
+        TOML text accepted by ``monitor.model.engine.parse_engine`` (checked before returning).
 
     Notes
     -----
@@ -1865,7 +1865,7 @@ def description_engine(text: str) -> Engine:
 
     Returns
     -------
-    monitor.engine.Engine
+    monitor.model.engine.Engine
 
     Raises
     ------

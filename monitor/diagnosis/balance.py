@@ -10,7 +10,7 @@ at the tooth wheel are compared instead, each throw's torque passed through
 the shaft line's receptance at ``k Omega`` (any speed, resonances included).
 
 Each cylinder's torque is ``inertia + fixed + s_c combustion``
-(:func:`monitor.model_orders.cylinder_parts`), phased by its firing angle, so
+(:func:`monitor.model.predicted.cylinder_parts`), phased by its firing angle, so
 every low order is linear in the strengths ``s``:
 
     y_k - sum_c H_ck (inertia + fixed)_ck = sum_c s_c H_ck combustion_ck
@@ -40,10 +40,10 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from monitor.engine import Engine
 from monitor.errors import ModelError
-from monitor.model_orders import CylinderParts
-from monitor.orders import order_coefficients
+from monitor.fourier import order_coefficients
+from monitor.model.engine import Engine
+from monitor.model.predicted import CylinderParts
 from monitor.signal.angle_domain import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 

@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from monitor.diagnosis.balance import CrankCalibration
-from monitor.engine import Engine
 from monitor.errors import DiagnosisError
+from monitor.model.engine import Engine
 from monitor.signal.angle_domain import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
 from monitor.types import ComplexArray, FloatArray

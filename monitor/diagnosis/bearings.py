@@ -1,7 +1,7 @@
 """Main bearings: accelerometer orders against the calibrated model, and impact content.
 
 Orders.  A sensor on main bearing ``b`` measures ``X_k = H_k F_k``: the force
-of the crankshaft on the bearing (:func:`monitor.model_orders.combine_cylinders`,
+of the crankshaft on the bearing (:func:`monitor.model.predicted.combine_cylinders`,
 ``y`` for a vertical sensor, ``x`` for a horizontal one) through the
 structure's transfer ``H_k``.  ``H_k`` is calibrated per sensor and order on
 a healthy baseline recording of the same engine, ``H_k = X_k / F_k`` at the
@@ -13,7 +13,7 @@ prediction is small against the block spread, or against the channel's
 largest order, carry no evidence and are left out.
 
 Impacts.  Wear opens the clearance: where the bearing's load turns
-(:func:`monitor.model_orders.load_reversals`) the journal crosses it and
+(:func:`monitor.model.predicted.load_reversals`) the journal crosses it and
 knocks.  The high-frequency power profile of each sensor
 (:class:`monitor.signal.angle_domain.HighFrequencyPower`, 1-10 kHz) is
 searched in crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each

@@ -4,7 +4,7 @@ Steps (DESIGN.md, "Diagnosis: the sums behind it"):
 
 1. Order spectra of every vibration channel and of the crank speed, with the
    crank-angle profile of each vibration channel's high-frequency power, in
-   one pass (:func:`monitor.pipeline.spectra`).
+   one pass (:func:`monitor.signal.measure.spectra`).
 2. Cylinder balance from the crank-speed orders (:mod:`monitor.diagnosis.balance`):
    each cylinder's strength with its standard error.
 3. The model at the recording's own mean speed and load, with the estimated
@@ -30,7 +30,6 @@ from typing import Literal, TypeAlias
 
 import numpy as np
 
-from monitor.crankshaft import EngineModel
 from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfer, cylinder_balance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import (
@@ -58,26 +57,26 @@ from monitor.diagnosis.zones import (
     velocity_rms,
     zone_of,
 )
-from monitor.engine import Engine
-from monitor.errors import DiagnosisError, ModelError
-from monitor.model_orders import (
+from monitor.errors import DiagnosisError, ModelError, SignalError
+from monitor.fourier import order_coefficients
+from monitor.io.recording import Channel, Recording
+from monitor.model.crankshaft import EngineModel
+from monitor.model.engine import Engine
+from monitor.model.predicted import (
     CombinedOrders,
     CylinderParts,
     combine_cylinders,
     cylinder_parts,
     load_reversals,
 )
-from monitor.orders import order_coefficients
-from monitor.pipeline import (
+from monitor.signal.measure import (
     SPEED_CHANNEL,
     SpectrumResult,
     learn_pitch_errors,
     learn_pitch_errors_over_speed,
     spectra,
 )
-from monitor.recording import Channel, Recording
 from monitor.signal.pitch import PitchCorrection
-from monitor.signal.pulses import SignalError
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -516,7 +515,7 @@ def calibrate(
     pitch_from : Recording, optional
         A run of the same wheel whose speed changes (motored run-up, coast-down with the fuel
         cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
-        (:func:`monitor.pipeline.learn_pitch_errors_over_speed`), instead of on ``recording`` with
+        (:func:`monitor.signal.measure.learn_pitch_errors_over_speed`), instead of on ``recording`` with
         the firing harmonics left to the engine.
     exclude : sequence of str, optional
         Channels left out (not calibrated).

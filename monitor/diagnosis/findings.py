@@ -19,8 +19,8 @@ from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
 from monitor.diagnosis.sensors import SensorFault
-from monitor.engine import Engine
-from monitor.recording import Recording
+from monitor.io.recording import Recording
+from monitor.model.engine import Engine
 from monitor.signal.angle_domain import HighFrequencyPower
 
 __all__ = [

@@ -5,7 +5,7 @@ engine, and analysing it would either stop the diagnosis or mislead it. Each
 vibration channel is screened before the analysis:
 
 - **unusable samples**: clipped at its measuring range, NaN or Inf (the
-  recording's quality spans, :class:`monitor.recording.QualitySpan`);
+  recording's quality spans, :class:`monitor.io.recording.QualitySpan`);
 - **dead**: no spread above a few of its own quantisation steps (a broken
   cable, an unpowered sensor, a channel left at its offset);
 - **implausible level**: with a baseline, an rms velocity more than
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from monitor.errors import DiagnosisError
-from monitor.recording import Channel, FormatError, Recording, quality_spans
+from monitor.errors import DiagnosisError, FormatError
+from monitor.io.recording import Channel, Recording, quality_spans
 
 __all__ = ["LEVEL_RATIO", "MOST_ACCELERATION", "SensorFault", "level_faults", "screen_sensors", "without"]
 

@@ -12,7 +12,7 @@ The product's defaults, :data:`DEFAULT_BOUNDARIES_MM_S`, are three
 consecutive grades of that series chosen for large engines measured at main
 bearing level.  They are the product's own choice, not values quoted from the
 standard: set the boundaries agreed for your machine in the engine file's
-``[vibration_limits]`` (see :class:`monitor.engine.VibrationLimits`).  Zone C
+``[vibration_limits]`` (see :class:`monitor.model.engine.VibrationLimits`).  Zone C
 gives a warning, zone D an alarm.
 
 The rms velocity is estimated from periodograms (Hann window, constant
@@ -29,12 +29,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from monitor.recording import Channel
-from monitor.signal.pulses import SignalError
+from monitor.errors import SignalError
+from monitor.io.recording import Channel
 
 __all__ = ["DEFAULT_BAND_HZ", "DEFAULT_BOUNDARIES_MM_S", "SEGMENTS", "VelocityRms", "velocity_rms", "zone_of"]
 
-# each unit a channel may be stored in (monitor.recording.UNITS), in SI (m/s^2, m/s)
+# each unit a channel may be stored in (monitor.io.recording.UNITS), in SI (m/s^2, m/s)
 _TO_SI = {
     ("acceleration", "m/s^2"): 1.0,
     ("acceleration", "mm/s^2"): 1e-3,

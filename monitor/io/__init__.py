@@ -6,7 +6,8 @@ import contextlib
 from collections.abc import Iterator
 from pathlib import Path
 
-from monitor.errors import MonitorError
+from monitor.errors import FormatError, MonitorError
+from monitor.io.recording import Recording
 from monitor.io.signatures import (
     HDF5_SIGNATURE,
     MCAP_MAGIC,
@@ -14,7 +15,6 @@ from monitor.io.signatures import (
     looks_like,
     recording_format,
 )
-from monitor.recording import FormatError, Recording
 
 __all__ = [
     "HDF5_SIGNATURE",

@@ -6,13 +6,9 @@ import os
 import threading
 from pathlib import Path
 
-from monitor.errors import MonitorError
+from monitor.errors import OutputFolderError
 
-__all__ = ["OutputFolderError", "in_existing_folder", "publish"]
-
-
-class OutputFolderError(MonitorError, FileNotFoundError):
-    """An output file's folder does not exist: the product makes no folder it was not asked for."""
+__all__ = ["in_existing_folder", "publish"]
 
 
 def in_existing_folder(path: str | Path) -> Path:

@@ -83,7 +83,8 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, NonNegativeInt, ValidationError, field_validator
 
-from monitor.recording import KINDS, UNITS, Channel, FormatError, Recording
+from monitor.errors import FormatError
+from monitor.io.recording import KINDS, UNITS, Channel, Recording
 
 __all__ = [
     "TEXT_SUFFIXES",

@@ -59,19 +59,12 @@ from mcap.stream_reader import CRCValidationError, StreamReader, get_chunk_data_
 from mcap.writer import CompressionType, Writer
 
 from monitor import __version__
+from monitor.errors import FormatError
 from monitor.io import MCAP_MAGIC, file_signature
 from monitor.io.files import in_existing_folder, publish
+from monitor.io.plausible import rate_problem
 from monitor.io.proto.engine_monitor import recording_pb2
-from monitor.plausible import rate_problem
-from monitor.recording import (
-    INTEGER_FIELDS,
-    KIND_FIELDS,
-    Channel,
-    FormatError,
-    Recording,
-    SampleReader,
-    field_value,
-)
+from monitor.io.recording import INTEGER_FIELDS, KIND_FIELDS, Channel, Recording, SampleReader, field_value
 
 __all__ = [
     "McapListing",

@@ -18,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import BinaryIO, Literal
 
-from monitor.recording import FormatError
+from monitor.errors import FormatError
 
 __all__ = [
     "HDF5_SIGNATURE",

@@ -307,7 +307,7 @@ def check_effects(scene: Scene, *, origin: str = "scene") -> None:
     ------
     SceneError
     """
-    from monitor.scene.model import SceneError
+    from monitor.errors import SceneError
 
     unknown = sorted(set(scene.effects) - set(EFFECTS))
     if unknown:

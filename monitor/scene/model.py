@@ -43,22 +43,17 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from monitor.errors import ModelError
+from monitor.errors import SceneError
 
 __all__ = [
     "PULSE_KINDS",
     "OperatingPoint",
     "Scene",
-    "SceneError",
     "Sensor",
     "Trend",
     "load_scene",
     "parse_scene",
 ]
-
-
-class SceneError(ModelError):
-    """A scene that cannot be simulated as written (names what is wrong and what is expected)."""
 
 
 class _Strict(BaseModel):

@@ -6,7 +6,7 @@ speed ``Omega`` as ``A + Omega^2 B``: gas forces and weights do not depend
 on it, inertia forces grow with its square (the angular acceleration of a
 slow trend is left out). Each named source contributes its coefficients,
 cylinder by cylinder (the gas part of cylinder ``c`` scaled by its faults),
-phase-shifted by the firing angles as in :mod:`monitor.crankshaft`.
+phase-shifted by the firing angles as in :mod:`monitor.model.crankshaft`.
 Channels are synthesised sample by sample as ``Re sum_k C_k(Omega(t))
 exp(i k theta(t))`` with the crank angle ``theta(t)`` of the recording.
 
@@ -49,9 +49,10 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import BaseModel
 
-from monitor.engine import Engine, bundled_engines, load_engine
-from monitor.model_orders import load_reversals
-from monitor.recording import Channel, Recording
+from monitor.errors import SceneError
+from monitor.io.recording import Channel, Recording
+from monitor.model.engine import Engine, bundled_engines, load_engine
+from monitor.model.predicted import load_reversals
 from monitor.scene.effects import (
     BearingVibrationParams,
     ClippingParams,
@@ -70,7 +71,7 @@ from monitor.scene.effects import (
     WornBearingParams,
     named,
 )
-from monitor.scene.model import Scene, SceneError, Sensor
+from monitor.scene.model import Scene, Sensor
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["Simulation", "simulate"]
@@ -175,10 +176,10 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
         outside = _external_torque(external, orders)
         torque = _Orders(orders, outside, speed_free)
         return _Sources(orders, torque=torque, gas_scale=[1.0] * n, charge_scale=[1.0] * n, external=outside)
-    from monitor.crankshaft import EngineModel, GasModel
-    from monitor.forces import crank_train_forces
-    from monitor.gas import gas_force
-    from monitor.orders import order_coefficients
+    from monitor.fourier import order_coefficients
+    from monitor.model.crankshaft import EngineModel, GasModel
+    from monitor.model.forces import crank_train_forces
+    from monitor.model.gas import gas_force
 
     gas_scale = list(gas.scale) if isinstance(gas, GasParams) and gas.scale is not None else [1.0] * n
     charge_scale = [1.0] * n
@@ -265,7 +266,7 @@ def _sources(scene: Scene, engine: Engine, evaluated: list[str]) -> _Sources | N
     stacked = np.stack([np.stack([a, b]) for a, b in parts])  # (n_cyl, 2, 3, grid)
     oc = order_coefficients(stacked, cycle_revolutions=R, max_order=MAX_ORDER)
     orders = oc.orders
-    # each cylinder's own coefficients delayed by its firing angle (monitor.crankshaft.phase_shift's rule)
+    # each cylinder's own coefficients delayed by its firing angle (model.crankshaft.phase_shift's rule)
     shifts = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))
     coefficients = oc.coefficients * shifts[:, None, None, :]  # (n_cyl, 2, 3, n_orders)
     torque = _Orders(orders, coefficients[:, 0, 0].sum(axis=0), coefficients[:, 1, 0].sum(axis=0))
@@ -438,7 +439,7 @@ def _variable_inertia_crank(
     """The crank's angle ``tau + gamma(tau)`` against the flywheel's ``tau = Omega t`` (paper 002 eq. 6)."""
     import dataclasses
 
-    from monitor.orders import order_coefficients
+    from monitor.fourier import order_coefficients
     from monitor.torsion.variable_inertia import (
         HarmonicExcitation,
         crank_of_engine,
@@ -657,7 +658,7 @@ def _crank(
             )
         omega = np.sqrt(energy)
         # the truth: the speed's orders over one cycle at the mean speed at the start
-        from monitor.orders import order_coefficients
+        from monitor.fourier import order_coefficients
 
         R = engine.cycle_revolutions
         cycle: FloatArray = np.arange(1024 * R, dtype=np.float64) * (2 * math.pi / 1024)

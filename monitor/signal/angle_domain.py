@@ -41,7 +41,7 @@ channel in an HDF5 file is never held whole in memory.
 Order spectra.  The angle-domain signal is cut into blocks of whole cycles;
 each block's real FFT, scaled to peak amplitudes, gives complex order
 amplitudes (phase relative to TDC of cylinder 1, under the convention of
-:mod:`monitor.orders`).  Their complex mean over the blocks is the
+:mod:`monitor.fourier`).  Their complex mean over the blocks is the
 synchronous average's spectrum; the spread of the magnitudes over the
 blocks is reported beside it.
 """
@@ -58,10 +58,10 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
-from monitor.orders import scaled_rfft
+from monitor.errors import SignalError
+from monitor.fourier import scaled_rfft
+from monitor.runtime.timing import StageClock, stage
 from monitor.signal.anglemap import AngleMap
-from monitor.signal.pulses import SignalError
-from monitor.timing import StageClock, stage
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -302,7 +302,7 @@ _IMPACT_BAND_DB = 80.0  # its stopband attenuation; the transition is half the l
 _PHASES = 1024
 # its design attenuation: 10 dB beyond the 1e-5 of ripple and stopband wanted, because sampled at a sample's
 # fraction the continuous kernel's images at multiples of the sampling rate add up in its passband (measured:
-# 2.5e-5 at a 100 dB design, below 1e-5 at 110 dB; tests/test_signal.py)
+# 2.5e-5 at a 100 dB design, below 1e-5 at 110 dB; tests/signal/test_signal.py)
 _FUSED_DESIGN_DB = 110.0
 # a kernel longer than this many taps per input sample between grid points costs about as much as the FFT
 # filter and splines (whose cost per input sample hardly depends on the filter's length; the forced rows of

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import PchipInterpolator
 
-from monitor.signal.pulses import SignalError
+from monitor.errors import SignalError
 from monitor.signal.quintic import QuinticSpline
 from monitor.types import FloatArray
 

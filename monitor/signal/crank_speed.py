@@ -8,7 +8,7 @@ An encoder of hundreds of pulses would need thousands of points a cycle: the
 grid is capped at ``_SPEED_GRID_CAP`` and the speed taken as its mean over each
 grid step, whose sinc is undone order by order.  The angular vibration is the
 crank's angle lead over a uniform rotation at each cycle's own mean speed (see
-:mod:`monitor.pipeline`).
+:mod:`monitor.signal.measure`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from monitor.errors import SignalError
 from monitor.signal.angle_domain import (
     AngleGrid,
     OrderSpectrum,
@@ -25,7 +26,6 @@ from monitor.signal.angle_domain import (
     angle_grid,
 )
 from monitor.signal.anglemap import AngleMap
-from monitor.signal.pulses import SignalError
 
 __all__ = ["crank_speed_spectra"]
 

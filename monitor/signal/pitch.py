@@ -10,7 +10,7 @@ angle and made of the orders it excites, what is left is the wheel's.  By
 default only the teeth beside the gap are corrected, and only where their
 error stands out of what the engine could put there; a healthy baseline can
 teach every tooth, its firing harmonics left to the engine
-(:func:`monitor.pipeline.learn_pitch_errors`); a run whose speed changes (a
+(:func:`monitor.signal.measure.learn_pitch_errors`); a run whose speed changes (a
 motored run-up, a coast-down with the fuel cut) teaches every tooth at every
 order (:func:`learn_pitch_over_speed`), because the wheel's errors do not
 change with speed and the gas forces' share does.
@@ -28,7 +28,7 @@ import numpy.typing as npt
 from scipy.interpolate import CubicSpline
 from scipy.ndimage import median_filter
 
-from monitor.signal.pulses import SignalError
+from monitor.errors import SignalError
 from monitor.signal.toothwheel import ToothWheelDecoding
 from monitor.types import FloatArray
 
@@ -217,7 +217,7 @@ def learn_pitch_over_speed(
         or a run-up at a fixed fuel setting.
     speed_independent : callable, optional
         The engine's angle fluctuation that does not change with speed (the reciprocating parts'
-        inertia torque over the rotating inertia, :func:`monitor.model_orders.inertia_angle_fluctuation`)
+        inertia torque over the rotating inertia, :func:`monitor.model.predicted.inertia_angle_fluctuation`)
         at crank angles [rad] -> [rad]. Without it the inertia's orders stay in the errors.
     lowest_speed_share : float, optional
         Revolutions slower than this share of the fastest one are left out: there the gas forces

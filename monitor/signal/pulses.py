@@ -45,21 +45,16 @@ import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import median_filter
 
-from monitor.errors import MonitorError
+from monitor.errors import SignalError
 from monitor.types import FloatArray
 
 __all__ = [
     "EdgeDetection",
     "KeyphasorRepair",
-    "SignalError",
     "detect_edges",
     "detect_pulses",
     "repair_keyphasor",
 ]
-
-
-class SignalError(MonitorError, ValueError):
-    """A signal cannot be decoded as asked (no pulses, no gap, inconsistent pulse train)."""
 
 
 @dataclass(frozen=True)
@@ -267,7 +262,7 @@ def _block_crossings(
     # a VR sensor's voltage is the rate of change of its flux: over a block of many teeth it averages
     # to the channel's offset. A median sits off the offset by a share of the amplitude, which moves
     # the zero crossings by an angle that changes with speed (on the VR run-up from 150 to 750 rpm of
-    # tests/test_pitch_over_speed.py, mid-wheel teeth moved by about 2e-3 deg with the median and a
+    # tests/signal/test_pitch_over_speed.py, mid-wheel teeth moved by about 2e-3 deg with the median and a
     # quarter of that with the mean)
     baseline = float(np.mean(x, dtype=np.float64))
     y = (x.astype(np.float64) - baseline) * (-1.0 if rising else 1.0)

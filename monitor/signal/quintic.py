@@ -25,7 +25,7 @@ from functools import cached_property
 import numba
 import numpy as np
 
-from monitor.signal.pulses import SignalError
+from monitor.errors import SignalError
 from monitor.types import FloatArray
 
 __all__ = ["QuinticSpline"]

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from monitor.errors import SignalError
 from monitor.signal.anglemap import AngleMap
-from monitor.signal.pulses import SignalError
 from monitor.types import FloatArray
 
 __all__ = ["LOSS_ANGLE", "PLAUSIBLE_FIRED_PEAK", "PressurePeaks", "pressure_peaks"]

@@ -38,7 +38,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from monitor.signal.pulses import SignalError, detect_edges
+from monitor.errors import SignalError
+from monitor.signal.pulses import detect_edges
 from monitor.types import FloatArray
 
 __all__ = [

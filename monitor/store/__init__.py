@@ -50,11 +50,11 @@ from typing import Any, NamedTuple
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection, CursorResult, Engine
 
-from monitor.errors import MonitorError
+from monitor.errors import StoreError
 from monitor.names import check_name
 from monitor.store.outage import Outage
+from monitor.store.pool import Readers
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
-from monitor.store.readers import Readers
 from monitor.store.schema import (
     api_keys,
     engines,
@@ -84,7 +84,6 @@ __all__ = [
     "RecordingView",
     "ResultRead",
     "Store",
-    "StoreError",
     "StoredResult",
     "default_url",
     "document_text",
@@ -101,10 +100,6 @@ MAX_ATTEMPTS = 3  # a job that failed this many times is set aside
 RETRY_BACKOFF = timedelta(seconds=10)
 #: Connections a store keeps open, and how many more it opens for a burst (closed after it).
 POOL_SIZE, POOL_OVERFLOW = 12, 20
-
-
-class StoreError(MonitorError):
-    """The store cannot do what was asked (unreachable database, unknown fleet, ...)."""
 
 
 def default_url(folder: str | Path = ".") -> str:
@@ -650,7 +645,7 @@ class Store:
 
     def registered_filenames(self) -> list[tuple[int, str]]:
         """Every recording of every fleet, by id: its id and the file name it was registered under (the
-        batch names the plots of a shared data folder after them, :func:`monitor.batch.plot_names`)."""
+        batch names the plots of a shared data folder after them, :func:`monitor.jobs.batch.plot_names`)."""
         with self.db.connect() as c:
             rows = c.execute(sa.select(recordings.c.id, recordings.c.filename).order_by(recordings.c.id))
             return [(int(r.id), str(r.filename)) for r in rows]

@@ -24,7 +24,7 @@
 - ``trend_points``: the quantities of each stored diagnosis an engine's
   condition is followed by (speed, load, each cylinder's strength, each bearing
   sensor's order deviations, impact score and rms velocity), one row each, at
-  the recording's time (:mod:`monitor.trends`), written with the result;
+  the recording's time (:mod:`monitor.diagnosis.trends`), written with the result;
 - ``baselines``: a fleet's baseline of an engine (``POST /engines/{id}/baseline``),
   one per fleet and engine: the calibration document (``engine-monitor
   calibrate``'s JSON), the stored recording it was calibrated on, and the
@@ -34,7 +34,7 @@
   secret its events are signed with, and whether it is still active (a deleted
   one is kept inactive, with its delivery log);
 - ``webhook_deliveries``: the outbox and delivery log of alerts
-  (:mod:`monitor.alerts`, :mod:`monitor.delivery`): one row per webhook and
+  (:mod:`monitor.report.events`, :mod:`monitor.jobs.delivery`): one row per webhook and
   event, written in the transaction that stores the diagnosis that made the
   event (at most one per webhook and event id), with the body as it is sent,
   its state (pending, delivered, failed, cancelled), the attempts, the time of

@@ -1,6 +1,6 @@
 """The store's trend points: written with each diagnosis result, read by engine, quantity and time.
 
-A diagnosis result's quantities (:func:`monitor.trends.trend_points`) go into
+A diagnosis result's quantities (:func:`monitor.diagnosis.trends.trend_points`) go into
 ``trend_points`` in the transaction that stores the result, at the recording's
 time: the start time the recording states, or its upload time for a recording
 stored without one. Results stored before the table existed are filled in by
@@ -18,9 +18,9 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
 
+from monitor.diagnosis.trends import Drift
+from monitor.diagnosis.trends import trend_points as quantities_of
 from monitor.store.schema import recordings, results, trend_points
-from monitor.trends import Drift
-from monitor.trends import trend_points as quantities_of
 
 __all__ = [
     "DIAGNOSIS_KIND",
@@ -258,7 +258,15 @@ def trend_document(
     findings : list of Drift
         In the order they were found.
     """
-    from monitor.trends import BASELINE_RECORDINGS, DECISION, LAG, REFERENCE, ROBUST_SIGMAS, drift, judged
+    from monitor.diagnosis.trends import (
+        BASELINE_RECORDINGS,
+        DECISION,
+        LAG,
+        REFERENCE,
+        ROBUST_SIGMAS,
+        drift,
+        judged,
+    )
 
     series: dict[str, list[TrendRow]] = {}
     for row in rows:

@@ -2,7 +2,7 @@
 deliveries claimed, attempted and logged.
 
 A delivery is one event for one webhook. :func:`enqueue_events` writes the
-deliveries of a diagnosis' new findings (:mod:`monitor.alerts`) in the
+deliveries of a diagnosis' new findings (:mod:`monitor.report.events`) in the
 transaction that stores the diagnosis (:meth:`monitor.store.Store.complete`),
 so an event exists exactly when its diagnosis does, and the unique key
 (webhook, event id) keeps one delivery of an event per webhook however often
@@ -27,7 +27,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
 
-from monitor.alerts import diagnosis_event, event_body, new_drifts, new_findings, trend_event
+from monitor.report.events import diagnosis_event, event_body, new_drifts, new_findings, trend_event
 from monitor.store.schema import fleets, recordings, results, webhook_deliveries, webhooks
 from monitor.store.trends import DIAGNOSIS_KIND, _recording_time, read_trend
 
@@ -283,7 +283,7 @@ def _previous_findings(
 def _events(
     c: Connection, recording_id: int, analysis_version: str, document: dict[str, Any], fleet_id: int
 ) -> list[dict[str, Any]]:
-    """The events of a diagnosis' new findings (module :mod:`monitor.alerts`)."""
+    """The events of a diagnosis' new findings (module :mod:`monitor.report.events`)."""
     row = c.execute(
         sa.select(
             recordings.c.engine_id,

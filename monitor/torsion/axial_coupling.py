@@ -49,8 +49,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.model.engine import Engine
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [

@@ -27,7 +27,7 @@ which converges to the continuous shaft as it is divided).
   subject of :mod:`monitor.torsion.variable_inertia`); then the free-end and
   driven-end elements.  The forced response to the engine's excitation orders uses each
   cylinder's torque orders, with their phases, from
-  :func:`monitor.model_orders.predict_orders`.
+  :func:`monitor.model.predicted.predict_orders`.
 
 References
 ----------
@@ -47,8 +47,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.model.engine import Engine
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -371,7 +371,7 @@ def reciprocating_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatAr
     ndarray
         [kg m^2]; its mean over a revolution is ``m_rec R^2 (1/2 + lambda^2 / 8 + ...)``.
     """
-    from monitor.kinematics import piston_x_derivatives
+    from monitor.model.kinematics import piston_x_derivatives
 
     dx = piston_x_derivatives(crank_angle, engine.crank_radius, engine.rod_ratio)[1]
     return engine.reciprocating_mass * dx * dx
@@ -643,8 +643,8 @@ def cylinder_torque_orders(
     torque : ndarray, shape (n_speeds, n_cylinders, n_orders)
         Complex torque orders [N m], phases relative to TDC of cylinder 1.
     """
-    from monitor.crankshaft import EngineModel
-    from monitor.model_orders import predict_orders
+    from monitor.model.crankshaft import EngineModel
+    from monitor.model.predicted import predict_orders
 
     w = np.asarray(speeds, dtype=np.float64)
     if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):

@@ -71,8 +71,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
-from monitor.engine import Engine
 from monitor.errors import ModelError
+from monitor.model.engine import Engine
 from monitor.types import FloatArray
 
 __all__ = [
@@ -288,8 +288,8 @@ def gas_excitation(
     HarmonicExcitation
         ``amplitude_k = |T_k| / (omega^2 J_0)``, ``J_0 = I_throw + m_rot R^2 + m_rec R^2 / 2``.
     """
-    from monitor.crankshaft import EngineModel
-    from monitor.model_orders import predict_orders
+    from monitor.model.crankshaft import EngineModel
+    from monitor.model.predicted import predict_orders
 
     if engine.shaft_line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")

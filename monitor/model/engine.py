@@ -1,0 +1,732 @@
+"""Engine descriptions: what the physics needs to know about an engine.
+
+An engine is described in a TOML file (``recordings/engines/*.toml``) whose
+fields carry their unit in the name (``bore_m``, ``rated_speed_rpm``,
+``rated_imep_bar``); :func:`load_engine` validates it into an immutable
+:class:`Engine` whose properties give the SI values the model uses
+(``crank_radius`` [m], ``rated_speed`` [rad/s], ``firing_angles`` [rad]).
+
+Conventions.  Cylinders are numbered 1..n from the free end unless
+``cylinder_numbering`` says otherwise.  The firing angle of cylinder ``c`` is
+the crank angle of cylinder 1's crank (from its firing TDC) at which cylinder
+``c`` reaches its own firing TDC; cylinder ``c``'s crank therefore trails
+cylinder 1's by that angle, and its local crank angle is
+``alpha - firing_angle[c]``.  An evenly firing engine needs only its firing
+order; uneven firing gives the angles explicitly.  Crank throw ``c`` sits
+between two main bearings (by default ``c`` and ``c + 1``) and its forces are
+shared between them by the lever rule (see :mod:`monitor.model.crankshaft`).
+
+A description that breaks a rule is refused with
+:class:`~monitor.errors.EngineDescriptionError` naming the field, the value
+and the rule.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import tomllib
+from collections.abc import Callable
+from functools import cached_property
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
+
+from monitor.errors import EngineDescriptionError
+from monitor.types import FloatArray
+
+__all__ = [
+    "Bearings",
+    "Combustion",
+    "Engine",
+    "Firing",
+    "Geometry",
+    "Masses",
+    "Operation",
+    "PressureTrace",
+    "SensorTransfer",
+    "ShaftElement",
+    "ShaftLine",
+    "VibrationLimits",
+    "bundled_engines",
+    "load_engine",
+    "parse_engine",
+]
+
+BUNDLED_DIR = Path(__file__).resolve().parent / "engines"  # package data; recordings/engines links here
+
+
+def _between(low: float, high: float, unit: str, hint: str = "") -> Callable[[float], float]:
+    """Validator: finite and within a plausible range; the message states the range and unit."""
+
+    def check(value: float) -> float:
+        if not math.isfinite(value) or not low <= value <= high:
+            extra = f"; {hint}" if hint else ""
+            raise ValueError(f"expected {low:g} <= value <= {high:g} {unit}{extra}")
+        return value
+
+    return check
+
+
+def _positive(unit: str) -> Callable[[float], float]:
+    def check(value: float) -> float:
+        if not math.isfinite(value) or value <= 0:
+            raise ValueError(f"expected a positive, finite value [{unit}]")
+        return value
+
+    return check
+
+
+def _non_negative(unit: str) -> Callable[[float], float]:
+    def check(value: float) -> float:
+        if not math.isfinite(value) or value < 0:
+            raise ValueError(f"expected a non-negative, finite value [{unit}]")
+        return value
+
+    return check
+
+
+Length = Annotated[float, AfterValidator(_between(0.005, 5.0, "m", "was it given in mm?"))]
+Mass = Annotated[float, AfterValidator(_positive("kg"))]
+Unbalance = Annotated[float, AfterValidator(_non_negative("kg m"))]
+Inertia = Annotated[float, AfterValidator(_positive("kg m^2"))]
+PressureBar = Annotated[float, AfterValidator(_between(0.05, 400.0, "bar", "was it given in Pa?"))]
+AngleDeg = Annotated[float, AfterValidator(_between(-720.0, 720.0, "deg"))]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class Geometry(_Strict):
+    """Cylinder and crank-train geometry."""
+
+    bore_m: Annotated[float, AfterValidator(_between(0.01, 1.5, "m", "was it given in mm?"))]
+    stroke_m: Annotated[float, AfterValidator(_between(0.01, 4.0, "m", "was it given in mm?"))]
+    rod_length_m: Length | None = None
+    rod_ratio: float | None = Field(
+        default=None, description="crank radius / rod length; give this or rod_length_m"
+    )
+    cylinder_pitch_m: Length | None = None
+
+    @model_validator(mode="after")
+    def _rod(self) -> Geometry:
+        if (self.rod_length_m is None) == (self.rod_ratio is None):
+            raise ValueError(
+                "give exactly one of rod_length_m (pin centre to pin centre) or rod_ratio "
+                "(crank radius / rod length)"
+            )
+        ratio = self.rod_ratio if self.rod_ratio is not None else self.stroke_m / 2 / self.rod_length_m  # type: ignore[operator]
+        if not 0 < ratio < 1:
+            field = "rod_ratio" if self.rod_ratio is not None else "rod_length_m"
+            value = self.rod_ratio if self.rod_ratio is not None else self.rod_length_m
+            raise ValueError(
+                f"{field} = {value!r} gives rod ratio {ratio:.6g}: expected 0 < crank radius / "
+                "rod length < 1 (the rod must be longer than the crank radius)"
+            )
+        return self
+
+
+class Masses(_Strict):
+    """Masses of the crank train of one cylinder."""
+
+    piston_assembly_kg: Mass = Field(
+        description="piston with rings and pin; on a crosshead engine also piston rod and crosshead"
+    )
+    conrod_kg: Mass
+    conrod_cg_from_piston_pin_m: Length = Field(
+        description="distance of the rod's centre of gravity from the piston (crosshead) pin centre"
+    )
+    conrod_inertia_kgm2: Inertia = Field(description="moment of inertia about the centre of gravity")
+    crank_unbalance_kgm: Unbalance = Field(
+        default=0.0, description="crank pin and webs: mass times radius, towards the crank pin"
+    )
+    counterweight_kgm: Unbalance = Field(
+        default=0.0, description="counterweights: mass times radius, opposite the crank pin"
+    )
+
+
+class Firing(_Strict):
+    """Firing order and, for uneven firing, the firing angles."""
+
+    order: list[int]
+    angles_deg: list[float] | None = Field(
+        default=None,
+        description="firing angle of each cylinder, by cylinder number, after cylinder 1 [deg]",
+    )
+
+
+class Operation(_Strict):
+    """Rated operating point."""
+
+    rated_speed_rpm: Annotated[float, AfterValidator(_between(1.0, 20000.0, "rpm"))]
+    rated_power_kw: Annotated[float, AfterValidator(_positive("kW"))] | None = None
+
+
+class Bearings(_Strict):
+    """Main bearings and which crank throw sits between which two of them."""
+
+    count: int | None = Field(default=None, description="number of main bearings (default n + 1)")
+    throws: list[tuple[int, int]] | None = Field(
+        default=None, description="bearing pair of each throw, by cylinder (default (c, c + 1))"
+    )
+    positions_m: list[float] | None = Field(
+        default=None, description="axial bearing positions from bearing 1 (default: mid-pitch)"
+    )
+
+
+class SensorTransfer(_Strict):
+    """A bearing sensor's transfer from its bearing's force to its orders, given instead of calibrated.
+
+    ``X_k = H_k F_k`` with ``H_k = magnitude_k exp(i phase_k)`` [the sensor's unit per newton], valid at
+    ``speed_rpm`` (the structure's response is a function of frequency, ``k`` times the speed); written
+    by ``engine-monitor calibrate HEALTHY.h5 -o FILE.toml`` or taken from a structural model.
+    """
+
+    channel: str = Field(description="the recording channel it applies to")
+    bearing: Annotated[int, Field(ge=1)]
+    direction: Literal["vertical", "horizontal"]
+    unit: str
+    speed_rpm: Annotated[float, AfterValidator(_positive("rpm"))]
+    orders: list[float] = Field(min_length=1)
+    magnitude: list[float] = Field(description="|H_k| [unit per N]")
+    phase_deg: list[float] = Field(description="arg H_k [deg]")
+    magnitude_error: list[float] | None = Field(default=None, description="standard error of |H_k|")
+
+    @model_validator(mode="after")
+    def _lengths(self) -> SensorTransfer:
+        n = len(self.orders)
+        for name in ("magnitude", "phase_deg", "magnitude_error"):
+            values = getattr(self, name)
+            if values is not None and len(values) != n:
+                raise ValueError(
+                    f"sensor_transfers ({self.channel!r}).{name} has {len(values)} values: expected {n}, "
+                    "one per order"
+                )
+        if any(m < 0 for m in self.magnitude):
+            raise ValueError(f"sensor_transfers ({self.channel!r}).magnitude: expected values >= 0")
+        return self
+
+
+class VibrationLimits(_Strict):
+    """Overall vibration velocity zones in the style of ISO 10816-6 (see :mod:`monitor.diagnosis.zones`)."""
+
+    zone_boundaries_mm_s: tuple[float, float, float] = Field(
+        description="rms velocity at the A/B, B/C and C/D zone boundaries [mm/s], increasing"
+    )
+    band_hz: tuple[float, float] = Field(default=(2.0, 1000.0), description="band of the rms [Hz]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> VibrationLimits:
+        a, b, c = self.zone_boundaries_mm_s
+        if not 0 < a < b < c:
+            raise ValueError(
+                f"vibration_limits.zone_boundaries_mm_s = {list(self.zone_boundaries_mm_s)}: "
+                "expected three increasing positive values (A/B, B/C, C/D)"
+            )
+        low, high = self.band_hz
+        if not 0 < low < high:
+            raise ValueError(f"vibration_limits.band_hz = {list(self.band_hz)}: expected 0 < low < high")
+        return self
+
+
+class Combustion(_Strict):
+    """Parametric cylinder-pressure model (used when no pressure trace is measured).
+
+    Closed cycle between inlet closing and exhaust opening: polytropic
+    compression, then heat release by a Wiebe law with polytropic expansion;
+    the heat released is scaled so that the indicated mean effective
+    pressure is ``load * rated_imep_bar``. See :mod:`monitor.model.gas`.
+    """
+
+    rated_imep_bar: Annotated[float, AfterValidator(_between(1.0, 60.0, "bar"))]
+    compression_ratio: Annotated[float, AfterValidator(_between(4.0, 40.0, "-"))]
+    intake_pressure_bar: PressureBar = Field(
+        description="charge (scavenge) air pressure, absolute, at rated load"
+    )
+    ambient_pressure_bar: PressureBar = 1.013
+    inlet_closing_deg: AngleDeg = Field(description="start of compression, before firing TDC (< 0)")
+    exhaust_opening_deg: AngleDeg = Field(description="end of expansion, after firing TDC (> 0)")
+    blowdown_deg: Annotated[float, AfterValidator(_between(1.0, 120.0, "deg"))] = 40.0
+    combustion_start_deg: AngleDeg = 0.0
+    combustion_duration_deg: Annotated[float, AfterValidator(_between(5.0, 180.0, "deg"))] = 60.0
+    wiebe_a: Annotated[float, AfterValidator(_between(1.0, 12.0, "-"))] = 6.9
+    wiebe_m: Annotated[float, AfterValidator(_between(0.0, 5.0, "-"))] = 1.0
+    polytropic_compression: Annotated[float, AfterValidator(_between(1.0, 1.45, "-"))] = 1.36
+    polytropic_expansion: Annotated[float, AfterValidator(_between(1.0, 1.45, "-"))] = 1.30
+
+    @model_validator(mode="after")
+    def _timing(self) -> Combustion:
+        if not self.inlet_closing_deg < self.combustion_start_deg < self.exhaust_opening_deg:
+            raise ValueError(
+                f"expected inlet_closing_deg ({self.inlet_closing_deg:g}) < combustion_start_deg "
+                f"({self.combustion_start_deg:g}) < exhaust_opening_deg ({self.exhaust_opening_deg:g})"
+            )
+        if not self.inlet_closing_deg < 0 < self.exhaust_opening_deg:
+            raise ValueError("expected inlet_closing_deg < 0 < exhaust_opening_deg (degrees from firing TDC)")
+        return self
+
+
+class PressureTrace(_Strict):
+    """A measured indicator diagram: cylinder pressure against crank angle from firing TDC."""
+
+    file: str | None = Field(
+        default=None, description="CSV with columns crank_angle_deg, pressure_bar (relative path)"
+    )
+    crank_angle_deg: list[float] | None = None
+    pressure_bar: list[float] | None = None
+    absolute: bool = Field(default=True, description="pressures are absolute (else gauge)")
+    speed_rpm: Annotated[float, AfterValidator(_between(1.0, 20000.0, "rpm"))] | None = None
+    load: Annotated[float, AfterValidator(_between(0.0, 1.2, "-"))] | None = None
+
+    @model_validator(mode="after")
+    def _source(self) -> PressureTrace:
+        inline = self.crank_angle_deg is not None or self.pressure_bar is not None
+        if inline == (self.file is not None):
+            raise ValueError("give either file or the crank_angle_deg and pressure_bar arrays")
+        if inline and (self.crank_angle_deg is None or self.pressure_bar is None):
+            raise ValueError("crank_angle_deg and pressure_bar must both be given")
+        return self
+
+
+class ShaftElement(_Strict):
+    """One lumped element of the shaft line beyond the crank throws.
+
+    Elements are listed from the engine outwards; each is joined to the one
+    before it (the first to the nearest crank throw) by a shaft of the given
+    stiffness and relative damping.
+    """
+
+    name: str
+    kind: Literal["damper", "flywheel", "shaft", "gear", "propeller", "generator", "other"]
+    inertia_kgm2: Annotated[float, AfterValidator(_non_negative("kg m^2"))]
+    stiffness_to_previous_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))]
+    relative_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
+        default=0.0, description="damping in the connection to the previous element (e.g. a damper's)"
+    )
+    absolute_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
+        default=0.0, description="damping of this element to ground (e.g. propeller, generator)"
+    )
+
+
+class CrankAxial(_Strict):
+    """Axial and coupling data of one crank throw (paper 001), for the torsional-axial model.
+
+    Flexibilities of one crank with one journal fixed, at the other journal:
+    axial (C11), lateral in the crank plane (C22) and across it (C33), radial
+    displacement per axial force (C21) and tangential displacement per torque
+    (C34); its torsional flexibility is ``1 / throw_stiffness``.
+    """
+
+    axial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    radial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    tangential_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
+    radial_per_axial_m_per_n: float = Field(description="C21 [m/N]")
+    tangential_per_torque_m_per_nm: float = Field(description="C34 [m/(N m)]")
+    throw_mass_kg: Mass = Field(description="mass of one throw moving axially with the crankshaft")
+    thrust_bearing_stiffness_n_per_m: Annotated[float, AfterValidator(_positive("N/m"))]
+    stiffness_damping_s: Annotated[float, AfterValidator(_non_negative("s"))] = Field(
+        default=1e-4, description="damping proportional to stiffness, C = beta K"
+    )
+
+
+class ShaftLine(_Strict):
+    """Torsional data of the crankshaft and the shafting (used by the torsion model)."""
+
+    throw_inertia_kgm2: Inertia = Field(
+        description="rotating inertia of one throw, without rod and reciprocating parts"
+    )
+    throw_stiffness_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))] = Field(
+        description="torsional stiffness between adjacent throws"
+    )
+    free_end: list[ShaftElement] = Field(default_factory=list)
+    driven_end: list[ShaftElement] = Field(default_factory=list)
+    tooth_wheel: str | None = Field(
+        default=None, description="name of the element that carries the crank-speed tooth wheel"
+    )
+    axial: CrankAxial | None = None
+
+
+class Engine(_Strict):
+    """A validated engine description. SI values are properties; fields keep the file's units."""
+
+    id: Annotated[str, Field(pattern=r"^[a-z0-9][a-z0-9._-]*$")]
+    name: str
+    cycle: Literal["two-stroke", "four-stroke"]
+    cylinders: Annotated[int, Field(ge=1, le=24)]
+    cylinder_numbering: Literal["from free end", "from flywheel end"] = "from free end"
+    notes: str = ""
+    geometry: Geometry
+    masses: Masses
+    firing: Firing
+    operation: Operation
+    bearings: Bearings = Field(default_factory=Bearings)
+    combustion: Combustion | None = None
+    pressure_trace: PressureTrace | None = None
+    shaft_line: ShaftLine | None = None
+    vibration_limits: VibrationLimits | None = None
+    sensor_transfers: list[SensorTransfer] = Field(default_factory=list)
+    source_dir: Path | None = Field(default=None, exclude=True, description="folder of the file")
+
+    @model_validator(mode="after")
+    def _consistency(self) -> Engine:
+        n = self.cylinders
+        order = self.firing.order
+        if sorted(order) != list(range(1, n + 1)):
+            raise ValueError(
+                f"firing.order = {order}: expected a permutation of the cylinders 1..{n}, each once"
+            )
+        if self.firing.angles_deg is not None:
+            angles = self.firing.angles_deg
+            span = 360.0 * self.cycle_revolutions
+            if len(angles) != n:
+                raise ValueError(
+                    f"firing.angles_deg has {len(angles)} values: expected {n}, one per cylinder"
+                )
+            if angles[0] != 0.0 or not all(0.0 <= a < span for a in angles):
+                raise ValueError(
+                    f"firing.angles_deg = {angles}: expected cylinder 1 at 0 and every angle in [0, {span:g})"
+                )
+            by_angle = [c for _, c in sorted(zip(angles, range(1, n + 1), strict=True))]
+            if by_angle != order:
+                raise ValueError(
+                    f"firing.angles_deg = {angles} fire the cylinders in the order {by_angle}, "
+                    f"not firing.order = {order}"
+                )
+        cg = self.masses.conrod_cg_from_piston_pin_m
+        if not 0 < cg < self.rod_length:
+            raise ValueError(
+                f"masses.conrod_cg_from_piston_pin_m = {cg!r}: expected between 0 and the rod "
+                f"length {self.rod_length:.6g} m"
+            )
+        nb = self.bearing_count
+        if nb < 2:
+            raise ValueError(f"bearings.count = {nb}: expected at least 2 main bearings")
+        for c, pair in enumerate(self.throw_bearings, start=1):
+            if not all(1 <= b <= nb for b in pair) or pair[0] == pair[1]:
+                raise ValueError(
+                    f"bearings.throws: throw {c} between bearings {pair}: expected two different "
+                    f"bearings in 1..{nb}"
+                )
+        if self.bearings.throws is not None and len(self.bearings.throws) != n:
+            raise ValueError(f"bearings.throws has {len(self.bearings.throws)} pairs: expected {n}")
+        if self.bearings.positions_m is not None and len(self.bearings.positions_m) != nb:
+            raise ValueError(
+                f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}"
+            )
+        for transfer in self.sensor_transfers:
+            if transfer.bearing > nb:
+                raise ValueError(
+                    f"sensor_transfers ({transfer.channel!r}): bearing {transfer.bearing} does not exist "
+                    f"(the engine has {nb} main bearings)"
+                )
+        cycle_model = self.combustion
+        if cycle_model is not None:
+            end = cycle_model.exhaust_opening_deg + cycle_model.blowdown_deg
+            next_closing = cycle_model.inlet_closing_deg + 360 * self.cycle_revolutions
+            if end > next_closing:
+                raise ValueError(
+                    f"combustion.exhaust_opening_deg + blowdown_deg = {end:g} deg reaches past the next "
+                    f"inlet closing at {next_closing:g} deg"
+                )
+        if self.combustion is None and self.pressure_trace is None:
+            raise ValueError(
+                "no gas-force model: add a [combustion] table (parametric cylinder pressure) or a "
+                "[pressure_trace] (measured indicator diagram)"
+            )
+        return self
+
+    # --- SI values -------------------------------------------------------------------------
+    @property
+    def cycle_revolutions(self) -> int:
+        """Crank revolutions per working cycle: 1 two-stroke, 2 four-stroke."""
+        return 1 if self.cycle == "two-stroke" else 2
+
+    @property
+    def crank_radius(self) -> float:
+        """R = stroke / 2 [m]."""
+        return self.geometry.stroke_m / 2
+
+    @property
+    def rod_length(self) -> float:
+        """Connecting-rod length, pin centre to pin centre [m]."""
+        if self.geometry.rod_length_m is not None:
+            return self.geometry.rod_length_m
+        return self.crank_radius / self.geometry.rod_ratio  # type: ignore[operator]
+
+    @property
+    def rod_ratio(self) -> float:
+        """lambda = R / L [-]."""
+        return self.crank_radius / self.rod_length
+
+    @property
+    def piston_area(self) -> float:
+        """Piston crown area pi D^2 / 4 [m^2]."""
+        return math.pi * self.geometry.bore_m**2 / 4
+
+    @property
+    def swept_volume(self) -> float:
+        """Swept volume of one cylinder [m^3]."""
+        return self.piston_area * self.geometry.stroke_m
+
+    @property
+    def rated_speed(self) -> float:
+        """Rated crank speed [rad/s]."""
+        return self.operation.rated_speed_rpm * math.pi / 30
+
+    @property
+    def conrod_cg_fraction(self) -> float:
+        """Rod centre of gravity from the piston pin over the rod length [-]."""
+        return self.masses.conrod_cg_from_piston_pin_m / self.rod_length
+
+    @property
+    def reciprocating_mass(self) -> float:
+        """Piston assembly plus the rod's piston-pin share in the two-mass split [kg]."""
+        return self.masses.piston_assembly_kg + self.masses.conrod_kg * (1 - self.conrod_cg_fraction)
+
+    @property
+    def rotating_rod_mass(self) -> float:
+        """The rod's crank-pin share in the two-mass split [kg]."""
+        return self.masses.conrod_kg * self.conrod_cg_fraction
+
+    @property
+    def net_crank_unbalance(self) -> float:
+        """Crank pin and webs minus counterweights, towards the pin [kg m]."""
+        return self.masses.crank_unbalance_kgm - self.masses.counterweight_kgm
+
+    @cached_property
+    def firing_angles(self) -> FloatArray:
+        """Firing angle of each cylinder (index c - 1) after cylinder 1 [rad]."""
+        n = self.cylinders
+        if self.firing.angles_deg is not None:
+            return np.radians(np.asarray(self.firing.angles_deg, dtype=np.float64))
+        order = self.firing.order
+        start = order.index(1)
+        rotated = order[start:] + order[:start]
+        angles = np.empty(n)
+        step = 2 * np.pi * self.cycle_revolutions / n
+        for position, cylinder in enumerate(rotated):
+            angles[cylinder - 1] = position * step
+        return angles
+
+    @property
+    def bearing_count(self) -> int:
+        """Number of main bearings."""
+        return self.bearings.count if self.bearings.count is not None else self.cylinders + 1
+
+    @property
+    def throw_bearings(self) -> list[tuple[int, int]]:
+        """The two main bearings (1-based) each throw sits between."""
+        if self.bearings.throws is not None:
+            return [tuple(p) for p in self.bearings.throws]  # type: ignore[misc]
+        return [(c, c + 1) for c in range(1, self.cylinders + 1)]
+
+    @property
+    def cylinder_positions(self) -> FloatArray:
+        """Axial position of each cylinder from cylinder 1, in numbering direction [m]."""
+        pitch = self.geometry.cylinder_pitch_m or 0.0
+        return pitch * np.arange(self.cylinders, dtype=np.float64)
+
+    @cached_property
+    def bearing_share(self) -> FloatArray:
+        """Share of each throw's force carried by each bearing, shape (bearings, cylinders).
+
+        Lever rule on a statically determinate throw: the throw's force acts at
+        its cylinder's axial position between its two bearings; without bearing
+        positions the throw is taken as midway (half to each bearing).
+        """
+        share = np.zeros((self.bearing_count, self.cylinders))
+        positions = self.bearings.positions_m
+        for c, (b1, b2) in enumerate(self.throw_bearings):
+            if positions is None or self.geometry.cylinder_pitch_m is None:
+                w2 = 0.5
+            else:
+                z1, z2 = positions[b1 - 1], positions[b2 - 1]
+                # cylinder axis position measured from bearing 1; cylinder 1 midway in its bay
+                zc = positions[0] + 0.5 * (positions[1] - positions[0]) + self.cylinder_positions[c]
+                w2 = (zc - z1) / (z2 - z1) if z2 != z1 else 0.5
+                if not 0.0 <= w2 <= 1.0:
+                    raise EngineDescriptionError(
+                        f"bearings.positions_m: cylinder {c + 1} at {zc:.4g} m lies outside its "
+                        f"bearings {b1} and {b2} ({z1:.4g}, {z2:.4g} m)"
+                    )
+            share[b1 - 1, c] += 1.0 - w2
+            share[b2 - 1, c] += w2
+        return share
+
+
+def _known_fields(model: type[BaseModel], loc: tuple[int | str, ...]) -> list[str]:
+    """Field names of the model at ``loc`` (for 'did you mean' hints on unknown fields)."""
+    current: Any = model
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        field = current.model_fields.get(part)
+        if field is None:
+            return []
+        annotation = field.annotation
+        candidates = [annotation, *getattr(annotation, "__args__", ())]
+        current = next((c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)), None)
+        if current is None:
+            return []
+    return [name for name in current.model_fields if name != "source_dir"]
+
+
+def _format_errors(error: ValidationError, origin: str) -> str:
+    lines = [f"{origin}: invalid engine description ({error.error_count()} problem(s)):"]
+    for item in error.errors(include_url=False):
+        loc = tuple(item["loc"])
+        where = ".".join(str(p) for p in loc) or "(top level)"
+        if item["type"] == "extra_forbidden":
+            known = _known_fields(Engine, loc)
+            close = difflib.get_close_matches(str(loc[-1]), known, n=1)
+            hint = f"; did you mean '{close[0]}'?" if close else ""
+            lines.append(f"  {where}: unknown field{hint} (known here: {', '.join(known)})")
+        elif item["type"] == "missing":
+            lines.append(f"  {where}: required field is missing")
+        else:
+            message = item["msg"].removeprefix("Value error, ")
+            value = item.get("input")
+            shown = "" if isinstance(value, dict) else f" = {value!r}"
+            lines.append(f"  {where}{shown}: {message}")
+    return "\n".join(lines)
+
+
+def parse_engine(data: dict[str, Any], *, origin: str = "engine", source_dir: Path | None = None) -> Engine:
+    """Validate a mapping (parsed TOML) into an :class:`Engine`.
+
+    Parameters
+    ----------
+    data : dict
+        The description, as parsed from TOML.
+    origin : str
+        Name used in error messages (usually the file path).
+    source_dir : Path, optional
+        Folder that relative paths in the description are resolved against.
+
+    Returns
+    -------
+    Engine
+
+    Raises
+    ------
+    EngineDescriptionError
+        Listing every problem with its field, value and rule.
+    """
+    try:
+        return Engine.model_validate({**data, "source_dir": source_dir})
+    except ValidationError as error:
+        raise EngineDescriptionError(_format_errors(error, origin)) from None
+
+
+def load_engine(path: str | Path) -> Engine:
+    """Load and validate an engine description from a TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file, or the id of a bundled engine (see :func:`bundled_engines`).
+
+    Returns
+    -------
+    Engine
+
+    Raises
+    ------
+    EngineDescriptionError
+        If the file is missing, is not TOML, or breaks a rule of the description.
+    """
+    file = Path(path)
+    if not file.exists() and (BUNDLED_DIR / f"{path}.toml").exists():
+        file = BUNDLED_DIR / f"{path}.toml"
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        known = ", ".join(sorted(bundled_engines()))
+        raise EngineDescriptionError(f"{path}: no such engine file (bundled engines: {known})") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise EngineDescriptionError(f"{path}: cannot read engine file: {error}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise EngineDescriptionError(f"{path}: not valid TOML: {error}") from None
+    return parse_engine(data, origin=str(path), source_dir=file.resolve().parent)
+
+
+def bundled_engines() -> dict[str, Path]:
+    """The engine descriptions shipped with the product, by id (file stem)."""
+    return {p.stem: p for p in sorted(BUNDLED_DIR.glob("*.toml"))}
+
+
+def read_pressure_trace(engine: Engine) -> tuple[FloatArray, FloatArray]:
+    """The measured pressure trace of an engine, in SI.
+
+    Parameters
+    ----------
+    engine : Engine
+        An engine whose description has a ``[pressure_trace]``.
+
+    Returns
+    -------
+    crank_angle, pressure : ndarray
+        Crank angle from firing TDC [rad] and absolute cylinder pressure [Pa].
+
+    Raises
+    ------
+    EngineDescriptionError
+        If the trace is absent, unreadable, or its arrays are inconsistent.
+    """
+    trace = engine.pressure_trace
+    if trace is None:
+        raise EngineDescriptionError(f"engine {engine.id!r} has no [pressure_trace]")
+    if trace.file is not None:
+        path = Path(trace.file)
+        if not path.is_absolute() and engine.source_dir is not None:
+            path = engine.source_dir / path
+        try:
+            with path.open(newline="", encoding="utf-8") as handle:
+                rows = list(csv.DictReader(handle))
+        except OSError as error:
+            raise EngineDescriptionError(f"pressure_trace.file = {trace.file!r}: {error}") from None
+        try:
+            angle_deg = [float(r["crank_angle_deg"]) for r in rows]
+            p_bar = [float(r["pressure_bar"]) for r in rows]
+        except (KeyError, TypeError, ValueError) as error:
+            raise EngineDescriptionError(
+                f"pressure_trace.file = {trace.file!r}: expected numeric columns crank_angle_deg "
+                f"and pressure_bar ({error})"
+            ) from None
+    else:
+        angle_deg, p_bar = trace.crank_angle_deg or [], trace.pressure_bar or []
+    angle = np.radians(np.asarray(angle_deg, dtype=np.float64))
+    pressure = np.asarray(p_bar, dtype=np.float64) * 1e5
+    if angle.shape != pressure.shape or angle.size < 8:
+        raise EngineDescriptionError(
+            f"pressure_trace: {angle.size} angles and {pressure.size} pressures: expected equal "
+            "lengths of at least 8 points"
+        )
+    if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(pressure))):
+        bad = int(np.count_nonzero(~np.isfinite(angle)) + np.count_nonzero(~np.isfinite(pressure)))
+        raise EngineDescriptionError(
+            f"pressure_trace: {bad} value(s) are NaN or Inf: expected finite numbers"
+        )
+    if not trace.absolute:
+        pressure = pressure + (engine.combustion.ambient_pressure_bar if engine.combustion else 1.013) * 1e5
+    if np.any(pressure <= 0):
+        first = int(np.flatnonzero(pressure <= 0)[0])
+        raise EngineDescriptionError(
+            f"pressure_trace: absolute pressure {pressure[first] / 1e5:.6g} bar at "
+            f"{math.degrees(angle[first]):.6g} deg: expected positive pressures everywhere"
+            + ("" if trace.absolute else " (the trace is gauge; ambient was added)")
+        )
+    return angle, pressure
