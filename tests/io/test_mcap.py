@@ -250,7 +250,7 @@ def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: P
     from monitor.io.proto.engine_monitor import recording_pb2
 
     proto = Path(recording_pb2.__file__).with_suffix("").with_name("recording.proto")
-    include = proto.parents[2]
+    include = proto.parents[1]
     out = tmp_path / "set.pb"
     well_known = Path(protoc.__file__).parent / "_proto"  # google/protobuf/timestamp.proto, from protoc
     argv = ["protoc", f"-I{include}", f"-I{well_known}", f"--descriptor_set_out={out}"]
