@@ -326,7 +326,7 @@ def test_every_subcommand_answers_a_bad_option_with_its_usage_error(
     values = {
         "tmp": tmp_path,
         "sample": SAMPLE,
-        "scene": SAMPLE.parents[2] / "scenes" / "6l32-baseline.toml",
+        "scene": SAMPLE.parents[1] / "scenes" / "6l32-baseline.toml",
     }
     try:
         status = main([a.format(**values) for a in argv])
