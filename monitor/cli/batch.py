@@ -3,6 +3,9 @@
 The run itself is :func:`monitor.jobs.batch.run_batch`; its exit status is the
 worst health over the recordings in its scope (0 healthy, 1 warning, 2 alarm,
 3 inconclusive or not diagnosed).
+
+What a command needs is imported where it runs: the quick commands build this
+module's parsers at start-up (:mod:`monitor.cli.main`).
 """
 
 from __future__ import annotations

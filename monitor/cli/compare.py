@@ -3,6 +3,9 @@
 ``compare`` is the use case :func:`monitor.jobs.analyse.analyse`, as the batch
 and the service run it: its exit status is the health found (0 healthy, 1
 warning, 2 alarm, 3 could not diagnose).
+
+What a command needs is imported where it runs: the quick commands build this
+module's parsers at start-up (:mod:`monitor.cli.main`).
 """
 
 from __future__ import annotations

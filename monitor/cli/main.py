@@ -1,19 +1,31 @@
 """The ``engine-monitor`` command line.
 
-Subcommands, each parsed and run by its module:
+Subcommands, each parsed and run by its module (its ``add_*_parser`` names its
+runner); this module assembles them in the order ``--help`` lists them and runs
+the one asked for:
 
-- ``orders``: the predicted order table of an engine at an operating point.
-- ``engines``: the bundled engine descriptions.
-- ``torsion ...``: shaft-line modes, Campbell data and forced response of an
-  engine, and the stability chart and time response of the variable-inertia
-  crank (see :mod:`monitor.cli.torsion`).
-- ``trend``: an engine's quantities over time from the results store, and the
-  drift found in them (see :mod:`monitor.cli.trend`).
-- ``spectrum``, ``import``, ``simulate``: order spectra of a recording,
-  test-bench imports, scenes.
-- ``compare``: a recording's measured orders against the model, and the
-  findings (:mod:`monitor.diagnosis`); ``calibrate``: a healthy baseline's
-  calibration, stored for later comparisons.
+- :mod:`monitor.cli.orders`: ``orders``, the predicted order table of an engine
+  at an operating point; ``engines``, the bundled engine descriptions.
+- :mod:`monitor.cli.measure`: ``spectrum``, order spectra of a recording;
+  ``tdc``, a cylinder's pressure peak against the angle reference; ``import``,
+  test-bench files into recordings.
+- :mod:`monitor.cli.simulate`: ``simulate``, scenes into recordings.
+- :mod:`monitor.cli.compare`: ``compare``, a recording's measured orders
+  against the model and the findings (:mod:`monitor.jobs.analyse`);
+  ``calibrate``, a healthy baseline's calibration, stored for later comparisons.
+- :mod:`monitor.cli.batch`: ``batch``, every recording not yet diagnosed.
+- :mod:`monitor.cli.service`: ``serve``, ``worker``, ``keys``: the HTTP service
+  (the only command module that imports :mod:`api`).
+- :mod:`monitor.cli.torsion`: ``torsion ...``, shaft-line modes, Campbell data
+  and forced response of an engine, and the stability chart and time response
+  of the variable-inertia crank.
+- :mod:`monitor.cli.trend`: ``trend``, an engine's quantities over time from
+  the results store, and the drift found in them.
+
+Every module's parsers are built at start-up, so the libraries a command needs
+are imported where it runs: the quick commands (``--help``, ``engines``,
+``orders``, ``simulate --truth``) import no heavy library
+(tests/cli/test_startup.py).
 
 Errors the product raises on purpose (bad engine file, out-of-range input)
 print one clear message and exit with status 2; the table goes to standard

@@ -4,6 +4,9 @@
 document: :mod:`monitor.report.spectrum_json`, docs/spectrum-json.md), ``tdc``
 checks where a cylinder's pressure peaks against the angle reference, and
 ``import`` converts a test-bench file into a recording.
+
+What a command needs is imported where it runs: the quick commands build this
+module's parsers at start-up (:mod:`monitor.cli.main`).
 """
 
 from __future__ import annotations
