@@ -45,7 +45,7 @@ def _calibrate(
     path: str, engine_description: dict[str, Any] | None, load: float, name: str
 ) -> dict[str, Any]:
     from monitor.diagnosis import calibrate
-    from monitor.jobs.batch import recording_engine
+    from monitor.jobs.analyse import recording_engine
     from monitor.signal.measure import open_recording
 
     with open_recording(path) as recording:

@@ -1,7 +1,7 @@
 """The engines a fleet's recordings may name: the fleet's own descriptions, then the bundled ones.
 
 A fleet's own description of an id takes precedence over the bundled engine of
-the same id, as in the analysis (:func:`monitor.jobs.batch.diagnose_file` is given
+the same id, as in the analysis (:func:`monitor.jobs.analyse.diagnose_file` is given
 the fleet's description when there is one, else reads the bundled file). The
 bundled descriptions are the TOML files shipped in the package
 (:func:`monitor.model.engine.bundled_engines`), answered as their content in JSON,

@@ -140,7 +140,7 @@ def _bases(count: int, seconds: float = 3.0) -> list[Any]:
 
 def _analysed() -> dict[str, tuple[str, dict[str, Any]]]:
     """The results of one real analysis, stored with every seeded recording."""
-    from monitor.jobs.batch import diagnose_file
+    from monitor.jobs.analyse import diagnose_file
 
     return diagnose_file(str(SAMPLE), None, None, None, SAMPLE.name)
 

@@ -9,12 +9,13 @@ docs/torsion-json.md), and with ``--plot FILE.png`` draws a figure.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from typing import Any
 
 import numpy as np
+
+from monitor.cli.arguments import print_json
 
 __all__ = ["add_torsion_parser", "run_torsion"]
 
@@ -61,11 +62,32 @@ def add_torsion_parser(sub: Any) -> None:
         "torsion", help="torsional vibration: shaft-line modes, response, Campbell, stability"
     )
     tsub = torsion.add_subparsers(dest="torsion_command", required=True, metavar="TORSION_COMMAND")
+    for add in (_add_modes, _add_campbell, _add_response, _add_axial, _add_stability, _add_simulate):
+        _common(add(tsub))
+    torsion.set_defaults(run=run_torsion)
 
-    def common(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--json", action="store_true", help="print a JSON document instead of a table")
-        p.add_argument("--plot", metavar="FILE.png", help="also draw a figure")
 
+def _common(p: argparse.ArgumentParser) -> None:
+    """The output options every subcommand has."""
+    p.add_argument("--json", action="store_true", help="print a JSON document instead of a table")
+    p.add_argument("--plot", metavar="FILE.png", help="also draw a figure")
+
+
+def _add_speed_range(p: argparse.ArgumentParser, low: int, high: int) -> None:
+    """--rpm-min and --rpm-max, their defaults ``low`` and ``high`` per cent of the rated speed."""
+    p.add_argument(
+        "--rpm-min", type=_positive, default=None, help=f"lowest speed [rpm] (default {low} %% of rated)"
+    )
+    p.add_argument(
+        "--rpm-max", type=_positive, default=None, help=f"highest speed [rpm] (default {high} %% of rated)"
+    )
+
+
+def _add_max_order(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)")
+
+
+def _add_modes(tsub: Any) -> argparse.ArgumentParser:
     modes = tsub.add_parser("modes", help="natural frequencies and mode shapes of an engine's shaft line")
     modes.add_argument("engine", metavar="ENGINE", help="engine description (TOML) or bundled id")
     modes.add_argument(
@@ -74,29 +96,21 @@ def add_torsion_parser(sub: Any) -> None:
         default="mean",
         help="add the mean reciprocating inertia to each throw (default) or not",
     )
-    common(modes)
+    return modes
 
+
+def _add_campbell(tsub: Any) -> argparse.ArgumentParser:
     camp = tsub.add_parser("campbell", help="critical speeds: excitation orders against natural frequencies")
     camp.add_argument("engine", metavar="ENGINE")
-    camp.add_argument(
-        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 20 %% of rated)"
-    )
-    camp.add_argument(
-        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 110 %% of rated)"
-    )
-    camp.add_argument(
-        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
-    )
-    common(camp)
+    _add_speed_range(camp, 20, 110)
+    _add_max_order(camp)
+    return camp
 
+
+def _add_response(tsub: Any) -> argparse.ArgumentParser:
     resp = tsub.add_parser("response", help="forced torsional response over a speed range")
     resp.add_argument("engine", metavar="ENGINE")
-    resp.add_argument(
-        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
-    )
-    resp.add_argument(
-        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 105 %% of rated)"
-    )
+    _add_speed_range(resp, 30, 105)
     resp.add_argument("--steps", type=int, default=120, help="speeds computed (default 120)")
     resp.add_argument(
         "--load",
@@ -104,28 +118,23 @@ def add_torsion_parser(sub: Any) -> None:
         help="fraction of rated IMEP, or 'propeller' for IMEP ~ speed^2 (default)",
     )
     resp.add_argument("--node", default=None, help="node reported (default: the tooth-wheel node)")
-    resp.add_argument(
-        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
-    )
-    common(resp)
+    _add_max_order(resp)
+    return resp
 
+
+def _add_axial(tsub: Any) -> argparse.ArgumentParser:
     axial = tsub.add_parser(
         "axial", help="coupled torsional-axial crankshaft (paper 001): modes and axial response"
     )
     axial.add_argument("engine", metavar="ENGINE")
-    axial.add_argument(
-        "--rpm-min", type=_positive, default=None, help="lowest speed [rpm] (default 30 %% of rated)"
-    )
-    axial.add_argument(
-        "--rpm-max", type=_positive, default=None, help="highest speed [rpm] (default 105 %% of rated)"
-    )
+    _add_speed_range(axial, 30, 105)
     axial.add_argument("--steps", type=int, default=60, help="speeds computed (default 60)")
     axial.add_argument("--load", default="propeller", help="fraction of rated IMEP, or 'propeller' (default)")
-    axial.add_argument(
-        "--max-order", type=_positive, default=12.0, help="highest excitation order (default 12)"
-    )
-    common(axial)
+    _add_max_order(axial)
+    return axial
 
+
+def _add_stability(tsub: Any) -> argparse.ArgumentParser:
     stab = tsub.add_parser(
         "stability", help="Floquet stability chart of the variable-inertia crank (paper 002)"
     )
@@ -154,8 +163,10 @@ def add_torsion_parser(sub: Any) -> None:
         default=None,
         help="also list the instability ranges of r for this epsilon (repeatable)",
     )
-    common(stab)
+    return stab
 
+
+def _add_simulate(tsub: Any) -> argparse.ArgumentParser:
     sim = tsub.add_parser("simulate", help="time response of the variable-inertia crank (paper 002 Fig. 2-5)")
     sim.add_argument("--epsilon", type=_finite, required=True, help="inertia ratio, 0 <= epsilon < 1")
     sim.add_argument("--r", type=_positive, required=True, help="speed ratio, > 0")
@@ -178,13 +189,12 @@ def add_torsion_parser(sub: Any) -> None:
         metavar=("GAMMA", "GAMMA_PRIME"),
         help="initial twist [rad] and its rate (default 1 0, as paper 002)",
     )
-    common(sim)
+    return sim
 
 
 def _emit(args: argparse.Namespace, document: dict[str, Any], table: str) -> None:
     if args.json:
-        json.dump(document, sys.stdout, indent=1)
-        sys.stdout.write("\n")
+        print_json(document)
     else:
         print(table)
 

@@ -12,11 +12,10 @@ with ``--plot FILE.png`` a figure with one panel per quantity.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
+
+from monitor.cli.arguments import add_store_option, print_json, store_url
 
 __all__ = ["add_trend_parser", "run_trend"]
 
@@ -41,9 +40,7 @@ def add_trend_parser(sub: Any) -> None:
         "own history (docs/trends.md): a trend finding says what moved, since when and by how much.",
     )
     trend.add_argument("engine", metavar="ENGINE", help="the engine's id (as its recordings name it)")
-    trend.add_argument(
-        "--store", metavar="URL", help="the store (default: $ENGINE_MONITOR_DB, else DATA/engine-monitor.db)"
-    )
+    add_store_option(trend)
     trend.add_argument(
         "--data", default="data", metavar="DIR", help="the service's data folder (default ./data)"
     )
@@ -62,6 +59,7 @@ def add_trend_parser(sub: Any) -> None:
     )
     trend.add_argument("--json", action="store_true", help="print a JSON document instead of tables")
     trend.add_argument("--plot", metavar="FILE.png", help="also draw the quantities against time")
+    trend.set_defaults(run=run_trend)
 
 
 def _since(text: str | None) -> datetime | None:
@@ -91,11 +89,11 @@ def run_trend(args: argparse.Namespace) -> int:
     """
     from monitor.diagnosis import ANALYSIS_VERSION
     from monitor.errors import MonitorError, StoreError
-    from monitor.store import default_url, open_store
+    from monitor.store import open_store
     from monitor.store.trends import fill_trend_points, read_trend, trend_document
 
     since = _since(args.since)
-    store = open_store(args.store or default_url(Path(args.data)))
+    store = open_store(store_url(args.store, args.data))
     try:
         fleet = args.fleet if args.fleet is not None else _only_fleet(store.fleet_names())
         try:
@@ -130,8 +128,7 @@ def run_trend(args: argparse.Namespace) -> int:
     if args.plot:
         _plot(series, {f.quantity: f for f in findings}, args.plot, args.engine)
     if args.json:
-        json.dump(document, sys.stdout, indent=2)
-        print()
+        print_json(document, indent=2)
         return 0
     print(_table(series, document, args.quantity))
     return 0

@@ -54,7 +54,8 @@ from typing import Any, TypeVar
 from api.validate import NICE
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError, OutputFolderError, StoreError
-from monitor.jobs.batch import diagnose_file, recording_plot
+from monitor.jobs.analyse import diagnose_file
+from monitor.jobs.plots import recording_plot
 from monitor.runtime.processes import analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store
 from monitor.store.outage import store_fault
@@ -94,7 +95,7 @@ def input_fault(error: BaseException) -> bool:
 
 
 def analyse(*args: Any) -> dict[str, tuple[str, dict[str, Any]]]:
-    """:func:`monitor.jobs.batch.diagnose_file` in an analysis process, at niceness :data:`NICE` (set on the
+    """:func:`monitor.jobs.analyse.diagnose_file` in an analysis process, at niceness :data:`NICE` (set on the
     process's first analysis; a process can lower its own priority, never raise it again)."""
     if hasattr(os, "setpriority") and os.getpriority(os.PRIO_PROCESS, 0) < NICE:
         os.setpriority(os.PRIO_PROCESS, 0, NICE)

@@ -15,60 +15,32 @@ import numpy as np
 
 from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
 
-__all__ = ["diagnosis_document", "diagnosis_table", "spectrum_document"]
+__all__ = ["diagnosis_document", "diagnosis_table", "json_ready"]
 
 
-def _plain(value: Any) -> Any:
-    """JSON-safe: numpy scalars to Python, non-finite floats to None."""
+def json_ready(value: Any) -> Any:
+    """A value as JSON holds it: numpy arrays to lists, numpy scalars to Python, non-finite floats to None.
+
+    Parameters
+    ----------
+    value : Any
+        Dicts, lists and tuples are converted item by item.
+
+    Returns
+    -------
+    Any
+    """
     if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
+        return [json_ready(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
+        return json_ready(value.tolist())
     if isinstance(value, np.generic):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
-
-
-def spectrum_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
-    """The measured order spectra a diagnosis started from, as a JSON-ready document (the batch's and the
-    service's ``spectrum`` result).
-
-    Parameters
-    ----------
-    diagnosis : Diagnosis
-    recording : str, optional
-        The recording's name in the document.
-
-    Returns
-    -------
-    dict
-    """
-    measured = diagnosis.spectra
-    return dict(
-        _plain(
-            {
-                "recording": recording,
-                "engine_id": diagnosis.engine_id,
-                "mean_speed_rpm": measured.mean_speed * 30 / math.pi,
-                "cycle_revolutions": measured.cycle_revolutions,
-                "channels": {
-                    channel: {
-                        "unit": measured.units[channel],
-                        "blocks": s.blocks,
-                        "orders": s.orders.tolist(),
-                        "amplitude": np.abs(s.amplitude).tolist(),
-                        "phase_deg": np.degrees(np.angle(s.amplitude)).tolist(),
-                        "standard_error": s.standard_error.tolist(),
-                    }
-                    for channel, s in measured.spectra.items()
-                },
-            }
-        )
-    )
 
 
 def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
@@ -157,7 +129,7 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             }
             for s in b.impacts
         ]
-    return dict(_plain(document))
+    return dict(json_ready(document))
 
 
 def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int = 12) -> str:

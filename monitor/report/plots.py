@@ -330,12 +330,13 @@ def plot_diagnosis(
     if out.suffix.lower() not in (".png", ".html", ".htm"):
         raise MonitorError(f"--plot {out}: expected a .png or .html file")
     if out.suffix.lower() != ".png":
-        from monitor.report.diagnosis import diagnosis_document, spectrum_document
+        from monitor.report.diagnosis import diagnosis_document
+        from monitor.report.spectrum_json import spectrum_document
         from monitor.report.web import recording_page
 
         page = recording_page(
             diagnosis_document(diagnosis, recording=recording),
-            spectrum_document(diagnosis, recording=recording),
+            spectrum_document(diagnosis.spectra, recording=recording, engine_id=diagnosis.engine_id),
         )
         out.write_text(page, encoding="utf-8")
         return out

@@ -645,7 +645,7 @@ class Store:
 
     def registered_filenames(self) -> list[tuple[int, str]]:
         """Every recording of every fleet, by id: its id and the file name it was registered under (the
-        batch names the plots of a shared data folder after them, :func:`monitor.jobs.batch.plot_names`)."""
+        batch names the plots of a shared data folder after them, :func:`monitor.jobs.plots.plot_names`)."""
         with self.db.connect() as c:
             rows = c.execute(sa.select(recordings.c.id, recordings.c.filename).order_by(recordings.c.id))
             return [(int(r.id), str(r.filename)) for r in rows]

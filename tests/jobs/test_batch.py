@@ -28,7 +28,10 @@ from monitor.cli import main
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.jobs import batch as batch_module
-from monitor.jobs.batch import content_hash, diagnose_file, plot_names, register, run_batch
+from monitor.jobs.analyse import diagnose_file
+from monitor.jobs.batch import run_batch
+from monitor.jobs.plots import plot_names
+from monitor.jobs.registration import content_hash, register
 from monitor.scene import load_scene, simulate
 from monitor.store import MAX_ATTEMPTS, open_store
 
@@ -371,7 +374,7 @@ def test_an_unreadable_file_alone_exits_3(tmp_path: Path, capsys: pytest.Capture
 
 
 def _diagnosed_as_a_warning(*args: Any) -> dict[str, tuple[str, dict[str, Any]]]:
-    """:func:`monitor.jobs.batch.diagnose_file` with the status a warning (no bundled sample gives one)."""
+    """:func:`monitor.jobs.analyse.diagnose_file` with the status a warning (no bundled sample gives one)."""
     documents = diagnose_file(*args)
     return {kind: ("warning", {**document, "status": "warning"}) for kind, (_, document) in documents.items()}
 
@@ -438,7 +441,7 @@ def _stand_in_diagnosis(
     plot: str | None = None,
     name: str | None = None,
 ) -> dict[str, tuple[str, dict[str, Any]]]:
-    """A stand-in for :func:`monitor.jobs.batch.diagnose_file` where what is tested is how results and
+    """A stand-in for :func:`monitor.jobs.analyse.diagnose_file` where what is tested is how results and
     plots are named and found, not the analysis (seconds a recording): an alarm with one finding, and a
     small PNG whose ``Title`` text is the name the batch gave the recording, so a test can tell whose
     plot it was served."""

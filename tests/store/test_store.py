@@ -533,11 +533,11 @@ def test_the_migration_keeps_each_recording_s_name_and_records_the_plots_named_b
     """A store at revision 0006 with three recordings, two of one stem (compared ignoring case), each
     diagnosed: opening it migrates to 0008, which keeps each recording's name and records each
     diagnosis' plot under the name the batch and the worker gave it until then (the rule of
-    monitor.jobs.batch.plot_names, an independent copy of which the migration froze), none for a spectrum."""
+    monitor.jobs.plots.plot_names, an independent copy of which the migration froze), none for a spectrum."""
     from alembic import command
     from alembic.config import Config
 
-    from monitor.jobs.batch import plot_names
+    from monitor.jobs.plots import plot_names
 
     engine = sa.create_engine(store_url)
     config = Config()
