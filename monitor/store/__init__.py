@@ -53,7 +53,7 @@ from sqlalchemy.engine import Connection, CursorResult, Engine
 from monitor.errors import StoreError
 from monitor.names import check_name
 from monitor.store.outage import Outage
-from monitor.store.pool import Readers
+from monitor.store.pool import ReadPool
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
 from monitor.store.schema import (
     api_keys,
@@ -406,7 +406,7 @@ class Store:
 
     def __init__(self, engine: Engine) -> None:
         self.db = engine
-        self.readers = Readers(engine, POOL_SIZE)  # the reads the service answers most
+        self.readers = ReadPool(engine, POOL_SIZE)  # the reads the service answers most
         self.outage = Outage()
         sa.event.listen(engine, "connect", lambda *_: self.outage.back())
 
