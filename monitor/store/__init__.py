@@ -17,7 +17,7 @@ text's SHA-256, so a read hands out the stored text as it is
 (:meth:`Store.stored_result`), tagged by that digest, without parsing it.
 The transaction that stores a diagnosis also stores its trend points
 (:mod:`monitor.store.trends`) and queues the alerts of its new findings for
-the fleet's webhooks (:mod:`monitor.store.webhooks`).
+the fleet's webhooks (:mod:`monitor.store.alerts`).
 
 A recording is stored once per fleet and content, and keeps every file name it
 was given (:meth:`Store.recording_names`). Its artefacts are found by its id:
@@ -52,6 +52,7 @@ from sqlalchemy.engine import Connection, CursorResult, Engine
 
 from monitor.errors import StoreError
 from monitor.names import check_name
+from monitor.store.alerts import enqueue_events
 from monitor.store.outage import Outage
 from monitor.store.pool import ReadPool
 from monitor.store.queries import KEY_FLEET, ONE_VIEW, STORED, listing
@@ -67,7 +68,6 @@ from monitor.store.schema import (
 from monitor.store.schema import baselines as baseline_rows
 from monitor.store.schema import recording_names as name_rows
 from monitor.store.trends import DIAGNOSIS_KIND, write_trend_points
-from monitor.store.webhooks import enqueue_events
 
 __all__ = [
     "DEFAULT_URL_ENV",
