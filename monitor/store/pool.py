@@ -1,11 +1,11 @@
 """Connections kept open for reads: one query, one round trip, no checkout.
 
-A read taken through the pool pays for more than its query: the checkout, on
+A read taken through the engine's pool pays for more than its query: the checkout, on
 PostgreSQL a ping before use (a round trip) and, at the return, the reset of
 the transaction it began (a ROLLBACK, another round trip), and on SQLite the
 pool's bookkeeping, a sizeable part of a 50 microsecond lookup. The reads the
 service answers most (a key's fleet, a recording, a stored result, a page of a
-listing) take instead a connection from :class:`Readers`, a stack of
+listing) take instead a connection from :class:`ReadPool`, a stack of
 connections in autocommit mode, each a single statement and nothing to undo,
 and give it back after. psycopg prepares a statement a connection has run a
 few times, so a kept connection also runs the reads' statements prepared.
@@ -25,12 +25,12 @@ from typing import Any, TypeVar
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection, CursorResult, Engine
 
-__all__ = ["Readers"]
+__all__ = ["ReadPool"]
 
 T = TypeVar("T")
 
 
-class Readers:
+class ReadPool:
     """Autocommit connections for single-statement reads, taken from and given back to a stack.
 
     Parameters

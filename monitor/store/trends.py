@@ -12,15 +12,25 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
 
-from monitor.diagnosis.trends import Drift
+from monitor.diagnosis.trends import (
+    BASELINE_RECORDINGS,
+    DECISION,
+    LAG,
+    REFERENCE,
+    ROBUST_SIGMAS,
+    Drift,
+    drift,
+    judged,
+)
 from monitor.diagnosis.trends import trend_points as quantities_of
 from monitor.store.schema import recordings, results, trend_points
+from monitor.store.sql import insert_ignoring_existing, utc
 
 __all__ = [
     "DIAGNOSIS_KIND",
@@ -29,6 +39,7 @@ __all__ = [
     "fill_trend_points",
     "fleet_summary",
     "read_trend",
+    "recording_time",
     "trend_document",
     "write_trend_points",
 ]
@@ -60,7 +71,7 @@ class TrendRow:
     unit: str
 
 
-def _recording_time(recorded_at: str, uploaded_at: datetime) -> datetime:
+def recording_time(recorded_at: str, uploaded_at: datetime) -> datetime:
     """The recording's start (ISO 8601, UTC) if it states one, else its upload time; aware, UTC."""
     if recorded_at:
         try:
@@ -68,19 +79,8 @@ def _recording_time(recorded_at: str, uploaded_at: datetime) -> datetime:
         except ValueError:
             parsed = None
         if parsed is not None:
-            return parsed if parsed.tzinfo is not None else parsed.replace(tzinfo=UTC)
-    return uploaded_at if uploaded_at.tzinfo is not None else uploaded_at.replace(tzinfo=UTC)
-
-
-def _insert_ignoring_existing(c: Connection, rows: list[dict[str, Any]]) -> None:
-    if not rows:
-        return
-    if c.dialect.name == "postgresql":
-        from sqlalchemy.dialects.postgresql import insert
-    else:
-        from sqlalchemy.dialects.sqlite import insert  # type: ignore[assignment]
-    keys = ["recording_id", "analysis_version", "quantity"]
-    c.execute(insert(trend_points).on_conflict_do_nothing(index_elements=keys), rows)
+            return utc(parsed)
+    return utc(uploaded_at)
 
 
 def write_trend_points(
@@ -109,10 +109,11 @@ def write_trend_points(
     ).first()
     if row is None:
         return 0
-    when = _recording_time(row.recorded_at, row.uploaded_at)
+    when = recording_time(row.recorded_at, row.uploaded_at)
     points = quantities_of(document)
-    _insert_ignoring_existing(
+    insert_ignoring_existing(
         c,
+        trend_points,
         [
             {
                 "recording_id": recording_id,
@@ -127,6 +128,7 @@ def write_trend_points(
             }
             for p in points
         ],
+        ["recording_id", "analysis_version", "quantity"],
     )
     return len(points)
 
@@ -204,7 +206,7 @@ def read_trend(
     if quantities:
         where &= trend_points.c.quantity.in_(quantities)
     if since is not None:
-        where &= trend_points.c.recorded_at >= (since if since.tzinfo else since.replace(tzinfo=UTC))
+        where &= trend_points.c.recorded_at >= utc(since)
     rows = c.execute(
         sa.select(
             trend_points.c.recording_id,
@@ -220,7 +222,7 @@ def read_trend(
     return [
         TrendRow(
             r.recording_id,
-            r.recorded_at if r.recorded_at.tzinfo else r.recorded_at.replace(tzinfo=UTC),
+            utc(r.recorded_at),
             r.quantity,
             float(r.value),
             None if r.standard_error is None else float(r.standard_error),
@@ -258,16 +260,6 @@ def trend_document(
     findings : list of Drift
         In the order they were found.
     """
-    from monitor.diagnosis.trends import (
-        BASELINE_RECORDINGS,
-        DECISION,
-        LAG,
-        REFERENCE,
-        ROBUST_SIGMAS,
-        drift,
-        judged,
-    )
-
     series: dict[str, list[TrendRow]] = {}
     for row in rows:
         series.setdefault(row.quantity, []).append(row)
@@ -395,7 +387,7 @@ def fleet_summary(c: Connection, fleet_id: int, *, analysis_version: str) -> lis
         by_engine.setdefault(r.engine_id, []).append(r)
     summaries = []
     for engine_id, found in sorted(by_engine.items()):
-        latest = max(found, key=lambda r: (_recording_time(r.recorded_at, r.uploaded_at), r.id))
+        latest = max(found, key=lambda r: (recording_time(r.recorded_at, r.uploaded_at), r.id))
         summaries.append(
             EngineSummary(
                 engine_id,
@@ -403,7 +395,7 @@ def fleet_summary(c: Connection, fleet_id: int, *, analysis_version: str) -> lis
                 sum(1 for r in found if r.status == "alarm"),
                 sum(1 for r in found if r.status == "warning"),
                 int(latest.id),
-                _recording_time(latest.recorded_at, latest.uploaded_at),
+                recording_time(latest.recorded_at, latest.uploaded_at),
                 str(latest.status),
                 str(latest.filename),
             )

@@ -1,12 +1,10 @@
-"""The store's webhooks and their outbox: receivers registered, events queued with their diagnosis,
-deliveries claimed, attempted and logged.
+"""The store's webhooks and their outbox: receivers registered, deliveries claimed, attempted and
+logged.
 
-A delivery is one event for one webhook. :func:`enqueue_events` writes the
-deliveries of a diagnosis' new findings (:mod:`monitor.report.events`) in the
-transaction that stores the diagnosis (:meth:`monitor.store.Store.complete`),
-so an event exists exactly when its diagnosis does, and the unique key
-(webhook, event id) keeps one delivery of an event per webhook however often
-it is queued.
+A delivery is one event for one webhook. The deliveries of a diagnosis' new
+findings are queued with the diagnosis (:func:`monitor.store.alerts.enqueue_events`),
+and the unique key (webhook, event id) keeps one delivery of an event per
+webhook however often it is queued.
 
 A sender takes a due delivery with :func:`claim` (a compare-and-set on its
 attempts, which it counts, and which moves its next attempt past the claim's
@@ -18,18 +16,15 @@ for good. Each change is one transaction.
 
 from __future__ import annotations
 
-import json
-import logging
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
 
-from monitor.report.events import diagnosis_event, event_body, new_drifts, new_findings, trend_event
-from monitor.store.schema import fleets, recordings, results, webhook_deliveries, webhooks
-from monitor.store.trends import DIAGNOSIS_KIND, _recording_time, read_trend
+from monitor.store.schema import webhook_deliveries, webhooks
+from monitor.store.sql import now, utc
 
 __all__ = [
     "DeliveryRow",
@@ -40,24 +35,14 @@ __all__ = [
     "deactivate_webhook",
     "deliveries",
     "due_deliveries",
-    "enqueue_events",
     "record_attempt",
     "webhook",
     "webhooks_of",
 ]
 
-log = logging.getLogger("engine_monitor.alerts")
 
-
-def _now() -> datetime:
-    return datetime.now(UTC)
-
-
-def _utc(moment: datetime | None) -> datetime | None:
-    """SQLite keeps no time zone: every stored time is UTC."""
-    if moment is None:
-        return None
-    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+def _utc_or_none(moment: datetime | None) -> datetime | None:
+    return None if moment is None else utc(moment)
 
 
 @dataclass(frozen=True)
@@ -107,7 +92,7 @@ class DueDelivery:
 
 def _webhook(row: Any) -> WebhookRow:
     return WebhookRow(
-        int(row.id), int(row.fleet_id), row.url, row.secret, _utc(row.created_at) or _now(), bool(row.active)
+        int(row.id), int(row.fleet_id), row.url, row.secret, utc(row.created_at), bool(row.active)
     )
 
 
@@ -120,12 +105,12 @@ def _delivery(row: Any) -> DeliveryRow:
         row.body,
         row.state,
         int(row.attempts),
-        _utc(row.next_attempt_at) or _now(),
-        _utc(row.last_attempt_at),
+        utc(row.next_attempt_at),
+        _utc_or_none(row.last_attempt_at),
         None if row.last_status is None else int(row.last_status),
         row.last_error,
-        _utc(row.created_at) or _now(),
-        _utc(row.delivered_at),
+        utc(row.created_at),
+        _utc_or_none(row.delivered_at),
     )
 
 
@@ -143,13 +128,13 @@ def add_webhook(c: Connection, fleet_id: int, url: str, secret: str) -> WebhookR
     secret : str
         The key its events are signed with.
     """
-    now = _now()
+    moment = now()
     created = c.execute(
         sa.insert(webhooks)
-        .values(fleet_id=fleet_id, url=url, secret=secret, created_at=now, active=True)
+        .values(fleet_id=fleet_id, url=url, secret=secret, created_at=moment, active=True)
         .returning(webhooks.c.id)
     ).scalar_one()
-    return WebhookRow(int(created), fleet_id, url, secret, now, True)
+    return WebhookRow(int(created), fleet_id, url, secret, moment, True)
 
 
 def webhooks_of(c: Connection, fleet_id: int) -> list[WebhookRow]:
@@ -233,152 +218,6 @@ def deliveries(
     return [_delivery(r) for r in rows]
 
 
-# ---------------------------------------------------------------------------------------- events
-def _insert_ignoring_existing(c: Connection, rows: list[dict[str, Any]]) -> None:
-    if not rows:
-        return
-    if c.dialect.name == "postgresql":
-        from sqlalchemy.dialects.postgresql import insert
-    else:
-        from sqlalchemy.dialects.sqlite import insert  # type: ignore[assignment]
-    keys = ["webhook_id", "event_id"]
-    c.execute(insert(webhook_deliveries).on_conflict_do_nothing(index_elements=keys), rows)
-
-
-def _previous_findings(
-    c: Connection, fleet_id: int, engine_id: str, recording_id: int, analysis_version: str, when: datetime
-) -> list[dict[str, Any]] | None:
-    """The findings of the engine's diagnosis just before the recording (by time, then id), or None."""
-    rows = c.execute(
-        sa.select(results.c.recording_id, recordings.c.recorded_at, recordings.c.uploaded_at)
-        .join(recordings, recordings.c.id == results.c.recording_id)
-        .where(
-            (recordings.c.fleet_id == fleet_id)
-            & (recordings.c.engine_id == engine_id)
-            & (results.c.analysis_version == analysis_version)
-            & (results.c.kind == DIAGNOSIS_KIND)
-            & (results.c.recording_id != recording_id)
-        )
-    ).all()
-    earlier = [
-        (_recording_time(r.recorded_at, r.uploaded_at), int(r.recording_id))
-        for r in rows
-        if (_recording_time(r.recorded_at, r.uploaded_at), int(r.recording_id)) < (when, recording_id)
-    ]
-    if not earlier:
-        return None
-    _, previous = max(earlier)
-    stored = c.execute(
-        sa.select(results.c.document).where(
-            (results.c.recording_id == previous)
-            & (results.c.analysis_version == analysis_version)
-            & (results.c.kind == DIAGNOSIS_KIND)
-        )
-    ).scalar_one()
-    document = json.loads(stored) if isinstance(stored, str) else stored
-    found = document.get("findings") if isinstance(document, dict) else None
-    return list(found) if isinstance(found, list) else []
-
-
-def _events(
-    c: Connection, recording_id: int, analysis_version: str, document: dict[str, Any], fleet_id: int
-) -> list[dict[str, Any]]:
-    """The events of a diagnosis' new findings (module :mod:`monitor.report.events`)."""
-    row = c.execute(
-        sa.select(
-            recordings.c.engine_id,
-            recordings.c.filename,
-            recordings.c.recorded_at,
-            recordings.c.uploaded_at,
-            fleets.c.name,
-        )
-        .join(fleets, fleets.c.id == recordings.c.fleet_id)
-        .where(recordings.c.id == recording_id)
-    ).one()
-    when = _recording_time(row.recorded_at, row.uploaded_at)
-    previous = _previous_findings(c, fleet_id, row.engine_id, recording_id, analysis_version, when)
-    findings = document.get("findings")
-    fresh = new_findings(findings if isinstance(findings, list) else [], previous)
-    series: dict[str, list[tuple[int, datetime, float]]] = {}
-    units: dict[str, str] = {}
-    for point in read_trend(c, fleet_id, row.engine_id, analysis_version=analysis_version):
-        if (point.recorded_at, point.recording_id) <= (when, recording_id):
-            series.setdefault(point.quantity, []).append((point.recording_id, point.recorded_at, point.value))
-            units[point.quantity] = point.unit
-    drifts = new_drifts(series, recording_id, units=units)
-    recording = {
-        "id": recording_id,
-        "filename": row.filename,
-        "recorded_at": row.recorded_at,
-        "fleet": row.name,
-        "engine_id": row.engine_id,
-    }
-    status, now = str(document.get("status", "")), _now()
-    return [
-        diagnosis_event(
-            f, recording=recording, analysis_version=analysis_version, diagnosis_status=status, created_at=now
-        )
-        for f in fresh
-    ] + [
-        trend_event(
-            d, recording=recording, analysis_version=analysis_version, diagnosis_status=status, created_at=now
-        )
-        for d in drifts
-    ]
-
-
-def enqueue_events(c: Connection, recording_id: int, analysis_version: str, document: dict[str, Any]) -> int:
-    """Queue the events of a stored diagnosis' new findings for every active webhook of its fleet.
-
-    Called in the transaction that stores the diagnosis and its trend points. A failure to work out
-    the events (a document of an unexpected shape) is logged and queues none: an alert never keeps a
-    diagnosis from being stored.
-
-    Parameters
-    ----------
-    c : Connection
-        In the transaction that stores the diagnosis (after its trend points).
-    recording_id : int
-    analysis_version : str
-    document : dict
-        The diagnosis document.
-
-    Returns
-    -------
-    int
-        Deliveries given to the store (one per webhook and event; those already queued are kept).
-    """
-    fleet = c.execute(sa.select(recordings.c.fleet_id).where(recordings.c.id == recording_id)).first()
-    if fleet is None:
-        return 0
-    hooks = webhooks_of(c, int(fleet.fleet_id))
-    if not hooks:
-        return 0
-    try:
-        events = _events(c, recording_id, analysis_version, document, int(fleet.fleet_id))
-    except Exception:
-        log.exception("recording %d: its alerts could not be worked out; none queued", recording_id)
-        return 0
-    now = _now()
-    rows = [
-        {
-            "webhook_id": hook.id,
-            "event_id": event["id"],
-            "event_type": event["type"],
-            "body": event_body(event),
-            "state": "pending",
-            "attempts": 0,
-            "next_attempt_at": now,
-            "last_error": "",
-            "created_at": now,
-        }
-        for hook in hooks
-        for event in events
-    ]
-    _insert_ignoring_existing(c, rows)
-    return len(rows)
-
-
 # ------------------------------------------------------------------------------------ deliveries
 def due_deliveries(
     c: Connection, *, fleet_id: int | None = None, without: set[int] | None = None, limit: int = 100
@@ -396,7 +235,7 @@ def due_deliveries(
     """
     where = (
         (webhook_deliveries.c.state == "pending")
-        & (webhook_deliveries.c.next_attempt_at <= _now())
+        & (webhook_deliveries.c.next_attempt_at <= now())
         & webhooks.c.active
     )
     if fleet_id is not None:
@@ -427,14 +266,14 @@ def claim(c: Connection, delivery_id: int, lease: timedelta) -> DueDelivery | No
         How long the sender may take before another may take the delivery again (more than a post's
         timeout).
     """
-    now = _now()
+    moment = now()
     row = c.execute(
         sa.select(webhook_deliveries, webhooks.c.url, webhooks.c.secret)
         .join(webhooks, webhooks.c.id == webhook_deliveries.c.webhook_id)
         .where(
             (webhook_deliveries.c.id == delivery_id)
             & (webhook_deliveries.c.state == "pending")
-            & (webhook_deliveries.c.next_attempt_at <= now)
+            & (webhook_deliveries.c.next_attempt_at <= moment)
             & webhooks.c.active
         )
     ).first()
@@ -447,7 +286,7 @@ def claim(c: Connection, delivery_id: int, lease: timedelta) -> DueDelivery | No
             & (webhook_deliveries.c.state == "pending")
             & (webhook_deliveries.c.attempts == row.attempts)
         )
-        .values(attempts=row.attempts + 1, next_attempt_at=now + lease, last_attempt_at=now)
+        .values(attempts=row.attempts + 1, next_attempt_at=moment + lease, last_attempt_at=moment)
     ).rowcount
     if taken != 1:
         return None
@@ -487,13 +326,13 @@ def record_attempt(
     str
         "delivered", "pending", "failed"; or the state another sender left it in.
     """
-    now = _now()
+    moment = now()
     if delivered:
-        values: dict[str, Any] = {"state": "delivered", "delivered_at": now, "next_attempt_at": now}
+        values: dict[str, Any] = {"state": "delivered", "delivered_at": moment, "next_attempt_at": moment}
     elif retry_at is not None:
         values = {"state": "pending", "next_attempt_at": retry_at}
     else:
-        values = {"state": "failed", "next_attempt_at": now}
+        values = {"state": "failed", "next_attempt_at": moment}
     mine = (
         (webhook_deliveries.c.id == held.id)
         & (webhook_deliveries.c.state == "pending")

@@ -2,19 +2,34 @@
 
 from __future__ import annotations
 
+import hashlib
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from dataclasses import fields
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
+from alembic import command
+from alembic.autogenerate import compare_metadata
+from alembic.config import Config
+from alembic.migration import MigrationContext
+from alembic.script import ScriptDirectory
 
+import monitor.store
+from monitor.cli import main
 from monitor.diagnosis import ANALYSIS_VERSION
-from monitor.errors import StoreError
-from monitor.store import MAX_ATTEMPTS, Store, key_digest, open_store
-from monitor.store.schema import metadata
+from monitor.errors import MonitorError, StoreError
+from monitor.jobs.plots import plot_names
+from monitor.store import MAX_ATTEMPTS, RecordingRow, Store, document_text, key_digest, open_store
+from monitor.store.jobs import process_identity
+from monitor.store.opening import PASSWORD_FILE_ENV, _with_password_file
+from monitor.store.queries import JOB_COLUMNS, STORED, VIEWS, listing
+from monitor.store.schema import jobs, metadata, recordings
 
 
 @pytest.fixture
@@ -40,20 +55,12 @@ def _recording(store: Store, fleet: int, content: str = "a" * 64) -> int:
 
 def test_the_migrated_schema_is_the_declared_one(store: Store) -> None:
     """The migrations produce exactly the tables the code declares (Alembic's comparison finds nothing)."""
-    from alembic.autogenerate import compare_metadata
-    from alembic.migration import MigrationContext
-
     with store.db.connect() as c:
         assert compare_metadata(MigrationContext.configure(c), metadata) == []
 
 
 def test_opening_twice_migrates_once(store: Store) -> None:
     """A second opening finds the store at the newest revision (the migrations' head) and leaves it."""
-    from alembic.config import Config
-    from alembic.script import ScriptDirectory
-
-    import monitor.store
-
     config = Config()
     config.set_main_option("script_location", str(Path(monitor.store.__file__).parent / "migrations"))
     head = ScriptDirectory.from_config(config).get_current_head()
@@ -209,12 +216,6 @@ def test_the_jobs_of_a_process_of_this_host_that_is_gone_are_taken_back_at_once(
     """A taker names its process (host, id, start time): a restarted worker or batch takes back the jobs
     of a process that no longer runs without waiting for the lease; a live taker's are left alone,
     as are another host's until their lease runs out."""
-    import subprocess
-    import sys
-
-    from monitor.store import process_identity
-    from monitor.store.schema import jobs
-
     fleet = store.create_fleet("a")
     ids = [_recording(store, fleet, letter * 64) for letter in "abc"]
     for recording in ids:
@@ -278,8 +279,6 @@ def test_a_job_whose_worker_keeps_dying_is_set_aside(store: Store) -> None:
 def test_concurrent_writers_store_one_row(store_url: str) -> None:
     """Eight processes add the same recording and create the same engine at once: one row each, no
     error (the unique keys decide, atomically)."""
-    from concurrent.futures import ProcessPoolExecutor
-
     opened = open_store(store_url)
     fleet = opened.create_fleet("a")
     opened.close()
@@ -354,8 +353,6 @@ def test_the_password_comes_from_a_secrets_file_when_the_url_has_none(
 ) -> None:
     """A container's secret: $ENGINE_MONITOR_DB_PASSWORD_FILE names a file with the password, so that
     it never appears in the URL, the environment or a command line."""
-    from monitor.store import PASSWORD_FILE_ENV, _with_password_file
-
     secret = tmp_path / "db_password"
     secret.write_text("s3cr:et@\n")
     url = "postgresql+psycopg://monitor@postgres:5432/monitor"
@@ -414,10 +411,6 @@ def test_a_result_is_read_as_the_text_stored_with_its_digest(store: Store) -> No
     """The text a read hands out is the column's own text, byte for byte (read back with plain SQL),
     tagged by the SHA-256 written with it; the job comes in the same query; another fleet's recording
     is not found."""
-    import hashlib
-
-    from monitor.store import document_text
-
     a, b = store.create_fleet("a"), store.create_fleet("b")
     recording = _recording(store, a)
     job = store.enqueue(recording, "1")
@@ -448,11 +441,6 @@ def test_a_result_is_read_as_the_text_stored_with_its_digest(store: Store) -> No
 def test_the_migration_tags_results_stored_before_it_and_changes_none(store_url: str) -> None:
     """A store at revision 0003 with a result in it: opening it migrates to 0004, which writes the
     digest of the result's stored text and leaves the text as it was."""
-    import hashlib
-
-    from alembic import command
-    from alembic.config import Config
-
     engine = sa.create_engine(store_url)
     config = Config()
     config.set_main_option("script_location", str(Path(__file__).parents[2] / "monitor/store/migrations"))
@@ -534,11 +522,6 @@ def test_the_migration_keeps_each_recording_s_name_and_records_the_plots_named_b
     diagnosed: opening it migrates to 0008, which keeps each recording's name and records each
     diagnosis' plot under the name the batch and the worker gave it until then (the rule of
     monitor.jobs.plots.plot_names, an independent copy of which the migration froze), none for a spectrum."""
-    from alembic import command
-    from alembic.config import Config
-
-    from monitor.jobs.plots import plot_names
-
     engine = sa.create_engine(store_url)
     config = Config()
     config.set_main_option("script_location", str(Path(__file__).parents[2] / "monitor/store/migrations"))
@@ -586,8 +569,6 @@ def test_the_migration_keeps_each_recording_s_name_and_records_the_plots_named_b
 def test_keyset_pages_list_every_recording_once_in_order_even_at_equal_times(store: Store) -> None:
     """Pages after the last row of the previous one give the same rows as the whole listing, in the
     same order, each once; recordings uploaded at the same instant are ordered by id."""
-    from monitor.store.schema import recordings
-
     fleet = store.create_fleet("a")
     other = store.create_fleet("b")
     ids = [_recording(store, fleet, f"{i:064d}") for i in range(12)]
@@ -612,12 +593,6 @@ def test_rows_are_read_by_position_in_the_order_the_store_declares() -> None:
     """The store reads a recording's row by position (a listing page is read that way, several
     times faster than by name): the table's columns are RecordingRow's fields, in order, and the
     joined reads put the job's columns right after them."""
-    from dataclasses import fields
-
-    from monitor.store import RecordingRow
-    from monitor.store.queries import JOB_COLUMNS, STORED, VIEWS, listing
-    from monitor.store.schema import recordings
-
     assert [c.name for c in recordings.c] == [f.name for f in fields(RecordingRow)]
     jobs_at = len(recordings.c)
     for query in (VIEWS, STORED, listing(True, True, True, True, True)):
@@ -720,9 +695,6 @@ def test_a_fleet_name_or_key_label_that_is_not_a_printable_name_is_refused_and_n
     """The same refusal on both stores (PostgreSQL's column limit no longer decides, with a DataError
     'of engine-monitor'), from the store and from ``keys create`` (exit 2, one line, no traceback),
     before anything is written: no fleet made for a key whose label is refused."""
-    from monitor.cli import main
-    from monitor.errors import MonitorError
-
     store = open_store(store_url)
     try:
         for option in (
@@ -761,9 +733,6 @@ def test_a_revoked_key_s_id_is_never_given_to_a_later_key(store: Store) -> None:
 def test_migration_0007_keeps_every_key_and_its_id(store_url: str) -> None:
     """A store at 0006 with three keys: opened, it is at 0007 with the same keys, ids and digests, and
     the next key after revoking the newest does not take its id."""
-    from alembic import command
-    from alembic.config import Config
-
     engine = sa.create_engine(store_url)
     config = Config()
     config.set_main_option("script_location", str(Path(__file__).parents[2] / "monitor/store/migrations"))
