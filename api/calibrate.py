@@ -3,7 +3,7 @@
 ``python -m api.calibrate PARENT MEMORY_BYTES LOAD PATH`` reads the engine's
 description (the fleet's own, or null for the bundled one) and the
 recording's name as JSON on its standard input, limits its own address space,
-lowers its own CPU priority (:data:`api.validate.NICE`, as the analyses), dies
+lowers its own CPU priority (:data:`monitor.runtime.processes.NICE`, as the analyses), dies
 with its parent, and runs :func:`monitor.diagnosis.calibrate` as
 ``engine-monitor calibrate`` does. It prints the baseline document
 (``calibrate``'s JSON) and exits 0, or prints the product's refusal (an
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from api.validate import NICE
+from monitor.runtime.processes import NICE
 
 __all__ = ["Calibration", "calibrate_stored"]
 

@@ -35,13 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
+from monitor.runtime.processes import NICE
+
 __all__ = ["MAX_EXPANSION", "Validation", "format_refusal", "validate"]
 
 #: Declared samples [bytes] per byte of file beyond which a file is refused unread.
 MAX_EXPANSION = 100.0
-#: The niceness of the service's background processes, validators and analyses (0 is the server's,
-#: 19 the lowest priority): where they and the server want the same core, reads are answered first.
-NICE = 10
 
 
 @dataclass(frozen=True)

@@ -51,12 +51,11 @@ from functools import partial
 from pathlib import Path
 from typing import Any, TypeVar
 
-from api.validate import NICE
 from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError, OutputFolderError, StoreError
 from monitor.jobs.analyse import diagnose_file
 from monitor.jobs.plots import recording_plot
-from monitor.runtime.processes import analysis_pool
+from monitor.runtime.processes import NICE, analysis_pool
 from monitor.store import RETRY_BACKOFF, Job, Store
 from monitor.store.outage import store_fault
 

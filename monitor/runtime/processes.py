@@ -36,7 +36,11 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-__all__ = ["WATCH_S", "analysis_pool", "die_with_parent", "session_processes"]
+__all__ = ["NICE", "WATCH_S", "analysis_pool", "die_with_parent", "session_processes"]
+
+#: The niceness of the service's background processes, validators and analyses (0 is the server's,
+#: 19 the lowest priority): where they and the server want the same core, reads are answered first.
+NICE = 10
 
 #: Seconds between an analysis process's looks at its parent (where the kernel does not tell it).
 WATCH_S = 1.0
