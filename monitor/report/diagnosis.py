@@ -14,33 +14,9 @@ from typing import Any
 import numpy as np
 
 from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
+from monitor.report.jsonsafe import json_ready
 
-__all__ = ["diagnosis_document", "diagnosis_table", "json_ready"]
-
-
-def json_ready(value: Any) -> Any:
-    """A value as JSON holds it: numpy arrays to lists, numpy scalars to Python, non-finite floats to None.
-
-    Parameters
-    ----------
-    value : Any
-        Dicts, lists and tuples are converted item by item.
-
-    Returns
-    -------
-    Any
-    """
-    if isinstance(value, dict):
-        return {str(k): json_ready(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [json_ready(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return json_ready(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+__all__ = ["diagnosis_document", "diagnosis_table"]
 
 
 def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:

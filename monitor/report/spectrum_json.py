@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from monitor.errors import ModelError
-from monitor.report.diagnosis import json_ready
+from monitor.report.jsonsafe import json_ready
 from monitor.signal.angle_domain import OrderSpectrum
 from monitor.signal.measure import SpectrumResult
 

@@ -21,6 +21,8 @@ import re
 from pathlib import Path
 from typing import Any
 
+from monitor.report.jsonsafe import json_ready
+
 __all__ = ["STATIC", "STATUS_WORDS", "engine_page", "fleet_page", "recording_page", "trend_groups"]
 
 STATIC = Path(__file__).parent / "static"
@@ -40,20 +42,9 @@ STATUS_WORDS = {  # a diagnosis' status, else (no diagnosis) its analysis' state
 }
 
 
-def _plain(value: Any) -> Any:
-    """JSON-safe: non-finite numbers become null (JSON has no NaN)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    return value
-
-
 def _data_script(data: dict[str, Any]) -> str:
     """The page's data as a JSON script element (``</`` escaped, so no text in it can close the element)."""
-    text = json.dumps(_plain(data), allow_nan=False).replace("</", "<\\/")
+    text = json.dumps(json_ready(data), allow_nan=False).replace("</", "<\\/")
     return f'<script type="application/json" id="page-data">{text}</script>'
 
 
