@@ -36,10 +36,11 @@ browser:
 			>/dev/null || echo "chromium could not be installed: the browser tests will skip"; \
 	else echo "no chromium and no root apt-get: the browser tests will skip"; fi
 
-## test: lint, type check and the whole test suite
+## test: lint, type check, the layering of the imports (pyproject.toml) and the whole test suite
 test: $(STAMP) browser
 	$(BIN)/ruff check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports --no-cache
 	$(BIN)/pytest -n 2
 
 ## bench: accuracy-against-time benchmarks; rewrites the tables in docs/
