@@ -32,7 +32,8 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the same names as _ENTRY_POINTS, for the type checkers
-    from monitor.diagnosis.diagnose import calibrate, diagnose
+    from monitor.diagnosis import calibrate
+    from monitor.diagnosis.diagnose import diagnose
     from monitor.io import open_recording, read_recording
     from monitor.model.crankshaft import EngineModel
     from monitor.model.engine import load_engine
@@ -45,7 +46,7 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
-# each entry point, and the module that holds it
+# each entry point, and the module or package it is imported from
 _ENTRY_POINTS = {
     "open_recording": "monitor.io",
     "read_recording": "monitor.io",
@@ -53,7 +54,7 @@ _ENTRY_POINTS = {
     "EngineModel": "monitor.model.crankshaft",
     "predict_orders": "monitor.model.predicted",
     "spectra": "monitor.signal.measure",
-    "calibrate": "monitor.diagnosis.diagnose",
+    "calibrate": "monitor.diagnosis",
     "diagnose": "monitor.diagnosis.diagnose",
     "load_scene": "monitor.scene",
     "simulate": "monitor.scene",
