@@ -26,20 +26,21 @@ demo: $(STAMP)
 		status=$$?; test $$status -le 2
 
 ## browser: Debian's chromium and its driver for the web pages' tests, installed when missing and the
-## machine allows it (root, apt-get); elsewhere those tests skip and say why
+## machine allows it (root, apt-get); elsewhere those tests skip and say why (under CI, .ci/run, they fail)
 browser:
 	@if command -v chromedriver >/dev/null 2>&1 && { command -v chromium >/dev/null 2>&1 || \
 		command -v chromium-browser >/dev/null 2>&1; }; then :; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 		echo "installing chromium and chromium-driver (Debian) for the web pages' tests ..."; \
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver \
-			>/dev/null || echo "chromium could not be installed: the browser tests will skip"; \
-	else echo "no chromium and no root apt-get: the browser tests will skip"; fi
+			>/dev/null || echo "chromium could not be installed: the browser tests will skip (fail under CI)"; \
+	else echo "no chromium and no root apt-get: the browser tests will skip (fail under CI)"; fi
 
-## test: lint, type check and the whole test suite
+## test: lint, type check, the layering of the imports (pyproject.toml) and the whole test suite
 test: $(STAMP) browser
 	$(BIN)/ruff check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports --no-cache
 	$(BIN)/pytest -n 2
 
 ## bench: accuracy-against-time benchmarks; rewrites the tables in docs/

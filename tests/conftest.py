@@ -8,7 +8,7 @@ import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import pytest
@@ -36,6 +36,14 @@ def rng(request: pytest.FixtureRequest) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
+def unavailable(reason: str) -> NoReturn:
+    """Skip a test whose service or program is missing here, saying why; under CI (``.ci/run`` sets CI),
+    where ``make test`` provides them all, fail instead: a test that cannot run there is a broken test."""
+    if os.environ.get("CI"):
+        pytest.fail(f"{reason} (CI is set: make test provides it)", pytrace=False)
+    pytest.skip(reason)
+
+
 def shared_path(*parts: str) -> Path:
     """Path under ../shared, or skip the test when the folder is absent (a user's clone)."""
     path = SHARED.joinpath(*parts)
@@ -46,7 +54,8 @@ def shared_path(*parts: str) -> Path:
 
 # ------------------------------------------------------------------------------------------ stores
 # The PostgreSQL server on loopback (ENGINE_MONITOR_TEST_POSTGRES overrides the URL); each use gets a
-# database of its own, dropped afterwards; where no server answers, the PostgreSQL cases skip and say so.
+# database of its own, dropped afterwards; where no server answers, the PostgreSQL cases skip and say so
+# (and fail under CI).
 ADMIN_URL = os.environ.get(
     "ENGINE_MONITOR_TEST_POSTGRES", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
 )
@@ -54,7 +63,7 @@ ADMIN_URL = os.environ.get(
 
 @contextmanager
 def postgres_database() -> Iterator[str]:
-    """The URL of a new, empty PostgreSQL database; skips the test if no server answers."""
+    """The URL of a new, empty PostgreSQL database; skips the test if no server answers (fails under CI)."""
     import sqlalchemy as sa
 
     admin = sa.create_engine(ADMIN_URL, isolation_level="AUTOCOMMIT")
@@ -64,7 +73,7 @@ def postgres_database() -> Iterator[str]:
             c.execute(sa.text(f'CREATE DATABASE "{name}"'))
     except sa.exc.OperationalError as error:
         admin.dispose()
-        pytest.skip(
+        unavailable(
             f"no PostgreSQL server answers at {admin.url.render_as_string(hide_password=True)}: {error.orig}"
         )
     try:
@@ -88,13 +97,13 @@ def store_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
 @pytest.fixture(scope="session")
 def browser() -> Iterator[Any]:
     """A headless Chromium driven by selenium (Debian's chromium and chromium-driver, ``make browser``);
-    the tests that use it skip, saying why, where none can be started."""
+    the tests that use it skip, saying why, where none can be started (fail under CI)."""
     import shutil
 
     driver_path = shutil.which("chromedriver")
     binary = shutil.which("chromium") or shutil.which("chromium-browser")
     if driver_path is None or binary is None:
-        pytest.skip("no chromium and chromedriver here ('make browser' installs them where root apt-get can)")
+        unavailable("no chromium and chromedriver here ('make browser' installs them where root apt-get can)")
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
@@ -105,8 +114,8 @@ def browser() -> Iterator[Any]:
     options.add_argument("--window-size=1280,1400")
     try:
         driver = webdriver.Chrome(service=Service(driver_path), options=options)
-    except Exception as error:  # a browser that is there but cannot start: say so, do not fail the suite
-        pytest.skip(f"chromium could not be started: {error}")
+    except Exception as error:  # a browser that is there but cannot start: say so
+        unavailable(f"chromium could not be started: {error}")
     try:
         yield driver
     finally:

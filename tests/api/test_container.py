@@ -14,8 +14,6 @@ import json
 import re
 from pathlib import Path
 
-import pytest
-
 from monitor.cli.main import _build_parser
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,7 +46,8 @@ def test_the_image_is_pinned_and_installs_wheels_dependencies_first() -> None:
 
 
 def test_the_compose_file_has_every_service_and_their_commands_parse() -> None:
-    yaml = pytest.importorskip("yaml", reason="PyYAML comes with the test dependencies")
+    import yaml
+
     compose = yaml.safe_load((DOCKER / "compose.yaml").read_text())
     services = compose["services"]
     assert {"api", "worker", "postgres", "dask-scheduler", "dask-worker", "batch"} <= set(services)
@@ -75,7 +74,8 @@ def test_the_proxy_in_front_of_the_api_limits_clients_and_the_api_trusts_it_alon
     from secret files, a request head's and a keep-alive connection's timeouts, connections and
     requests per client address; the API behind it leaves the per-client cap to it and publishes its
     own port on the host's loopback alone."""
-    yaml = pytest.importorskip("yaml", reason="PyYAML comes with the test dependencies")
+    import yaml
+
     compose = yaml.safe_load((DOCKER / "compose.yaml").read_text())
     services = compose["services"]
     proxy, api = services["proxy"], services["api"]

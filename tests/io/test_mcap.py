@@ -243,8 +243,8 @@ def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.
 def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: Path) -> None:
     """recording_pb2 is generated from the shipped .proto (make proto): compiled again here by protoc,
     the .proto gives the very descriptor the product encodes with and embeds as each file's schema."""
-    protoc = pytest.importorskip("grpc_tools.protoc", reason="grpcio-tools comes with the test dependencies")
     from google.protobuf import descriptor_pb2
+    from grpc_tools import protoc
 
     from monitor.io.mcap_io import schema_descriptor_set
     from monitor.io.proto.engine_monitor import recording_pb2

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import opentorsion as ot
 import pytest
 
 from monitor.errors import ModelError
@@ -18,8 +19,6 @@ from monitor.torsion.shaft_line import (
     engine_forced_response,
     shaft_line_of,
 )
-
-ot = pytest.importorskip("opentorsion", reason="openTorsion (test-only peer) is not installed")
 
 
 def _chain(inertias: list[float], stiffnesses: list[float]) -> ShaftLineModel:
