@@ -24,7 +24,7 @@ from . import test_api
 
 server = test_api.server  # the same fixture: a server with fleets a and b, one analysis process
 
-ENGINES = Path(__file__).resolve().parents[2] / "monitor" / "engines"
+ENGINES = Path(__file__).resolve().parents[2] / "monitor" / "model" / "engines"
 #: Damaged copies uploaded per format: bit flips anywhere, then cuts.
 FLIPS, CUTS = 12, 4
 
