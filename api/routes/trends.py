@@ -73,7 +73,8 @@ async def get_trend(
     ] = None,
 ) -> dict[str, Any]:
     """The engine's quantities over time and the drift found in them (``engine-monitor trend --json``)."""
-    rows = await blocking(engine_trend, store, fleet_id, engine_id, quantity or None, parameters.since(since))
+    start = parameters.since(since)
+    rows = await blocking(engine_trend, store, fleet_id, engine_id, quantity or None, start)
     if not rows:
         raise ApiError(404, "not_found", f"no diagnosed recording of engine {engine_id!r} in this fleet")
     document, _, _ = trend_document(
@@ -81,6 +82,6 @@ async def get_trend(
         engine_id=engine_id,
         fleet=str(fleet_id),
         analysis_version=ANALYSIS_VERSION,
-        since=parameters.since(since),
+        since=start,
     )
     return document
