@@ -26,7 +26,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import hashlib
 import hmac
 import os
@@ -37,12 +36,11 @@ from pathlib import Path
 from typing import Annotated
 from urllib.parse import urlsplit
 
-from anyio import to_thread
 from fastapi import Depends, Request, Security
 from fastapi.security import APIKeyCookie, APIKeyHeader
 
-from api.errors import ApiError
-from api.reads import KeyCache
+from api.errors import ApiError, LoginRequired
+from api.reads import KeyCache, read
 from monitor.errors import MonitorError
 from monitor.store import Store, key_digest
 
@@ -52,7 +50,6 @@ __all__ = [
     "SESSION_COOKIE",
     "SESSION_S",
     "Fleet",
-    "LoginRequired",
     "PageFleet",
     "Sessions",
     "api_key_header",
@@ -84,14 +81,6 @@ session_cookie = APIKeyCookie(
     f"also sends {CSRF_HEADER}, the value of the {CSRF_COOKIE} cookie",
     auto_error=False,
 )
-
-
-class LoginRequired(Exception):
-    """A page was asked for without a session: the browser is sent to the login, then back."""
-
-    def __init__(self, path: str) -> None:
-        super().__init__(path)
-        self.path = path
 
 
 def session_secret(data_dir: Path) -> bytes:
@@ -163,18 +152,14 @@ class Sessions:
 
 
 async def _fleet_of_digest(request: Request, digest: str) -> int | None:
-    """The fleet of a key by its digest: remembered for the key cache's time, else one indexed query (on
-    the event loop for SQLite, in a read thread for PostgreSQL, as every read; see api.app)."""
+    """The fleet of a key by its digest: remembered for the key cache's time, else one indexed query
+    (:func:`api.reads.read`, as every read)."""
     keys: KeyCache = request.app.state.keys
     found = keys.fleet(digest)
     if found is not None:
         return found
     store: Store = request.app.state.store
-    if store.dialect == "sqlite":
-        await asyncio.sleep(0)
-        found = store.fleet_of_digest(digest)
-    else:
-        found = await to_thread.run_sync(store.fleet_of_digest, digest, limiter=request.app.state.readers)
+    found = await read(request, store.fleet_of_digest, digest)
     if found is not None:
         keys.remember(digest, found)
     return found

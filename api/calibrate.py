@@ -10,8 +10,8 @@ with its parent, and runs :func:`monitor.diagnosis.calibrate` as
 unhealthy recording, no bearing channel, a faulty sensor) and exits 3.
 
 The service awaits it without holding a thread, within a time limit
-(:attr:`api.app.Settings.calibration_timeout_s`), one calibration per fleet
-and :attr:`api.app.Settings.calibrations` in all at once: the answer is the
+(:attr:`api.settings.Settings.calibration_timeout_s`), one calibration per fleet
+and :attr:`api.settings.Settings.calibrations` in all at once: the answer is the
 baseline itself, or the reason there is none, in the same request, and
 nothing is stored until the calibration has succeeded.
 """

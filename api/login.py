@@ -16,10 +16,9 @@
 from __future__ import annotations
 
 import html
-import re
 import secrets
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 from urllib.parse import parse_qs
 
 from fastapi import APIRouter, Query, Request
@@ -31,7 +30,7 @@ from api.auth import CSRF_COOKIE, CSRF_HEADER, SESSION_COOKIE, Fleet, PageFleet,
 from api.errors import ApiError
 from monitor.store import Store, key_digest
 
-__all__ = ["ASSETS", "markdown", "markdown_descriptions", "router", "safe_next"]
+__all__ = ["ASSETS", "router", "safe_next"]
 
 router = APIRouter(include_in_schema=False)
 
@@ -44,40 +43,6 @@ ASSETS = {
 #: The longest login form body read [bytes] (a key is 43 characters).
 FORM_BYTES = 4096
 _NO_STORE = {"Cache-Control": "no-store"}
-
-
-#: a reStructuredText role (``:mod:`api.auth```, ``:attr:`~Settings.x```): its target is shown as code
-_ROLE = re.compile(r":[a-z]+(?::[a-z]+)?:`~?([^`]+)`")
-
-
-def markdown(text: str) -> str:
-    """A docstring's reStructuredText as the Markdown the docs page renders: roles and literals
-    (``:mod:`x```, double backquotes) become code spans; the rest (paragraphs, ``-`` lists) is read
-    alike by both. Markdown given to it comes back unchanged.
-
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    str
-    """
-    return _ROLE.sub(r"`\1`", text).replace("``", "`")
-
-
-def markdown_descriptions(document: Any) -> Any:
-    """An OpenAPI document with every ``description`` made :func:`markdown` (in place; returned)."""
-    if isinstance(document, dict):
-        for key, value in document.items():
-            if key == "description" and isinstance(value, str):
-                document[key] = markdown(value)
-            else:
-                markdown_descriptions(value)
-    elif isinstance(document, list):
-        for value in document:
-            markdown_descriptions(value)
-    return document
 
 
 def _swagger_folder() -> Path:

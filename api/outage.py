@@ -1,6 +1,6 @@
 """The service when its surroundings fail: the store unreachable, the data folder full.
 
-What a client is answered, with the service's one error body:
+What a client is answered (:func:`api.errors.dependency_error`), with the service's one error body:
 
 - the store unreachable (:func:`monitor.store.outage.store_fault`: stopped,
   restarting, its connections cut): 503 ``store_unavailable`` with
@@ -30,11 +30,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from api.errors import ApiError
 from monitor.store import Store
-from monitor.store.outage import fault_reason, store_fault
 
-__all__ = ["RETRY_AFTER_S", "DataFolder", "Placing", "dependency_error", "disk_full", "remove_unregistered"]
+__all__ = ["MIN_ROOM", "RETRY_AFTER_S", "DataFolder", "Placing", "disk_full", "remove_unregistered"]
 
 log = logging.getLogger("engine_monitor.api")
 
@@ -49,27 +47,6 @@ MIN_ROOM = 1 << 20
 def disk_full(error: BaseException) -> bool:
     """Whether an error is a write that found no room (``ENOSPC``, ``EDQUOT``)."""
     return isinstance(error, OSError) and error.errno in DISK_FULL
-
-
-def store_unavailable() -> ApiError:
-    """The 503 of a request the store could not serve now."""
-    return ApiError(
-        503,
-        "store_unavailable",
-        f"the service cannot reach its store (the database) just now: send the request again in "
-        f"{RETRY_AFTER_S} s",
-        headers={"Retry-After": str(RETRY_AFTER_S)},
-    )
-
-
-def data_folder_full() -> ApiError:
-    """The 507 of a request that found the service's data folder full."""
-    return ApiError(
-        507,
-        "data_folder_full",
-        "the service's data folder is full: nothing of this request was kept; send it again once space "
-        "is freed there (the service's operator frees it)",
-    )
 
 
 class DataFolder:
@@ -122,40 +99,6 @@ class DataFolder:
             return False
         self._emptied()
         return True
-
-
-def dependency_error(error: Exception, store: Store, data: DataFolder, data_dir: Path) -> ApiError | None:
-    """The answer to an error that is a dependency's fault (the store unreachable or full, the disk
-    full), recorded as such; None for any other error (a fault of the service, to log as one).
-
-    Parameters
-    ----------
-    error : Exception
-    store : Store
-    data : DataFolder
-    data_dir : Path
-        The data folder, where an SQLite store's file is by default.
-    """
-    if disk_full(error):
-        data.filled(MIN_ROOM)
-        return data_folder_full()
-    fault = store_fault(error)
-    if fault is None:
-        return None
-    store.outage.failed(error)
-    if fault == "unavailable":
-        return store_unavailable()
-    database = store.db.url.database or ""
-    if store.dialect == "sqlite" and Path(database).resolve().is_relative_to(data_dir.resolve()):
-        data.filled(MIN_ROOM)
-        return data_folder_full()
-    log.warning("store full: %s", fault_reason(error))
-    return ApiError(
-        507,
-        "store_full",
-        "the disk of the service's store is full: nothing of this request was kept; send it again once "
-        "space is freed there (the service's operator frees it)",
-    )
 
 
 class Placing:

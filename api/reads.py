@@ -13,6 +13,8 @@
   304) before each use, so a revoked key or a finished analysis is seen at
   once. ``Vary: X-API-Key, Cookie`` says the same to caches that read it (a
   browser's session is a cookie).
+- :func:`read`: a read's one indexed query, on the event loop for SQLite, in
+  one of the reads' threads for PostgreSQL.
 - :class:`KeyCache`: the fleet of a key found in the store, remembered for
   :data:`KEY_TTL_S`, so a client's reads do not each look their key up. A
   key revoked meanwhile (by ``engine-monitor keys revoke``, in another
@@ -22,21 +24,49 @@
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import json
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from datetime import datetime
-from typing import Any
+from typing import Any, TypeVar
 
+from anyio import to_thread
+from starlette.requests import Request
 from starlette.responses import Response
 
-__all__ = ["CACHE_CONTROL", "KEY_TTL_S", "KeyCache", "conditional", "json_body", "json_time", "matches"]
+__all__ = [
+    "CACHE_CONTROL",
+    "KEY_TTL_S",
+    "KeyCache",
+    "conditional",
+    "json_body",
+    "json_time",
+    "matches",
+    "read",
+]
 
 #: Seconds a key found in the store is taken as valid without asking the store again.
 KEY_TTL_S = 1.0
 CACHE_CONTROL = "private, no-cache"
 _HEADERS = {"Cache-Control": CACHE_CONTROL, "Vary": "X-API-Key, Cookie"}
+T = TypeVar("T")
+
+
+async def read(request: Request, function: Callable[..., T], *args: Any) -> T:
+    """``function(*args)``, a read's one indexed query. On SQLite it runs here, on the event loop: an
+    in-process lookup of tens of microseconds that never waits for the writer (WAL), cheaper than
+    the hand-over to a thread and back, which would cost more than the query. It first gives the loop
+    one turn: a request answered whole in the step that began it let the loop serve the connections
+    unevenly under load (50 readers: p99 280 to 480 ms at a p50 of 30 ms; with the turn, 90 to 160
+    ms). On PostgreSQL, a round trip to a server, it runs in one of the reads' threads, so the loop
+    serves others meanwhile."""
+    state = request.app.state
+    if state.store.dialect == "sqlite":
+        await asyncio.sleep(0)
+        return function(*args)
+    return await to_thread.run_sync(function, *args, limiter=state.readers)
 
 
 class KeyCache:

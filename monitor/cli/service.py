@@ -228,7 +228,8 @@ def run_serve(args: argparse.Namespace) -> int:
 
     import uvicorn
 
-    from api.app import Settings, create_app
+    from api.app import create_app
+    from api.settings import Settings
 
     data = Path(args.data)
     data.mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 import uvicorn
 
-from api.app import Settings, create_app
+from api.app import create_app
+from api.settings import Settings
 from api.validate import Validation
 from monitor.errors import MonitorError
 from monitor.store import open_store
@@ -61,7 +62,7 @@ def test_validations_wait_without_threads_and_one_fleet_never_takes_every_slot(
 ) -> None:
     """Fleet a's validations hang (a stand-in validator that waits to be released) while the server has
     4 threads: fleet b still uploads (its own validation slot) and reads; then fleet a's finish."""
-    import api.app
+    import api.uploads
 
     release = threading.Event()
     entered: list[str] = []
@@ -73,7 +74,7 @@ def test_validations_wait_without_threads_and_one_fleet_never_takes_every_slot(
             await asyncio.sleep(0.01)
         return Validation(True, "man-b-w-7k98mc", "2026-01-01T00:00:00Z", ("x",))
 
-    monkeypatch.setattr(api.app, "validate", validator)
+    monkeypatch.setattr(api.uploads, "validate", validator)
     settings = Settings(
         store_url=f"sqlite:///{tmp_path / 'store.db'}",
         data_dir=tmp_path / "data",

@@ -564,7 +564,8 @@ def _service(store_url: str, data: Path) -> Iterator[str]:
 
     import uvicorn
 
-    from api.app import Settings, create_app
+    from api.app import create_app
+    from api.settings import Settings
 
     app = create_app(Settings(store_url=store_url, data_dir=data, workers=0))
     with socket.socket() as probe:

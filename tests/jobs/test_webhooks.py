@@ -27,7 +27,8 @@ import numpy as np
 import pytest
 import uvicorn
 
-from api.app import Settings, create_app
+from api.app import create_app
+from api.settings import Settings
 from monitor.cli import main
 from monitor.diagnosis.trends import drift
 from monitor.jobs.delivery import DeliveryPolicy, deliver_due

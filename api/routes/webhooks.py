@@ -22,19 +22,18 @@ from __future__ import annotations
 import secrets
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 from urllib.parse import urlsplit
 
-from fastapi import APIRouter, FastAPI, Query, Request, Response
-from fastapi import Path as FastPath
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, FastAPI, Query, Response
 from starlette.concurrency import run_in_threadpool
 
 from api.auth import Fleet
-from api.errors import ApiError, ErrorResponse
+from api.dependencies import ServiceStore
+from api.errors import ApiError
 from api.reads import json_time
+from api.schemas import MAX_URL, DeliveryOut, ErrorResponse, WebhookCreated, WebhookId, WebhookIn, WebhookOut
 from monitor.jobs.delivery import Deliverer, DeliveryPolicy
-from monitor.store import Store
 from monitor.store.webhooks import (
     DeliveryRow,
     WebhookRow,
@@ -45,10 +44,9 @@ from monitor.store.webhooks import (
     webhooks_of,
 )
 
-__all__ = ["MAX_WEBHOOKS", "DeliveryOut", "WebhookCreated", "WebhookIn", "WebhookOut", "router"]
+__all__ = ["MAX_WEBHOOKS", "router"]
 
 MAX_WEBHOOKS = 20  # a fleet's active webhooks at most
-MAX_URL = 2048  # characters of a webhook's URL at most
 
 
 @asynccontextmanager
@@ -66,67 +64,9 @@ async def _deliverer(app: FastAPI) -> AsyncIterator[None]:
 
 router = APIRouter(tags=["webhooks"], lifespan=_deliverer)
 
-WebhookId = Annotated[int, FastPath(ge=1, le=2**31 - 1, description="the webhook's id")]
-
-
-class WebhookIn(BaseModel):
-    url: str = Field(
-        min_length=1,
-        max_length=MAX_URL,
-        description="where the events are posted: http or https, with a host",
-        examples=["https://alerts.example.com/engine-monitor"],
-    )
-    secret: str | None = Field(
-        default=None,
-        min_length=16,
-        max_length=256,
-        pattern=r"^[\x21-\x7e]+$",
-        description="the key the events are signed with (HMAC-SHA256); made by the service when not given. "
-        "Answered once, in this request's answer, and never again",
-    )
-
-
-class WebhookOut(BaseModel):
-    id: int
-    url: str
-    created_at: str
-    active: bool
-
-
-class WebhookCreated(WebhookOut):
-    secret: str = Field(description="the signing secret: answered this once, never again")
-
-
-class DeliveryOut(BaseModel):
-    id: int = Field(
-        description="the delivery's id: the X-Engine-Monitor-Delivery header of its every attempt"
-    )
-    event_id: str = Field(description="the event's id (its body's id; X-Engine-Monitor-Event)")
-    event_type: str = Field(description="diagnosis.finding or trend.finding")
-    state: Literal["pending", "delivered", "failed", "cancelled"] = Field(
-        description="pending (to be tried at next_attempt_at), delivered, failed (given up), cancelled "
-        "(the webhook was deleted)"
-    )
-    attempts: int
-    created_at: str
-    last_attempt_at: str | None
-    next_attempt_at: str | None = Field(description="while pending: when it is tried next")
-    last_status: int | None = Field(
-        description="the receiver's last HTTP status; null when it never answered"
-    )
-    last_error: str = Field(description="why the last attempt failed; empty when it did not")
-    delivered_at: str | None
-    body: str = Field(description="the event as sent, byte for byte (what the signature is of)")
-
-
 _RESPONSES: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorResponse} for code in (400, 401, 403, 404, 409, 422)
 }
-
-
-def _store(request: Request) -> Store:
-    found: Store = request.app.state.store
-    return found
 
 
 def _checked_url(url: str) -> str:
@@ -186,12 +126,12 @@ def _delivery_out(row: DeliveryRow) -> dict[str, Any]:
 
 
 @router.post("/webhooks", status_code=201, response_model=WebhookCreated, responses=_RESPONSES)
-def create_webhook(request: Request, fleet_id: Fleet, body: WebhookIn) -> dict[str, Any]:
+def create_webhook(fleet_id: Fleet, body: WebhookIn, store: ServiceStore) -> dict[str, Any]:
     """Register a webhook: each new finding of the fleet's diagnoses is posted to it as a signed event.
     The answer holds the signing secret, this once."""
     url = _checked_url(body.url)
     secret = body.secret if body.secret is not None else secrets.token_urlsafe(32)
-    with _store(request).transaction() as c:
+    with store.transaction() as c:
         if len(webhooks_of(c, fleet_id)) >= MAX_WEBHOOKS:
             raise ApiError(
                 409,
@@ -203,16 +143,16 @@ def create_webhook(request: Request, fleet_id: Fleet, body: WebhookIn) -> dict[s
 
 
 @router.get("/webhooks", response_model=list[WebhookOut], responses=_RESPONSES)
-def list_webhooks(request: Request, fleet_id: Fleet) -> list[dict[str, Any]]:
+def list_webhooks(fleet_id: Fleet, store: ServiceStore) -> list[dict[str, Any]]:
     """The fleet's webhooks (never their secrets), by id."""
-    with _store(request).db.connect() as c:
+    with store.db.connect() as c:
         return [_out(row) for row in webhooks_of(c, fleet_id)]
 
 
 @router.get("/webhooks/{webhook_id}", response_model=WebhookOut, responses=_RESPONSES)
-def get_webhook(request: Request, fleet_id: Fleet, webhook_id: WebhookId) -> dict[str, Any]:
+def get_webhook(fleet_id: Fleet, webhook_id: WebhookId, store: ServiceStore) -> dict[str, Any]:
     """One of the fleet's webhooks (never its secret)."""
-    with _store(request).db.connect() as c:
+    with store.db.connect() as c:
         row = webhook(c, fleet_id, webhook_id)
     if row is None:
         raise ApiError(404, "not_found", f"no webhook {webhook_id}")
@@ -220,9 +160,9 @@ def get_webhook(request: Request, fleet_id: Fleet, webhook_id: WebhookId) -> dic
 
 
 @router.delete("/webhooks/{webhook_id}", status_code=204, response_class=Response, responses=_RESPONSES)
-def delete_webhook(request: Request, fleet_id: Fleet, webhook_id: WebhookId) -> Response:
+def delete_webhook(fleet_id: Fleet, webhook_id: WebhookId, store: ServiceStore) -> Response:
     """Delete a webhook: no more events go to it, and those still pending are cancelled."""
-    with _store(request).transaction() as c:
+    with store.transaction() as c:
         if not deactivate_webhook(c, fleet_id, webhook_id):
             raise ApiError(404, "not_found", f"no webhook {webhook_id}")
     return Response(status_code=204)
@@ -230,9 +170,9 @@ def delete_webhook(request: Request, fleet_id: Fleet, webhook_id: WebhookId) -> 
 
 @router.get("/webhooks/{webhook_id}/deliveries", response_model=list[DeliveryOut], responses=_RESPONSES)
 def list_deliveries(
-    request: Request,
     fleet_id: Fleet,
     webhook_id: WebhookId,
+    store: ServiceStore,
     before: Annotated[
         int | None,
         Query(ge=1, le=2**31 - 1, description="only deliveries of smaller id: the page after it"),
@@ -240,7 +180,7 @@ def list_deliveries(
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> list[dict[str, Any]]:
     """The webhook's delivery log, newest first: each event, its state, attempts and last answer."""
-    with _store(request).db.connect() as c:
+    with store.db.connect() as c:
         rows = deliveries(c, fleet_id, webhook_id, before=before, limit=limit)
     if rows is None:
         raise ApiError(404, "not_found", f"no webhook {webhook_id}")
