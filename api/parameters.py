@@ -9,8 +9,9 @@ import re
 from datetime import UTC, datetime
 
 from api.errors import ApiError
+from monitor.store.trends import parse_since
 
-__all__ = ["cursor", "filename", "moment", "next_cursor", "parse_since", "since"]
+__all__ = ["cursor", "filename", "moment", "next_cursor", "since"]
 
 # a plain file name: no folder separators, no C0 or C1 controls, no line or paragraph separators and no
 # bidirectional overrides (a name that displays as another), matched whole (``$`` would allow a final "\n")
@@ -42,14 +43,6 @@ def moment(name: str, text: str | None) -> datetime | None:
         raise ApiError(
             422, "invalid_request", f"{name}: expected an ISO 8601 date or time in years 1-9999, got {text!r}"
         ) from None
-
-
-def parse_since(text: str) -> datetime:
-    """The time a trend starts from: ISO 8601, ``Z`` for UTC, UTC when it names no zone; a ValueError
-    for any other text (the trend's ``since``, of ``GET /engines/{engine_id}/trend`` as of
-    ``engine-monitor trend --since``)."""
-    when = datetime.fromisoformat(text.replace("Z", "+00:00"))
-    return when if when.tzinfo is not None else when.replace(tzinfo=UTC)
 
 
 def since(text: str | None) -> datetime | None:

@@ -12,7 +12,7 @@ with ``--plot FILE.png`` a figure with one panel per quantity.
 from __future__ import annotations
 
 import argparse
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import Any
 
 from monitor.cli.arguments import add_store_option, print_json, store_url
@@ -64,14 +64,14 @@ def add_trend_parser(sub: Any) -> None:
 
 def _since(text: str | None) -> datetime | None:
     from monitor.errors import MonitorError
+    from monitor.store.trends import parse_since  # the store loads SQLAlchemy: not for the quick commands
 
     if text is None:
         return None
     try:
-        when = datetime.fromisoformat(text.replace("Z", "+00:00"))
+        return parse_since(text)
     except ValueError:
         raise MonitorError(f"--since {text!r}: expected a date or time in ISO 8601 (2026-11-01)") from None
-    return when if when.tzinfo is not None else when.replace(tzinfo=UTC)
 
 
 def run_trend(args: argparse.Namespace) -> int:

@@ -67,7 +67,17 @@ def _process_start(pid: int) -> str:
 
 
 def process_identity(pid: int | None = None) -> str:
-    """``host:pid:start`` of a process (default: this one), as a job's ``holder``."""
+    """``host:pid:start`` of a process, as a job's ``holder``.
+
+    Parameters
+    ----------
+    pid : int, optional
+        The process; this one when not given.
+
+    Returns
+    -------
+    str
+    """
     pid = os.getpid() if pid is None else pid
     return f"{socket.gethostname()}:{pid}:{_process_start(pid)}"
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any
 
 import sqlalchemy as sa
@@ -38,6 +38,7 @@ __all__ = [
     "TrendRow",
     "fill_trend_points",
     "fleet_summary",
+    "parse_since",
     "read_trend",
     "recording_time",
     "trend_document",
@@ -69,6 +70,24 @@ class TrendRow:
     value: float
     standard_error: float | None
     unit: str
+
+
+def parse_since(text: str) -> datetime:
+    """The time a trend starts from: ISO 8601, ``Z`` for UTC, UTC when it names no zone; a ValueError
+    for any other text (the trend's ``since``, of ``GET /engines/{engine_id}/trend`` as of
+    ``engine-monitor trend --since``).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    datetime
+        Aware: the zone given, else UTC.
+    """
+    when = datetime.fromisoformat(text.replace("Z", "+00:00"))
+    return when if when.tzinfo is not None else when.replace(tzinfo=UTC)
 
 
 def recording_time(recorded_at: str, uploaded_at: datetime) -> datetime:
