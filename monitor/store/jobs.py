@@ -114,7 +114,19 @@ def _job(row: Any) -> Job:
 def view_job(row: Any, analysis_version: str) -> Job | None:
     """The job in a row of a recording joined with its job (None where the join found none): the
     recording's id first, the job's columns (:data:`monitor.store.queries.JOB_COLUMNS`) from the
-    tenth on, read by position as :func:`monitor.store.recordings._recording` reads."""
+    tenth on, read by position as :func:`monitor.store.recordings._recording` reads.
+
+    Parameters
+    ----------
+    row : Row
+        A recording joined with its job.
+    analysis_version : str
+        The analysis the job runs.
+
+    Returns
+    -------
+    Job or None
+    """
     job_id, state, attempts, error, not_before = row[9:14]
     if job_id is None:
         return None
@@ -132,7 +144,20 @@ def view_job(row: Any, analysis_version: str) -> Job | None:
 
 def queue_job(c: Connection, recording_id: int, analysis_version: str) -> Job:
     """The job of a recording at an analysis version, queued if it did not exist (in the caller's
-    transaction)."""
+    transaction).
+
+    Parameters
+    ----------
+    c : Connection
+        The caller's transaction.
+    recording_id : int
+    analysis_version : str
+        The analysis the job runs.
+
+    Returns
+    -------
+    Job
+    """
     moment = now()
     insert_new(
         c,

@@ -19,7 +19,17 @@ def now() -> datetime:
 
 
 def utc(moment: datetime) -> datetime:
-    """SQLite keeps no time zone: every stored time is UTC."""
+    """A stored time, aware: SQLite keeps no time zone, and every stored time is UTC.
+
+    Parameters
+    ----------
+    moment : datetime
+        As read back, naive from SQLite, aware from PostgreSQL.
+
+    Returns
+    -------
+    datetime
+    """
     return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
 
 
@@ -29,7 +39,23 @@ def _insert(c: Connection, table: sa.Table) -> Any:
 
 
 def insert_new(c: Connection, table: sa.Table, values: dict[str, Any], keys: list[str]) -> bool:
-    """Insert a row unless one with the same unique ``keys`` exists (atomic, for concurrent writers)."""
+    """Insert a row unless one with the same unique ``keys`` exists (atomic, for concurrent writers).
+
+    Parameters
+    ----------
+    c : Connection
+        The caller's transaction.
+    table : sqlalchemy.Table
+    values : dict
+        The row's column values.
+    keys : list of str
+        The columns of the unique constraint that decides "exists".
+
+    Returns
+    -------
+    bool
+        Whether the row went in.
+    """
     statement = _insert(c, table).values(**values).on_conflict_do_nothing(index_elements=keys)
     # RETURNING says whether a row went in (rowcount is not reliable for this on every driver)
     return c.execute(statement.returning(table.c.id)).first() is not None
@@ -38,7 +64,18 @@ def insert_new(c: Connection, table: sa.Table, values: dict[str, Any], keys: lis
 def insert_ignoring_existing(
     c: Connection, table: sa.Table, rows: list[dict[str, Any]], keys: list[str]
 ) -> None:
-    """Insert rows, each unless one with the same unique ``keys`` exists (nothing for no rows)."""
+    """Insert rows, each unless one with the same unique ``keys`` exists (nothing for no rows).
+
+    Parameters
+    ----------
+    c : Connection
+        The caller's transaction.
+    table : sqlalchemy.Table
+    rows : list of dict
+        Column values, one dict per row.
+    keys : list of str
+        The columns of the unique constraint that decides "exists".
+    """
     if not rows:
         return
     c.execute(_insert(c, table).on_conflict_do_nothing(index_elements=keys), rows)

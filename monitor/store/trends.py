@@ -91,7 +91,19 @@ def parse_since(text: str) -> datetime:
 
 
 def recording_time(recorded_at: str, uploaded_at: datetime) -> datetime:
-    """The recording's start (ISO 8601, UTC) if it states one, else its upload time; aware, UTC."""
+    """The recording's start (ISO 8601, UTC) if it states one, else its upload time; aware, UTC.
+
+    Parameters
+    ----------
+    recorded_at : str
+        The start the recording states, ISO 8601, or empty.
+    uploaded_at : datetime
+        When it was uploaded.
+
+    Returns
+    -------
+    datetime
+    """
     if recorded_at:
         try:
             parsed = datetime.fromisoformat(recorded_at.replace("Z", "+00:00"))
