@@ -34,8 +34,20 @@ from typing import Any
 import httpx
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database
+from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database, _start
+from benchmarks.service_outage import (
+    DISK_END,
+    DISK_START,
+    OUTAGE_END,
+    OUTAGE_START,
+    disk_full_run,
+    disk_full_section,
+    outage_run,
+    outage_section,
+)
+from monitor.io.hdf5 import write_hdf5
 from monitor.runtime.processes import session_processes
+from monitor.store import open_store
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "service.md"
@@ -64,20 +76,11 @@ class Tally:
 
 def _recordings(folder: Path, count: int, seconds: float) -> list[Path]:
     """Distinct recordings to upload (``seconds`` of the 6L32 baseline scene, one seed each)."""
-    from monitor.io.hdf5 import write_hdf5
-
     paths = []
     for i, recording in enumerate(_bases(count, seconds)):
         paths.append(folder / f"kill-{i}.h5")
         write_hdf5(recording, paths[-1])
     return paths
-
-
-def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
-    with open(log, "ab") as out:
-        return subprocess.Popen(
-            [sys.executable, "-m", "monitor", *argv], stdout=out, stderr=out, start_new_session=True, cwd=ROOT
-        )
 
 
 def _wait_healthy(url: str) -> float | None:
@@ -93,8 +96,6 @@ def _wait_healthy(url: str) -> float | None:
 
 
 def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: bool, tally: Tally) -> None:
-    from monitor.store import open_store
-
     store = open_store(store_url)
     key = store.create_key(store.create_fleet("fleet"))
     store.close()
@@ -224,17 +225,6 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _outage_runs(args: argparse.Namespace, command: str) -> None:
-    from benchmarks.service_outage import (
-        DISK_END,
-        DISK_START,
-        OUTAGE_END,
-        OUTAGE_START,
-        disk_full_run,
-        disk_full_section,
-        outage_run,
-        outage_section,
-    )
-
     moment, python = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), platform.python_version()
     if args.outage_cycles > 0:
         section = outage_section(

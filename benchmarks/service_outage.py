@@ -31,8 +31,11 @@ from typing import Any
 import httpx
 import sqlalchemy as sa
 
-from benchmarks.service_load import _bases, _free_port, _postgres_database
+from benchmarks.service_load import _bases, _free_port, _postgres_database, _start
 from benchmarks.store_proxy import proxied
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.io.hdf5 import write_hdf5
+from monitor.store import open_store
 
 __all__ = ["DiskTally", "OutageTally", "disk_full_run", "disk_full_section", "outage_run", "outage_section"]
 
@@ -136,8 +139,6 @@ class _Load:
                 time.sleep(0.02)
 
     def _upload(self, uploader: int) -> None:
-        from monitor.io.hdf5 import write_hdf5
-
         path = self.folder / f"uploader-{uploader}.h5"
         n = 0
         with httpx.Client(base_url=self.url, headers={"X-API-Key": self.key}, timeout=120) as client:
@@ -158,12 +159,6 @@ class _Load:
                     self._stop.wait(0.5)
 
 
-def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
-    from benchmarks.service_kill import _start as start
-
-    return start(argv, log)
-
-
 def _healthy_within(url: str, seconds: float) -> float | None:
     started = time.monotonic()
     while time.monotonic() - started < seconds:
@@ -177,8 +172,6 @@ def _healthy_within(url: str, seconds: float) -> float | None:
 
 
 def _files_without_rows(data: Path, store_url: str) -> int:
-    from monitor.store import open_store
-
     store = open_store(store_url)
     try:
         return sum(not store.content_stored(path.stem) for path in (data / "recordings").iterdir())
@@ -197,8 +190,6 @@ def _stop(process: subprocess.Popen[bytes]) -> None:
 
 def outage_run(postgres: str, cycles: int, outage_s: float) -> OutageTally:
     """The store stopped ``cycles`` times for ``outage_s`` [s] under readers and uploaders."""
-    from monitor.store import open_store
-
     tally = OutageTally(cycles=cycles, outage_s=outage_s)
     database = _postgres_database(postgres)
     if database is None:
@@ -264,8 +255,6 @@ def outage_run(postgres: str, cycles: int, outage_s: float) -> OutageTally:
 
 
 def _version() -> str:
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     return ANALYSIS_VERSION
 
 
@@ -293,8 +282,6 @@ def disk_full_run(size_mib: int, refused: int) -> DiskTally:
 
 
 def _disk_full(folder: Path, data: Path, refused: int, tally: DiskTally) -> None:
-    from monitor.store import open_store
-
     store_url = f"sqlite:///{folder / 'store.db'}"  # beside the data folder: the uploads fill it alone
     store = open_store(store_url)
     key = store.create_key(store.create_fleet("fleet"))
@@ -322,7 +309,6 @@ def _disk_full(folder: Path, data: Path, refused: int, tally: DiskTally) -> None
         tally.files_without_rows = _files_without_rows(data, store_url)
         subprocess.run(["mount", "-o", f"remount,size={4 * tally.size_mib}m", str(data)], check=True)
         path = folder / "after.h5"
-        from monitor.io.hdf5 import write_hdf5
 
         write_hdf5(replace(_bases(1)[0], notes="disk-full run: after the folder grew"), path)
         answer = httpx.post(
