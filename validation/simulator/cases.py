@@ -12,10 +12,10 @@ import numpy as np
 
 from monitor.io.recording import Recording
 from validation.simulator.channels import (
-    _angle_channels,
-    _bearing_channel,
-    _structural_response,
-    _worn_bearing,
+    angle_channels,
+    bearing_channel,
+    structural_response,
+    worn_bearing_bursts,
 )
 from validation.simulator.crank import CrankRun, operating_load, run_crank
 from validation.simulator.description import engine_description
@@ -24,14 +24,14 @@ from validation.simulator.gas import (
     HEAT_LEVELS,
     HEAT_STEP,
     CycleTable,
-    _charge_pressure,
-    _rated_of_seed,
     cycle_table,
+    load_charge_pressure,
+    rated_of_seed,
 )
-from validation.simulator.installation import Installation, _sensor_mix, random_installation
+from validation.simulator.installation import Installation, random_installation, sensor_mix
 from validation.simulator.kinematics import bearing_split
-from validation.simulator.scenario import _Scenario, _scenario
-from validation.simulator.shared import _NOISE, _TWIN, FloatArray
+from validation.simulator.scenario import Scenario, draw_scenario
+from validation.simulator.shared import NOISE_STREAM, TWIN_WORD, FloatArray
 
 
 @dataclass(frozen=True)
@@ -78,10 +78,10 @@ def _simulate(
     engine = random_engine(engine_seed)
     install = random_installation(engine)
     toml_text = engine_description(engine)
-    scenario = _scenario(engine, install, engine_seed, fault)
+    scenario = draw_scenario(engine, install, engine_seed, fault)
     if load is not None:  # a healthy twin at the case's operating point
-        scenario = _Scenario(load=load, given_ratio=scenario.given_ratio, fault="healthy")
-    words = [noise_seed, _NOISE, _TWIN] if twin else [noise_seed, _NOISE]
+        scenario = Scenario(load=load, given_ratio=scenario.given_ratio, fault="healthy")
+    words = [noise_seed, NOISE_STREAM, TWIN_WORD] if twin else [noise_seed, NOISE_STREAM]
     rng = np.random.default_rng(np.random.SeedSequence(words))
     n = engine.cylinders
     factors = np.ones(n)
@@ -90,7 +90,7 @@ def _simulate(
     table = _operating_table(engine, engine_seed, scenario.load)
     run, pre = _run(engine, install, table, scenario.load, factors, duration_s, rng)
     count = len(install.sensor_bearings)
-    clean, _ = _structural_response(run, install, pre, duration_s)
+    clean, _ = structural_response(run, install, pre, duration_s)
     data = _with_hum_and_noise(clean, install, rng)
     truth: dict[str, Any] = {
         "class": scenario.fault,
@@ -101,7 +101,9 @@ def _simulate(
         "sensor_fault": None,
     }
     if scenario.fault == "worn_bearing":
-        bursts, details = _worn_bearing(run, engine.cycle_angle, install, scenario, pre, duration_s, rng)
+        bursts, details = worn_bearing_bursts(
+            run, engine.cycle_angle, install, scenario, pre, duration_s, rng
+        )
         data += bursts
         truth.update(details)
     elif scenario.fault == "weak":
@@ -110,10 +112,10 @@ def _simulate(
         truth.update(strength=1.0)
     channels = []
     for s in range(count):
-        channel, details = _bearing_channel(data[s], s, install, scenario, rng)
+        channel, details = bearing_channel(data[s], s, install, scenario, rng)
         channels.append(channel)
         truth.update(details)
-    channels.extend(_angle_channels(engine, install, run, pre, duration_s, rng))
+    channels.extend(angle_channels(engine, install, run, pre, duration_s, rng))
     start = datetime(2026, 1, 1, tzinfo=UTC) + timedelta(minutes=engine_seed % 500_000)
     if twin:
         start -= timedelta(days=1, minutes=noise_seed % 1000)
@@ -153,9 +155,9 @@ def _operating_table(engine: SimEngine, engine_seed: int, load: float) -> CycleT
     return cycle_table(
         engine,
         speed=speed_guess,
-        charge_pressure=_charge_pressure(engine, load),
+        charge_pressure=load_charge_pressure(engine, load),
         fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
-        heat_reference=_rated_of_seed(engine_seed)[0],
+        heat_reference=rated_of_seed(engine_seed)[0],
     )
 
 
@@ -197,7 +199,7 @@ def _run(
         initial_speed=speed0,
         fault_factors=factors,
         variation=variation,
-        mixes=np.vstack([_sensor_mix(engine, install.crosstalk), pure]),
+        mixes=np.vstack([sensor_mix(engine, install.crosstalk), pure]),
         points_per_revolution=ppr,
     )
     return run, pre

@@ -12,8 +12,8 @@ from scipy import signal
 from monitor.io.recording import Channel, quality_spans
 from validation.simulator.crank import CrankRun
 from validation.simulator.engine import SimEngine
-from validation.simulator.installation import Installation, _antialias_sos, _mode_sos
-from validation.simulator.scenario import _Scenario
+from validation.simulator.installation import Installation, antialias_sos, mode_sos
+from validation.simulator.scenario import Scenario
 from validation.simulator.shared import FloatArray, SimulationError
 
 
@@ -87,7 +87,7 @@ def _events(
     return np.asarray(out)
 
 
-def _structural_response(
+def structural_response(
     run: CrankRun, install: Installation, pre: float, duration_s: float
 ) -> tuple[FloatArray, FloatArray]:
     """Clean accelerations of the bearing sensors, shape (s, samples), and the sample times' grid index."""
@@ -98,23 +98,23 @@ def _structural_response(
     t = np.arange(samples) / fs
     index = np.interp(t, run.time, np.arange(run.time.size, dtype=np.float64))
     inputs = _cubic(run.forces[:count], index)
-    aa = _antialias_sos(fs)
+    aa = antialias_sos(fs)
     clean = np.empty((count, samples - first))
     for s in range(count):
         y = np.zeros(samples)
         for f, z, g in install.modes[s]:
-            sos = _mode_sos(float(f), float(z), float(g), fs)
+            sos = mode_sos(float(f), float(z), float(g), fs)
             zi = signal.sosfilt_zi(sos) * inputs[s, 0]  # start in the steady state of the first force
             y += signal.sosfilt(sos, inputs[s], zi=zi)[0]
         clean[s] = signal.sosfilt(aa, y)[first:]
     return clean, index[first:]
 
 
-def _worn_bearing(
+def worn_bearing_bursts(
     run: CrankRun,
     cycle: float,
     install: Installation,
-    scenario: _Scenario,
+    scenario: Scenario,
     pre: float,
     duration_s: float,
     rng: np.random.Generator,
@@ -167,8 +167,8 @@ def _worn_bearing(
     return bursts, truth
 
 
-def _bearing_channel(
-    x: FloatArray, s: int, install: Installation, scenario: _Scenario, rng: np.random.Generator
+def bearing_channel(
+    x: FloatArray, s: int, install: Installation, scenario: Scenario, rng: np.random.Generator
 ) -> tuple[Channel, dict[str, Any]]:
     """One accelerometer channel, with its sensor fault if it has one (16-bit over its range)."""
     fs = install.sample_rate
@@ -222,7 +222,7 @@ def _bearing_channel(
     return channel, truth
 
 
-def _angle_channels(
+def angle_channels(
     engine: SimEngine,
     install: Installation,
     run: CrankRun,

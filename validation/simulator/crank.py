@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from validation.simulator.engine import SimEngine
 from validation.simulator.gas import HEAT_LEVELS, HEAT_STEP, CycleTable
-from validation.simulator.kinematics import _inertia_force_coefficients, _kinematics, equivalent_inertia
+from validation.simulator.kinematics import engine_kinematics, equivalent_inertia, inertia_force_coefficients
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
 
 
@@ -244,8 +244,8 @@ class _AngleWindows:
         inertia_c, derivative_c = equivalent_inertia(engine, psi)
         self.inertia = engine.rigid_inertia + inertia_c.sum(axis=0)
         self.inertia_1 = derivative_c.sum(axis=0)
-        self.arm = -_kinematics(engine, psi).piston_1  # dx/dpsi, piston travel from TDC
-        k2, k1 = _inertia_force_coefficients(engine, psi)
+        self.arm = -engine_kinematics(engine, psi).piston_1  # dx/dpsi, piston travel from TDC
+        k2, k1 = inertia_force_coefficients(engine, psi)
         self.k2_rows, self.k1_rows = weights @ k2, weights @ k1
         self.area = engine.piston_area
         # firing index of each grid point of each cylinder, relative to the window (-1, 0 or 1)

@@ -11,8 +11,8 @@ from scipy.optimize import least_squares
 
 from monitor.model.engine import Engine, parse_engine
 from validation.simulator.engine import DoubleWiebe, SimEngine
-from validation.simulator.gas import _wiebe, burned_fraction
-from validation.simulator.shared import _DESCRIPTION, FloatArray
+from validation.simulator.gas import burned_fraction, wiebe
+from validation.simulator.shared import DESCRIPTION_STREAM, FloatArray
 
 
 def _fit_single_wiebe(law: DoubleWiebe) -> tuple[float, float]:
@@ -21,7 +21,7 @@ def _fit_single_wiebe(law: DoubleWiebe) -> tuple[float, float]:
     target, _ = burned_fraction(theta, law)
 
     def residual(v: FloatArray) -> FloatArray:
-        x, _ = _wiebe(theta, law.start, v[0], v[1], 6.9)
+        x, _ = wiebe(theta, law.start, v[0], v[1], 6.9)
         return np.asarray(x - target)
 
     fit = least_squares(
@@ -62,7 +62,7 @@ class _Perturbed:
 
 def _perturb(engine: SimEngine) -> _Perturbed:
     """Draw the description's errors from the engine's description stream, in the stream's order."""
-    rng = np.random.default_rng(np.random.SeedSequence([engine.seed, _DESCRIPTION]))
+    rng = np.random.default_rng(np.random.SeedSequence([engine.seed, DESCRIPTION_STREAM]))
 
     def geo(v: float) -> float:
         return v * float(rng.uniform(0.98, 1.02))

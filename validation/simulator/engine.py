@@ -8,7 +8,7 @@ from typing import Literal
 
 import numpy as np
 
-from validation.simulator.shared import _ENGINE, FloatArray
+from validation.simulator.shared import ENGINE_STREAM, FloatArray
 
 
 @dataclass(frozen=True)
@@ -409,7 +409,7 @@ def random_engine(seed: int) -> SimEngine:
     """
     if seed < 0:
         raise ValueError(f"seed = {seed}: expected an integer >= 0")
-    rng = np.random.default_rng(np.random.SeedSequence([seed, _ENGINE]))
+    rng = np.random.default_rng(np.random.SeedSequence([seed, ENGINE_STREAM]))
     classes = ("slow two-stroke", "medium-speed four-stroke", "high-speed four-stroke", "small two-stroke")
     engine_class = classes[int(rng.choice(4, p=[0.3, 0.35, 0.25, 0.1]))]
     if engine_class == "slow two-stroke":

@@ -11,7 +11,7 @@ import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
 from validation.simulator.engine import DoubleWiebe, SimEngine, random_engine
-from validation.simulator.kinematics import _kinematics
+from validation.simulator.kinematics import engine_kinematics
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
 
 #: Specific gas constant of the cylinder charge [J/(kg K)].
@@ -64,7 +64,7 @@ def internal_energy(temperature: npt.ArrayLike, mass: float) -> FloatArray:
     return np.asarray(-mass * GAS_CONSTANT / GAMMA_SLOPE * np.log(ratio))
 
 
-def _wiebe(
+def wiebe(
     theta: FloatArray, start: float, duration: float, shape: float, a: float
 ) -> tuple[FloatArray, FloatArray]:
     u = np.clip((theta - start) / duration, 0.0, 1.0)
@@ -95,10 +95,8 @@ def burned_fraction(crank_angle: npt.ArrayLike, law: DoubleWiebe) -> tuple[Float
     ``u = (theta - theta_0) / duration`` clipped to [0, 1] (Miyamoto et al. 1985).
     """
     theta = np.asarray(crank_angle, dtype=np.float64)
-    xp, rp = _wiebe(theta, law.start, law.premixed_duration, law.premixed_shape, law.a)
-    xd, rd = _wiebe(
-        theta, law.start + law.diffusion_delay, law.diffusion_duration, law.diffusion_shape, law.a
-    )
+    xp, rp = wiebe(theta, law.start, law.premixed_duration, law.premixed_shape, law.a)
+    xd, rd = wiebe(theta, law.start + law.diffusion_delay, law.diffusion_duration, law.diffusion_shape, law.a)
     beta = law.premixed_fraction
     return beta * xp + (1 - beta) * xd, beta * rp + (1 - beta) * rd
 
@@ -136,7 +134,7 @@ def wall_heat_transfer_coefficient(
 
 def _volume(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Cylinder volume [m^3] and dV/dpsi [m^3/rad]: ``V = V_c + A (R + L - y_p)``."""
-    k = _kinematics(engine, psi)
+    k = engine_kinematics(engine, psi)
     top = engine.crank_radius + engine.rod_length
     return engine.clearance_volume + engine.piston_area * (top - k.piston), -engine.piston_area * k.piston_1
 
@@ -396,7 +394,7 @@ def cycle_table(
     )
 
 
-def _charge_pressure(engine: SimEngine, load: float) -> float:
+def load_charge_pressure(engine: SimEngine, load: float) -> float:
     """Charge pressure at a load (turbocharger boost about proportional to load) [Pa]."""
     return AMBIENT_PRESSURE + max(load, 0.0) * (engine.rated_charge_pressure - AMBIENT_PRESSURE)
 
@@ -437,7 +435,7 @@ def rated_heat(engine: SimEngine) -> float:
 
 
 @lru_cache(maxsize=64)
-def _rated_of_seed(seed: int) -> tuple[float, FloatArray, FloatArray]:
+def rated_of_seed(seed: int) -> tuple[float, FloatArray, FloatArray]:
     """Rated heat [J], and the crank angle [rad] and pressure [Pa] of the rated cycle, of a seed's engine."""
     engine = random_engine(seed)
     heat, table = _rated_table(engine)

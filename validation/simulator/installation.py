@@ -9,9 +9,9 @@ import numpy as np
 from scipy import signal
 
 from validation.simulator.engine import SimEngine
-from validation.simulator.gas import _rated_of_seed
+from validation.simulator.gas import rated_of_seed
 from validation.simulator.kinematics import bearing_split, throw_vertical_force
-from validation.simulator.shared import _INSTALLATION, FloatArray
+from validation.simulator.shared import INSTALLATION_STREAM, FloatArray
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,7 @@ class Installation:
         return f"mb{self.sensor_bearings[sensor]}-vertical"
 
 
-def _mode_sos(frequency: float, damping: float, gain: float, sample_rate: float) -> FloatArray:
+def mode_sos(frequency: float, damping: float, gain: float, sample_rate: float) -> FloatArray:
     """``g s^2 / (s^2 + 2 zeta w s + w^2)`` by the bilinear transform, prewarped at the mode."""
     w = 2 * sample_rate * math.tan(math.pi * frequency / sample_rate)
     poles = np.roots([1.0, 2 * damping * w, w**2])
@@ -81,11 +81,11 @@ def _mode_sos(frequency: float, damping: float, gain: float, sample_rate: float)
     return np.asarray(signal.zpk2sos(z, p, k))
 
 
-def _antialias_sos(sample_rate: float) -> FloatArray:
+def antialias_sos(sample_rate: float) -> FloatArray:
     return np.asarray(signal.butter(6, 0.4 * sample_rate, fs=sample_rate, output="sos"))
 
 
-def _sensor_mix(engine: SimEngine, crosstalk: FloatArray) -> FloatArray:
+def sensor_mix(engine: SimEngine, crosstalk: FloatArray) -> FloatArray:
     """Throw-force weights of each sensor's input, ``crosstalk @ split`` [-]."""
     split = bearing_split(engine.cylinder_positions, engine.bearing_positions, engine.throw_bearings)
     return np.asarray(crosstalk @ split)
@@ -122,7 +122,7 @@ def random_installation(engine: SimEngine) -> Installation:
     (20-40 times, rounded up to 1-2-5: an engine's structure-borne acceleration has crest factors
     past 10, and an installer leaves headroom above them), the same in every case of the engine.
     """
-    rng = np.random.default_rng(np.random.SeedSequence([engine.seed, _INSTALLATION]))
+    rng = np.random.default_rng(np.random.SeedSequence([engine.seed, INSTALLATION_STREAM]))
     rated_rpm = engine.rated_speed * 30 / math.pi
     fs = 10240.0 if rated_rpm < 300 else 25600.0
     nb = engine.bearing_count
@@ -150,8 +150,8 @@ def random_installation(engine: SimEngine) -> Installation:
         )
     # expected level: the steady response, at rated speed and load, to the bearing forces of the
     # rated cycle with the crank turning evenly (Parseval over the cycle's harmonics)
-    _, angle, rated_pressure = _rated_of_seed(engine.seed)
-    mix = _sensor_mix(engine, crosstalk)
+    _, angle, rated_pressure = rated_of_seed(engine.seed)
+    mix = sensor_mix(engine, crosstalk)
     points = 4096
     cycle = engine.cycle_angle
     psi = cycle * np.arange(points)[None, :] / points - engine.firing_angles[:, None]

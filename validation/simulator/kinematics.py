@@ -88,7 +88,7 @@ def slider_crank(
     )
 
 
-def _kinematics(engine: SimEngine, psi: npt.ArrayLike) -> SliderCrank:
+def engine_kinematics(engine: SimEngine, psi: npt.ArrayLike) -> SliderCrank:
     return slider_crank(
         psi,
         crank_radius=engine.crank_radius,
@@ -116,7 +116,7 @@ def equivalent_inertia(engine: SimEngine, crank_angle: npt.ArrayLike) -> tuple[F
     From the kinetic energy ``T = J_c omega^2 / 2`` of piston and rod (exact, no two-mass split):
     ``J_c = m_p y_p'^2 + m_r (x_g'^2 + y_g'^2) + I_r phi'^2``.
     """
-    k = _kinematics(engine, crank_angle)
+    k = engine_kinematics(engine, crank_angle)
     mp, mr, ir = engine.piston_mass, engine.rod_mass, engine.rod_inertia
     inertia = mp * k.piston_1**2 + mr * (k.rod_x_1**2 + k.rod_y_1**2) + ir * k.rod_angle_1**2
     derivative = 2 * (
@@ -127,9 +127,9 @@ def equivalent_inertia(engine: SimEngine, crank_angle: npt.ArrayLike) -> tuple[F
     return inertia, derivative
 
 
-def _inertia_force_coefficients(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+def inertia_force_coefficients(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """``K2, K1`` with ``sum_i m_i ddot(y_i) = K2 omega^2 + K1 omega_dot``, piston, rod, throw [kg m]."""
-    k = _kinematics(engine, psi)
+    k = engine_kinematics(engine, psi)
     psi = np.asarray(psi, dtype=np.float64)
     net = engine.crank_unbalance - engine.counterweight  # throw's mass x radius towards the pin
     k2 = engine.piston_mass * k.piston_2 + engine.rod_mass * k.rod_y_2 - net * np.cos(psi)
@@ -171,7 +171,7 @@ def throw_vertical_force(
     + u ddot(cos psi))`` with ``ddot(y) = y'' omega^2 + y' omega_dot`` and the throw's net
     unbalance ``u`` (crank pin and webs less counterweights) [kg m].
     """
-    k2, k1 = _inertia_force_coefficients(engine, crank_angle)
+    k2, k1 = inertia_force_coefficients(engine, crank_angle)
     w = np.asarray(speed, dtype=np.float64)
     gas = (np.asarray(pressure, dtype=np.float64) - AMBIENT_PRESSURE) * engine.piston_area
     return np.asarray(-gas - (k2 * w**2 + k1 * np.asarray(acceleration, dtype=np.float64)))

@@ -8,14 +8,14 @@ import numpy as np
 
 from validation.simulator.engine import SimEngine
 from validation.simulator.installation import Installation
-from validation.simulator.shared import _OPERATION, SimulationError
+from validation.simulator.shared import OPERATION_STREAM, SimulationError
 
 #: The fault classes of a case.
 FAULT_CLASSES: tuple[str, ...] = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 
 
 @dataclass(frozen=True)
-class _Scenario:
+class Scenario:
     """What a case simulates: the operating point and the fault (drawn from the operation stream)."""
 
     load: float
@@ -36,8 +36,8 @@ class _Scenario:
 _SENSOR_FAULTS = ("clipped", "dead_flat", "dead_noise", "unit_x1000", "unit_per_9.81")
 
 
-def _scenario(engine: SimEngine, install: Installation, seed: int, fault: str | None) -> _Scenario:
-    rng = np.random.default_rng(np.random.SeedSequence([seed, _OPERATION]))
+def draw_scenario(engine: SimEngine, install: Installation, seed: int, fault: str | None) -> Scenario:
+    rng = np.random.default_rng(np.random.SeedSequence([seed, OPERATION_STREAM]))
     load = float(rng.uniform(0.45, 0.95))
     given_ratio = float(rng.uniform(0.9, 1.1))
     choices = [c for c in FAULT_CLASSES if not (c == "misfire" and engine.cylinders == 1)]
@@ -77,7 +77,7 @@ def _scenario(engine: SimEngine, install: Installation, seed: int, fault: str | 
     if engine.load_type == "generator" and kind in ("misfire", "weak"):
         # the governor makes the other cylinders carry the load: keep the fuel within 1.3 x rated
         load = min(load, 1.3 * (engine.cylinders - 1 + factor) / engine.cylinders)
-    return _Scenario(
+    return Scenario(
         load=load,
         given_ratio=given_ratio,
         fault=kind,

@@ -12,8 +12,8 @@ FloatArray = npt.NDArray[np.float64]
 AMBIENT_PRESSURE = 1.013e5
 
 # random streams (second word of the seed sequence)
-_ENGINE, _INSTALLATION, _DESCRIPTION, _OPERATION, _NOISE = range(5)
-_TWIN = 1  # third word of a healthy twin's noise stream
+ENGINE_STREAM, INSTALLATION_STREAM, DESCRIPTION_STREAM, OPERATION_STREAM, NOISE_STREAM = range(5)
+TWIN_WORD = 1  # third word of a healthy twin's noise stream
 
 
 class SimulationError(RuntimeError):
