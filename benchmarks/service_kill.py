@@ -34,7 +34,7 @@ from typing import Any
 import httpx
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database, _start
+from benchmarks.service_load import POSTGRES, base_recordings, free_port, postgres_database, start_monitor
 from benchmarks.service_outage import (
     DISK_END,
     DISK_START,
@@ -77,7 +77,7 @@ class Tally:
 def _recordings(folder: Path, count: int, seconds: float) -> list[Path]:
     """Distinct recordings to upload (``seconds`` of the 6L32 baseline scene, one seed each)."""
     paths = []
-    for i, recording in enumerate(_bases(count, seconds)):
+    for i, recording in enumerate(base_recordings(count, seconds)):
         paths.append(folder / f"kill-{i}.h5")
         write_hdf5(recording, paths[-1])
     return paths
@@ -100,13 +100,13 @@ def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: b
     key = store.create_key(store.create_fleet("fleet"))
     store.close()
     data, log = folder / "data", folder / "service.log"
-    port = _free_port()
+    port = free_port()
     url = f"http://127.0.0.1:{port}"
     serve = ["serve", "--port", str(port), "--store", store_url, "--data", str(data), "--lease", "30"]
     serve += ["--workers", "0" if kill_worker else "1"]
     work = ["worker", "--store", store_url, "--data", str(data), "--lease", "30"]
-    server = _start(serve, log)
-    worker = _start(work, log) if kill_worker else None
+    server = start_monitor(serve, log)
+    worker = start_monitor(work, log) if kill_worker else None
     try:
         if _wait_healthy(url) is None:
             raise RuntimeError(f"the server did not start (see {log})")
@@ -141,9 +141,9 @@ def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: b
         tally.left_behind += len(session_processes(victim.pid))
         restarted = time.monotonic()
         if kill_worker:
-            worker = _start(work, log)
+            worker = start_monitor(work, log)
         else:
-            server = _start(serve, log)
+            server = start_monitor(serve, log)
             if _wait_healthy(url) is None:
                 tally.restart_failures += 1
                 raise RuntimeError(f"the server did not restart on port {port} (see {log})")
@@ -254,7 +254,7 @@ def _kill_runs(args: argparse.Namespace) -> None:
                 database: tuple[str, Any] | None = (
                     (f"sqlite:///{folder / 'store.db'}", None)
                     if name == "SQLite"
-                    else _postgres_database(args.postgres)
+                    else postgres_database(args.postgres)
                 )
                 if database is None:
                     note += " No PostgreSQL server answered: its runs were skipped."

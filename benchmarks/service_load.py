@@ -116,7 +116,7 @@ end
 """
 
 
-def _free_port() -> int:
+def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
@@ -136,7 +136,7 @@ def _wrk() -> str:
     return shutil.which("wrk") or "wrk"
 
 
-def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
+def start_monitor(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
     """Start ``python -m monitor ARGV`` in a session of its own, its output appended to ``log``."""
     with open(log, "ab") as out:
         return subprocess.Popen(
@@ -144,7 +144,7 @@ def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
         )
 
 
-def _bases(count: int, seconds: float = 3.0) -> list[Any]:
+def base_recordings(count: int, seconds: float = 3.0) -> list[Any]:
     """Recordings the uploaders vary (``seconds`` of the 6L32 baseline scene, one seed each)."""
     scene = load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml").model_copy(
         update={"duration_s": seconds}
@@ -242,7 +242,7 @@ def run(
     seeding = time.perf_counter()
     key, first = _seed(store_url, count, documents)
     seeded_s = time.perf_counter() - seeding
-    port = _free_port()
+    port = free_port()
     base = f"http://127.0.0.1:{port}"
     log = open(folder / "server.log", "wb")
     server = subprocess.Popen(
@@ -343,7 +343,7 @@ def run(
     }
 
 
-def _postgres_database(admin_url: str) -> tuple[str, Any] | None:
+def postgres_database(admin_url: str) -> tuple[str, Any] | None:
     admin = sa.create_engine(admin_url, isolation_level="AUTOCOMMIT")
     name = f"engine_monitor_bench_{os.getpid()}"
     try:
@@ -452,7 +452,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         print("one analysis for the seeded results, the uploads' recordings ...", flush=True)
         documents = _analysed()
-        bases = _bases(UPLOADERS)
+        bases = base_recordings(UPLOADERS)
         print("SQLite ...", flush=True)
         sqlite_folder = Path(folder) / "sqlite"
         sqlite_folder.mkdir()
@@ -460,7 +460,7 @@ def main() -> None:
         rows.append(
             ("SQLite (WAL)", run(url, sqlite_folder, args.seconds, args.recordings, bases, documents))
         )
-        made = _postgres_database(args.postgres)
+        made = postgres_database(args.postgres)
         if made is None:
             print(f"no PostgreSQL server answers at {args.postgres}: its row is left out", flush=True)
         else:
