@@ -207,7 +207,7 @@ def _cylinder_forces(
     (n_cylinders, grid) [Pa] (None without gas).
     """
     n = engine.cylinders
-    rod_model = inertia.rod_model if isinstance(inertia, InertiaParams) else "rigid"
+    rod_model = model.rod_model
     kin, train = model.kinematics, model.train
     load = scene.operating_point.load
     ambient = model._ambient
