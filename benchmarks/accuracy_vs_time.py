@@ -18,12 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.angle_domain import sections as angle_domain_sections
+from benchmarks.scenes import sections as scene_sections
+from benchmarks.torsion import sections as torsion_sections
 from monitor import __version__
 from monitor.fourier import cycle_grid, order_coefficients, synthesize
 from monitor.model import kinematics as kin
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine, bundled_engines, load_engine
-from monitor.model.forces import STANDARD_GRAVITY
+from monitor.model.forces import STANDARD_GRAVITY, CrankTrain
 from monitor.model.predicted import predict_orders
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -213,8 +216,6 @@ def paper_003_rows() -> list[str]:
     """Paper 003's printed numbers for the moving parts at 500 rpm, motored with the spark-plug hole open
     (no gas force: ``--gas none``), beside the model (its inertia forces of piston and rod summed at the
     crank pin, as the paper's F12: no weight, no crank unbalance; tests/model/test_paper003.py)."""
-    from monitor.model.forces import CrankTrain
-
     train = CrankTrain.of(load_engine("zubaydi-1cyl-2stroke"))
     w = 500 * math.pi / 30
     alpha = cycle_grid(36000)
@@ -264,6 +265,7 @@ def paper_003_rows() -> list[str]:
 
 
 def figure(trunc: dict[str, list[float]], grid: dict[str, list[float]]) -> None:
+    # matplotlib is heavy and wants its backend chosen before pyplot is imported: imported here only
     import matplotlib
 
     matplotlib.use("Agg")
@@ -313,15 +315,12 @@ def main() -> None:
     print("rod models ...", flush=True)
     rods = rod_model_table()
     print("torsion ...", flush=True)
-    from benchmarks.torsion import sections as torsion_sections
 
     torsion = torsion_sections()
     print("angle domain ...", flush=True)
-    from benchmarks.angle_domain import sections as angle_domain_sections
 
     angle_domain = angle_domain_sections()
     print("scenes ...", flush=True)
-    from benchmarks.scenes import sections as scene_sections
 
     scenes = scene_sections()
     figure(trunc, grid)

@@ -35,6 +35,8 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
+import httpx
+
 from benchmarks.sections import replace_section
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -265,8 +267,6 @@ def _image_facts() -> str:
 
 
 def _diagnosis(port: int, key: str) -> str:
-    import httpx
-
     with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"X-API-Key": key}, timeout=60) as client:
         answer = client.post("/recordings", params={"filename": SAMPLE.name}, content=SAMPLE.read_bytes())
         if answer.status_code != 201:

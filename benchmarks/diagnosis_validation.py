@@ -16,6 +16,7 @@ as JSON (docs/diagnosis-validation.json, not kept in the repository).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import tempfile
@@ -27,6 +28,14 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from monitor.diagnosis import calibrate, diagnose
+from monitor.diagnosis.findings import MISFIRE_BELOW
+from monitor.errors import MonitorError
+from monitor.model.engine import load_engine
+from validation.simulator import healthy_twin, random_case
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 DURATIONS = (10.0, 30.0, 60.0)
@@ -124,8 +133,6 @@ def _named(truth: dict[str, Any], findings: list[tuple[str, str, str]]) -> bool:
 
 def _said(error: Exception) -> str:
     """The error's first line; for one the product does not raise on purpose, where it came from."""
-    from monitor.errors import MonitorError
-
     said = f"{type(error).__name__}: {error}".splitlines()[0][:300]
     if not isinstance(error, MonitorError):
         said += " at " + traceback.format_exc(limit=-1).strip().splitlines()[-3].strip()[:150]
@@ -134,14 +141,6 @@ def _said(error: Exception) -> str:
 
 def run_case(seed: int, duration_s: float) -> Outcome:
     """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case."""
-    import math
-
-    import numpy as np
-
-    from monitor.diagnosis import calibrate, diagnose
-    from monitor.model.engine import load_engine
-    from validation.simulator import healthy_twin, random_case
-
     start = time.perf_counter()
     case = random_case(seed, duration_s=duration_s)
     truth = case.truth
@@ -220,7 +219,6 @@ def run_case(seed: int, duration_s: float) -> Outcome:
 
 def _shares(outcomes: list[Outcome]) -> str:
     """What a misfiring and a weak cylinder read (their share of the others), 2 or more cylinders."""
-    from monitor.diagnosis.findings import MISFIRE_BELOW
 
     def span(group: list[float]) -> str:
         return f"{min(group):.2f} to {max(group):.2f} ({len(group)} cases)" if group else "none"
@@ -467,7 +465,6 @@ def main(argv: list[str] | None = None) -> int:
             args.rules_doc, outcomes, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(outcomes)} cases"
         )
     rows = args.out.with_suffix(".json")
-    import json
 
     rows.write_text(json.dumps([asdict(o) for o in outcomes], indent=0, default=str))
     print(

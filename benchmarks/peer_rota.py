@@ -2,7 +2,7 @@
 
 Run with ``python -m benchmarks.peer_rota [--minutes M] [--minutes-used U]``
 (default 5 minutes, all of it used). It generates a recording with
-:func:`benchmarks.performance.generate` in a temporary folder, runs the
+:func:`benchmarks.long_recording.generate` in a temporary folder, runs the
 product and the peer on the same excerpt and prints a markdown table.
 
 The peer. ``rota-order`` (import name ``rota``) is GPL-3.0-or-later: it is
@@ -19,7 +19,7 @@ What is compared. The same excerpt (the first ``minutes_used`` minutes; when
 that is less than the whole recording, both read a copy of that span made by
 :func:`write_excerpt`), the same four accelerometer channels
 ``mb1-vertical`` .. ``mb4-vertical`` and the same orders 1, 2, 4, 6 and 8,
-whose true peak amplitudes (``benchmarks.performance.TRUE_ORDERS``: 1, 0.5,
+whose true peak amplitudes (``benchmarks.long_recording.TRUE_ORDERS``: 1, 0.5,
 0.2, 0.1, 0.05) and phases (``0.3 i + 0.1 k`` rad for channel ``i`` = 0..3
 and order ``k``, relative to the generator's crank angle) are those of the
 generator. Each tool yields one complex peak amplitude per channel and order
@@ -104,6 +104,12 @@ from typing import Any
 
 import numpy as np
 
+# Only the standard library and numpy at the top: the peer side runs this file as a script in
+# .venv-peers/, which has rota, h5py, numpy and scipy but not the product (nor the benchmarks package),
+# and benchmarks.performance imports it into child processes whose imports and memory are measured. So
+# rota, scipy and h5py, and on the product side the product and benchmarks.long_recording, are
+# imported in the functions that use them.
+
 ROOT = Path(__file__).resolve().parents[1]
 PEER_VENV = ROOT / ".venv-peers"
 PEER_PACKAGES = ("rota-order==0.3.0", "h5py", "numpy", "scipy")
@@ -146,8 +152,8 @@ PEER_SETTINGS: tuple[tuple[str, str, dict[str, Any]], ...] = (
 
 
 def true_orders() -> dict[int, float]:
-    """True peak amplitudes by order of :func:`benchmarks.performance.generate` (product side only)."""
-    from benchmarks.performance import TRUE_ORDERS
+    """True peak amplitudes by order of :func:`benchmarks.long_recording.generate` (product side only)."""
+    from benchmarks.long_recording import TRUE_ORDERS
 
     return {int(k): float(a) for k, a in TRUE_ORDERS.items()}
 
@@ -172,7 +178,7 @@ def _check_recording(path: Path) -> float:
         if notes != GENERATOR_NOTES:
             raise ValueError(
                 f"{path}: notes attribute {notes!r}, expected {GENERATOR_NOTES!r}: the errors are "
-                "computed against the amplitudes of benchmarks.performance.generate, so only its "
+                "computed against the amplitudes of benchmarks.long_recording.generate, so only its "
                 "recordings can be measured"
             )
         missing = [name for name in (*CHANNELS, "tooth", "keyphasor") if name not in f["channels"]]
@@ -325,7 +331,7 @@ def measure_ours(path: Path, minutes_used: float) -> list[dict[str, Any]]:
     Parameters
     ----------
     path : Path
-        A recording written by :func:`benchmarks.performance.generate`.
+        A recording written by :func:`benchmarks.long_recording.generate`.
     minutes_used : float
         Minutes from the start to analyse [min].
 
@@ -482,7 +488,7 @@ def measure_rota(path: Path, minutes_used: float) -> list[dict[str, Any]]:
     Parameters
     ----------
     path : Path
-        A recording written by :func:`benchmarks.performance.generate`.
+        A recording written by :func:`benchmarks.long_recording.generate`.
     minutes_used : float
         Minutes from the start to analyse [min].
 
@@ -624,7 +630,7 @@ def main() -> None:
         _peer_child(args.peer_child)
         return
 
-    from benchmarks.performance import generate
+    from benchmarks.long_recording import generate
 
     used = args.minutes if args.minutes_used is None else args.minutes_used
     with tempfile.TemporaryDirectory() as folder:
@@ -645,7 +651,7 @@ def main() -> None:
     print(
         "\n".join(
             [
-                f"Recording from benchmarks.performance.generate, {args.minutes:g} min; the first "
+                f"Recording from benchmarks.long_recording.generate, {args.minutes:g} min; the first "
                 f"{used:g} min of {', '.join(CHANNELS)} analysed, "
                 f"orders {', '.join(map(str, true_orders()))}. "
                 f"Peer: {tool}. rota's rpm input took {reference:.2f} s more to derive from the product's "

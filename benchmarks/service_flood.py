@@ -34,7 +34,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import _free_port
+from benchmarks.service_load import free_port
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "service.md"
@@ -190,7 +190,7 @@ def _server_sample(pid: int) -> tuple[int, float]:
 
 
 def run_scenario(row: Row, folder: Path, connections: int, clients: int, seconds: float) -> None:
-    port = _free_port()
+    port = free_port()
     log = folder / "server.log"
     with open(log, "ab") as out:
         server = subprocess.Popen(

@@ -34,8 +34,20 @@ from typing import Any
 import httpx
 
 from benchmarks.sections import replace_section
-from benchmarks.service_load import POSTGRES, _bases, _free_port, _postgres_database
+from benchmarks.service_load import POSTGRES, base_recordings, free_port, postgres_database, start_monitor
+from benchmarks.service_outage import (
+    DISK_END,
+    DISK_START,
+    OUTAGE_END,
+    OUTAGE_START,
+    disk_full_run,
+    disk_full_section,
+    outage_run,
+    outage_section,
+)
+from monitor.io.hdf5 import write_hdf5
 from monitor.runtime.processes import session_processes
+from monitor.store import open_store
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "service.md"
@@ -64,20 +76,11 @@ class Tally:
 
 def _recordings(folder: Path, count: int, seconds: float) -> list[Path]:
     """Distinct recordings to upload (``seconds`` of the 6L32 baseline scene, one seed each)."""
-    from monitor.io.hdf5 import write_hdf5
-
     paths = []
-    for i, recording in enumerate(_bases(count, seconds)):
+    for i, recording in enumerate(base_recordings(count, seconds)):
         paths.append(folder / f"kill-{i}.h5")
         write_hdf5(recording, paths[-1])
     return paths
-
-
-def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
-    with open(log, "ab") as out:
-        return subprocess.Popen(
-            [sys.executable, "-m", "monitor", *argv], stdout=out, stderr=out, start_new_session=True, cwd=ROOT
-        )
 
 
 def _wait_healthy(url: str) -> float | None:
@@ -93,19 +96,17 @@ def _wait_healthy(url: str) -> float | None:
 
 
 def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: bool, tally: Tally) -> None:
-    from monitor.store import open_store
-
     store = open_store(store_url)
     key = store.create_key(store.create_fleet("fleet"))
     store.close()
     data, log = folder / "data", folder / "service.log"
-    port = _free_port()
+    port = free_port()
     url = f"http://127.0.0.1:{port}"
     serve = ["serve", "--port", str(port), "--store", store_url, "--data", str(data), "--lease", "30"]
     serve += ["--workers", "0" if kill_worker else "1"]
     work = ["worker", "--store", store_url, "--data", str(data), "--lease", "30"]
-    server = _start(serve, log)
-    worker = _start(work, log) if kill_worker else None
+    server = start_monitor(serve, log)
+    worker = start_monitor(work, log) if kill_worker else None
     try:
         if _wait_healthy(url) is None:
             raise RuntimeError(f"the server did not start (see {log})")
@@ -140,9 +141,9 @@ def one_run(store_url: str, folder: Path, recordings: list[Path], kill_worker: b
         tally.left_behind += len(session_processes(victim.pid))
         restarted = time.monotonic()
         if kill_worker:
-            worker = _start(work, log)
+            worker = start_monitor(work, log)
         else:
-            server = _start(serve, log)
+            server = start_monitor(serve, log)
             if _wait_healthy(url) is None:
                 tally.restart_failures += 1
                 raise RuntimeError(f"the server did not restart on port {port} (see {log})")
@@ -224,17 +225,6 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _outage_runs(args: argparse.Namespace, command: str) -> None:
-    from benchmarks.service_outage import (
-        DISK_END,
-        DISK_START,
-        OUTAGE_END,
-        OUTAGE_START,
-        disk_full_run,
-        disk_full_section,
-        outage_run,
-        outage_section,
-    )
-
     moment, python = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), platform.python_version()
     if args.outage_cycles > 0:
         section = outage_section(
@@ -264,7 +254,7 @@ def _kill_runs(args: argparse.Namespace) -> None:
                 database: tuple[str, Any] | None = (
                     (f"sqlite:///{folder / 'store.db'}", None)
                     if name == "SQLite"
-                    else _postgres_database(args.postgres)
+                    else postgres_database(args.postgres)
                 )
                 if database is None:
                     note += " No PostgreSQL server answered: its runs were skipped."

@@ -56,9 +56,17 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+import httpx
 import numpy as np
+import sqlalchemy as sa
 
 from benchmarks.sections import replace_section
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.io.hdf5 import write_hdf5
+from monitor.jobs.analyse import diagnose_file
+from monitor.scene import load_scene, simulate
+from monitor.store import document_text, open_store
+from monitor.store.schema import jobs, recordings, results
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "performance.md"
@@ -108,7 +116,7 @@ end
 """
 
 
-def _free_port() -> int:
+def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
@@ -128,10 +136,16 @@ def _wrk() -> str:
     return shutil.which("wrk") or "wrk"
 
 
-def _bases(count: int, seconds: float = 3.0) -> list[Any]:
-    """Recordings the uploaders vary (``seconds`` of the 6L32 baseline scene, one seed each)."""
-    from monitor.scene import load_scene, simulate
+def start_monitor(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
+    """Start ``python -m monitor ARGV`` in a session of its own, its output appended to ``log``."""
+    with open(log, "ab") as out:
+        return subprocess.Popen(
+            [sys.executable, "-m", "monitor", *argv], stdout=out, stderr=out, start_new_session=True, cwd=ROOT
+        )
 
+
+def base_recordings(count: int, seconds: float = 3.0) -> list[Any]:
+    """Recordings the uploaders vary (``seconds`` of the 6L32 baseline scene, one seed each)."""
     scene = load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml").model_copy(
         update={"duration_s": seconds}
     )
@@ -140,20 +154,12 @@ def _bases(count: int, seconds: float = 3.0) -> list[Any]:
 
 def _analysed() -> dict[str, tuple[str, dict[str, Any]]]:
     """The results of one real analysis, stored with every seeded recording."""
-    from monitor.jobs.analyse import diagnose_file
-
     return diagnose_file(str(SAMPLE), None, None, None, SAMPLE.name)
 
 
 def _seed(store_url: str, count: int, documents: dict[str, tuple[str, dict[str, Any]]]) -> tuple[str, int]:
     """A fleet with ``count`` analysed recordings, written through the store's tables in one
     transaction; the fleet's key and its first recording's id."""
-    import sqlalchemy as sa
-
-    from monitor.diagnosis import ANALYSIS_VERSION
-    from monitor.store import document_text, open_store
-    from monitor.store.schema import jobs, recordings, results
-
     store = open_store(store_url)
     try:
         fleet = store.create_fleet("bench")
@@ -217,9 +223,6 @@ def _seed(store_url: str, count: int, documents: dict[str, tuple[str, dict[str, 
 
 
 def _analyses_done(store_url: str) -> int:
-    from monitor.diagnosis import ANALYSIS_VERSION
-    from monitor.store import open_store
-
     store = open_store(store_url)
     try:
         return store.jobs_by_state(ANALYSIS_VERSION).get("done", 0)
@@ -236,14 +239,10 @@ def run(
     documents: dict[str, tuple[str, dict[str, Any]]],
 ) -> dict[str, Any]:
     """Seed the store, start a server on it, load it, stop it; the measurements."""
-    import httpx
-
-    from monitor.io.hdf5 import write_hdf5
-
     seeding = time.perf_counter()
     key, first = _seed(store_url, count, documents)
     seeded_s = time.perf_counter() - seeding
-    port = _free_port()
+    port = free_port()
     base = f"http://127.0.0.1:{port}"
     log = open(folder / "server.log", "wb")
     server = subprocess.Popen(
@@ -344,9 +343,7 @@ def run(
     }
 
 
-def _postgres_database(admin_url: str) -> tuple[str, Any] | None:
-    import sqlalchemy as sa
-
+def postgres_database(admin_url: str) -> tuple[str, Any] | None:
     admin = sa.create_engine(admin_url, isolation_level="AUTOCOMMIT")
     name = f"engine_monitor_bench_{os.getpid()}"
     try:
@@ -455,7 +452,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         print("one analysis for the seeded results, the uploads' recordings ...", flush=True)
         documents = _analysed()
-        bases = _bases(UPLOADERS)
+        bases = base_recordings(UPLOADERS)
         print("SQLite ...", flush=True)
         sqlite_folder = Path(folder) / "sqlite"
         sqlite_folder.mkdir()
@@ -463,7 +460,7 @@ def main() -> None:
         rows.append(
             ("SQLite (WAL)", run(url, sqlite_folder, args.seconds, args.recordings, bases, documents))
         )
-        made = _postgres_database(args.postgres)
+        made = postgres_database(args.postgres)
         if made is None:
             print(f"no PostgreSQL server answers at {args.postgres}: its row is left out", flush=True)
         else:

@@ -31,8 +31,11 @@ from typing import Any
 import httpx
 import sqlalchemy as sa
 
-from benchmarks.service_load import _bases, _free_port, _postgres_database
+from benchmarks.service_load import base_recordings, free_port, postgres_database, start_monitor
 from benchmarks.store_proxy import proxied
+from monitor.diagnosis import ANALYSIS_VERSION
+from monitor.io.hdf5 import write_hdf5
+from monitor.store import open_store
 
 __all__ = ["DiskTally", "OutageTally", "disk_full_run", "disk_full_section", "outage_run", "outage_section"]
 
@@ -136,8 +139,6 @@ class _Load:
                 time.sleep(0.02)
 
     def _upload(self, uploader: int) -> None:
-        from monitor.io.hdf5 import write_hdf5
-
         path = self.folder / f"uploader-{uploader}.h5"
         n = 0
         with httpx.Client(base_url=self.url, headers={"X-API-Key": self.key}, timeout=120) as client:
@@ -158,12 +159,6 @@ class _Load:
                     self._stop.wait(0.5)
 
 
-def _start(argv: list[str], log: Path) -> subprocess.Popen[bytes]:
-    from benchmarks.service_kill import _start as start
-
-    return start(argv, log)
-
-
 def _healthy_within(url: str, seconds: float) -> float | None:
     started = time.monotonic()
     while time.monotonic() - started < seconds:
@@ -177,8 +172,6 @@ def _healthy_within(url: str, seconds: float) -> float | None:
 
 
 def _files_without_rows(data: Path, store_url: str) -> int:
-    from monitor.store import open_store
-
     store = open_store(store_url)
     try:
         return sum(not store.content_stored(path.stem) for path in (data / "recordings").iterdir())
@@ -197,10 +190,8 @@ def _stop(process: subprocess.Popen[bytes]) -> None:
 
 def outage_run(postgres: str, cycles: int, outage_s: float) -> OutageTally:
     """The store stopped ``cycles`` times for ``outage_s`` [s] under readers and uploaders."""
-    from monitor.store import open_store
-
     tally = OutageTally(cycles=cycles, outage_s=outage_s)
-    database = _postgres_database(postgres)
+    database = postgres_database(postgres)
     if database is None:
         tally.skipped = f"no PostgreSQL server answered at {postgres}"
         return tally
@@ -212,14 +203,14 @@ def outage_run(postgres: str, cycles: int, outage_s: float) -> OutageTally:
             key = store.create_key(store.create_fleet("fleet"))
             store.close()
             data, log = folder / "data", folder / "service.log"
-            port = _free_port()
+            port = free_port()
             url = f"http://127.0.0.1:{port}"
             serve = ["serve", "--port", str(port), "--store", through, "--data", str(data), "--workers", "1"]
-            server = _start([*serve, "--no-access-log"], log)
+            server = start_monitor([*serve, "--no-access-log"], log)
             try:
                 if _healthy_within(url, HEALTHY_S) is None:
                     raise RuntimeError(f"the server did not start (see {log})")
-                with _Load(url, key, folder, _bases(UPLOADERS)) as load:
+                with _Load(url, key, folder, base_recordings(UPLOADERS)) as load:
                     for _ in range(cycles):
                         time.sleep(STEADY_S)
                         proxy.stop()
@@ -264,8 +255,6 @@ def outage_run(postgres: str, cycles: int, outage_s: float) -> OutageTally:
 
 
 def _version() -> str:
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     return ANALYSIS_VERSION
 
 
@@ -293,21 +282,19 @@ def disk_full_run(size_mib: int, refused: int) -> DiskTally:
 
 
 def _disk_full(folder: Path, data: Path, refused: int, tally: DiskTally) -> None:
-    from monitor.store import open_store
-
     store_url = f"sqlite:///{folder / 'store.db'}"  # beside the data folder: the uploads fill it alone
     store = open_store(store_url)
     key = store.create_key(store.create_fleet("fleet"))
     store.close()
-    log, port = folder / "service.log", _free_port()
+    log, port = folder / "service.log", free_port()
     url = f"http://127.0.0.1:{port}"
-    server = _start(
+    server = start_monitor(
         ["serve", "--port", str(port), "--store", store_url, "--data", str(data), "--workers", "0"], log
     )
     try:
         if _healthy_within(url, HEALTHY_S) is None:
             raise RuntimeError(f"the server did not start (see {log})")
-        load = _Load(url, key, folder, _bases(UPLOADERS))
+        load = _Load(url, key, folder, base_recordings(UPLOADERS))
         deadline = time.monotonic() + FINISH_S
         with load:  # until `refused` uploads were refused for lack of room (or the deadline)
             while load.uploads["507"] + load.uploads["other 5xx"] < refused and time.monotonic() < deadline:
@@ -322,9 +309,8 @@ def _disk_full(folder: Path, data: Path, refused: int, tally: DiskTally) -> None
         tally.files_without_rows = _files_without_rows(data, store_url)
         subprocess.run(["mount", "-o", f"remount,size={4 * tally.size_mib}m", str(data)], check=True)
         path = folder / "after.h5"
-        from monitor.io.hdf5 import write_hdf5
 
-        write_hdf5(replace(_bases(1)[0], notes="disk-full run: after the folder grew"), path)
+        write_hdf5(replace(base_recordings(1)[0], notes="disk-full run: after the folder grew"), path)
         answer = httpx.post(
             f"{url}/recordings",
             params={"filename": path.name},

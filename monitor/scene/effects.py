@@ -26,12 +26,12 @@ speed fluctuation), ``bearing_acceleration`` (the accelerometer signals).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-if TYPE_CHECKING:
-    from monitor.scene.model import Scene
+from monitor.errors import SceneError
+from monitor.scene.model import Scene
 
 __all__ = ["EFFECTS", "Effect", "check_effects", "named"]
 
@@ -307,8 +307,6 @@ def check_effects(scene: Scene, *, origin: str = "scene") -> None:
     ------
     SceneError
     """
-    from monitor.errors import SceneError
-
     unknown = sorted(set(scene.effects) - set(EFFECTS))
     if unknown:
         raise SceneError(

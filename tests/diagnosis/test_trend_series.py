@@ -30,7 +30,7 @@ from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.jobs.batch import run_batch
 from monitor.model.engine import bundled_engines, load_engine
 from monitor.scene import simulate
-from monitor.scene.model import parse_scene
+from monitor.scene.loading import parse_scene
 from monitor.store import open_store
 from monitor.store.trends import read_trend
 

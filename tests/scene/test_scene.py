@@ -9,11 +9,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import monitor.scene.crank
+import monitor.scene.sources
 from monitor.cli import main
 from monitor.errors import SceneError
 from monitor.io.hdf5 import write_hdf5
+from monitor.io.recording import Channel, Recording
+from monitor.model.engine import bundled_engines, load_engine
 from monitor.scene import EFFECTS, Scene, load_scene, parse_scene, simulate
+from monitor.scene.synthesis import CycleTable, synthesise
 from monitor.signal.measure import read_recording, spectra
+from monitor.signal.pitch import tooth_spacing_errors
+from monitor.signal.pulses import detect_edges
+from monitor.signal.toothwheel import decode_tooth_wheel
+from monitor.torsion.axial_coupling import engine_axial_response
+from monitor.torsion.shaft_line import shaft_line_of
 
 SCENES = Path(__file__).resolve().parents[2] / "recordings" / "scenes"
 
@@ -91,16 +101,14 @@ def test_every_shipped_scene_parses_and_names_known_effects() -> None:
 def test_an_effect_that_is_not_named_costs_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     """Without force sources the crank-train model is never built; without crank_speed the rigid-body
     inertia and the torque integration are never evaluated."""
-    import monitor.model.crankshaft
-    import monitor.scene.simulation as sim
 
     def forbidden(*args, **kwargs):  # type: ignore[no-untyped-def]
         raise AssertionError("evaluated although not named")
 
-    monkeypatch.setattr(sim, "_rigid_inertia", forbidden)
+    monkeypatch.setattr(monitor.scene.crank, "_rigid_inertia", forbidden)
     result = simulate(_scene({"inertia": {}, "bearing_vibration": MODES}))
     assert result.evaluated == ("inertia", "bearing_vibration")
-    monkeypatch.setattr(monitor.model.crankshaft, "EngineModel", forbidden)
+    monkeypatch.setattr(monitor.scene.sources, "EngineModel", forbidden)
     quiet = simulate(_scene({"noise": {"mb2-vertical": 0.1}}))
     assert quiet.evaluated == ("noise",)
     assert np.std(quiet.recording.channel("mb2-vertical").data) == pytest.approx(0.1, rel=0.05)
@@ -260,8 +268,6 @@ def test_an_external_torque_alone_drives_the_crank_speed() -> None:
     speed = spectra(simulation.recording, cycle_revolutions=1, max_order=12).spectra["crank speed"]
     assert speed.magnitude[4] == pytest.approx(truth[4], rel=0.01)
     omega = 104 * math.pi / 30
-    from monitor.model.engine import bundled_engines, load_engine
-    from monitor.torsion.shaft_line import shaft_line_of
 
     line = shaft_line_of(load_engine(bundled_engines()["man-b-w-7k98mc"]))
     engine_side = line.node_names.index("turning wheel")  # the rigid body: free end to the flywheel
@@ -290,9 +296,6 @@ def test_a_worn_bearing_raises_the_higher_orders_at_its_own_sensor() -> None:
 def test_sensor_faults_are_put_in_and_found_by_the_pipeline(tmp_path: Path) -> None:
     """Keyphasor dropouts and extras (repaired, counted), tooth-spacing errors (recovered per tooth),
     a clipped channel (reported with its spans on reading), a gain error (the orders scaled)."""
-    from monitor.signal.pitch import tooth_spacing_errors
-    from monitor.signal.pulses import detect_edges
-    from monitor.signal.toothwheel import decode_tooth_wheel
 
     effects = {
         "inertia": {},
@@ -341,9 +344,6 @@ def test_a_run_up_through_a_torsional_critical_peaks_where_the_campbell_diagram_
     """7K98MC from 40 to 60 rpm, crank speed by the shaft-line model: the tooth wheel's order-4 speed
     fluctuation, measured over 8 s windows, peaks within 1 rpm of the first mode's order-4 critical
     speed computed from the natural frequency (an independent route: eigenvalues, not forced response)."""
-    from monitor.io.recording import Channel, Recording
-    from monitor.model.engine import bundled_engines, load_engine
-    from monitor.torsion.shaft_line import shaft_line_of
 
     simulation = simulate(load_scene(SCENES / "7k98mc-run-up.toml"))
     assert "crank_speed" in simulation.evaluated
@@ -383,17 +383,16 @@ def test_every_shipped_scene_simulates_and_reads_back(path: Path, tmp_path: Path
 def test_the_tabulated_cycle_equals_the_direct_sum_of_orders(revolutions: int) -> None:
     """The per-sample synthesis by table (angle and speed interpolation) against the direct sum of
     complex exponentials: within 1e-5 of the sum of the coefficients' magnitudes (the signal's bound)."""
-    from monitor.scene.simulation import _CycleTable, _synthesise
 
     rng = np.random.default_rng(revolutions)
     orders = np.arange(0, 36 * revolutions + 1) / revolutions
     speeds = np.linspace(5.0, 6.0, 65)
     base = rng.standard_normal(orders.size) + 1j * rng.standard_normal(orders.size)
     coefficients = base[None, :] * (1 + 0.3 * (speeds[:, None] - 5.0))  # linear in speed
-    table = _CycleTable.of(coefficients, orders, revolutions, speeds)
+    table = CycleTable.of(coefficients, orders, revolutions, speeds)
     angle = rng.uniform(0, 200.0, 5000)
     speed = rng.uniform(5.0, 6.0, angle.size)
-    direct = _synthesise(base[None, :] * (1 + 0.3 * (speed[:, None] - 5.0)), orders, angle)
+    direct = synthesise(base[None, :] * (1 + 0.3 * (speed[:, None] - 5.0)), orders, angle)
     bound = np.abs(coefficients).sum(axis=1).max()
     np.testing.assert_allclose(table.at(angle, speed), direct, rtol=0, atol=1e-5 * bound)
 
@@ -443,8 +442,6 @@ def test_axial_vibration_follows_the_coupled_model_and_is_recovered() -> None:
     """An axial accelerometer at the free end: its orders equal -(k w)^2 times the axial displacement of
     journal 1 from engine_axial_response (the torque orders there come from predict_orders, another
     route than the scene's cylinder-by-cylinder sum), and the pipeline recovers them."""
-    from monitor.model.engine import bundled_engines, load_engine
-    from monitor.torsion.axial_coupling import engine_axial_response
 
     sensors = [
         {

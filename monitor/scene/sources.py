@@ -1,0 +1,266 @@
+"""The named sources' orders: engine torque, main-bearing forces, cylinder pressures.
+
+Order domain, quasi-static.  Every force and torque of the engine is a sum
+of orders of the crank (cycle) angle whose coefficients depend on the mean
+speed ``Omega`` as ``A + Omega^2 B``: gas forces and weights do not depend
+on it, inertia forces grow with its square (the angular acceleration of a
+slow trend is left out). Each named source contributes its coefficients,
+cylinder by cylinder (the gas part of cylinder ``c`` scaled by its faults),
+phase-shifted by the firing angles as in :mod:`monitor.model.crankshaft`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydantic import BaseModel
+
+from monitor.errors import SceneError
+from monitor.fourier import order_coefficients
+from monitor.model.crankshaft import EngineModel, GasModel
+from monitor.model.engine import Engine
+from monitor.model.forces import crank_train_forces
+from monitor.model.gas import gas_force
+from monitor.scene.effects import (
+    ExternalTorqueParams,
+    GasParams,
+    InertiaParams,
+    LeakingCylinderParams,
+    MisfireParams,
+    UnbalanceParams,
+    WeakCylinderParams,
+    named,
+)
+from monitor.scene.model import Scene
+from monitor.scene.synthesis import MAX_ORDER
+from monitor.types import ComplexArray, FloatArray
+
+__all__ = ["Orders", "Sources", "external_torque_orders", "sources_of"]
+
+
+@dataclass(frozen=True)
+class Orders:
+    """Coefficients ``A + Omega^2 B`` of one quantity's orders (complex, peak)."""
+
+    orders: FloatArray
+    a: ComplexArray  # shape (..., n_orders)
+    b: ComplexArray
+
+    def at(self, speed: FloatArray | float) -> ComplexArray:
+        w2 = np.asarray(speed, dtype=np.float64) ** 2
+        return np.asarray(self.a + np.multiply.outer(w2, self.b) if np.ndim(w2) else self.a + w2 * self.b)
+
+
+@dataclass
+class Sources:
+    """The named sources' orders: engine torque, bearing forces (x, y), cylinder pressures."""
+
+    orders: FloatArray
+    torque: Orders | None = None
+    bearing: Orders | None = None  # shape (n_bearings, 2, n_orders)
+    pressure: FloatArray | None = None  # (n_cylinders, grid) absolute [Pa] over each cylinder's cycle
+    grid: FloatArray | None = None
+    gas_scale: list[float] = field(default_factory=list)
+    charge_scale: list[float] = field(default_factory=list)
+    cylinder_torque: Orders | None = None  # shape (n_cylinders, n_orders): each throw's own
+    gas_model: str = "none"  # the pressure model used ("parametric" when cylinder faults are named)
+    external: ComplexArray | None = None  # the external torque's orders (speed-independent)
+
+
+def sources_of(scene: Scene, engine: Engine, evaluated: list[str]) -> Sources | None:
+    """Order coefficients of every named source (None if none is named: nothing is computed)."""
+    inertia = named(scene, "inertia")
+    gas = named(scene, "gas")
+    unbalance = named(scene, "unbalance")
+    external = named(scene, "external_torque")
+    n = engine.cylinders
+    if isinstance(gas, GasParams) and gas.scale is not None and len(gas.scale) != n:
+        raise SceneError(f"effect 'gas': scale has {len(gas.scale)} values; the engine has {n} cylinders")
+    if inertia is None and gas is None and unbalance is None:
+        if external is None:
+            return None
+        evaluated.append("external_torque")
+        orders = np.arange(round(MAX_ORDER * engine.cycle_revolutions) + 1) / engine.cycle_revolutions
+        speed_free = np.zeros(orders.size, dtype=np.complex128)
+        outside = external_torque_orders(external, orders)
+        torque = Orders(orders, outside, speed_free)
+        return Sources(orders, torque=torque, gas_scale=[1.0] * n, charge_scale=[1.0] * n, external=outside)
+    gas_scale, charge_scale = _cylinder_scales(scene, engine, gas, evaluated)
+    model = _engine_model(engine, inertia, gas, faulted=any(s != 1.0 for s in gas_scale + charge_scale))
+    stacked, pressure = _cylinder_forces(
+        scene, engine, model, inertia, gas, gas_scale, charge_scale, evaluated
+    )
+    oc = order_coefficients(stacked, cycle_revolutions=engine.cycle_revolutions, max_order=MAX_ORDER)
+    orders = oc.orders
+    # each cylinder's own coefficients delayed by its firing angle (model.crankshaft.phase_shift's rule)
+    shifts = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))
+    coefficients = oc.coefficients * shifts[:, None, None, :]  # (n_cyl, 2, 3, n_orders)
+    torque = Orders(orders, coefficients[:, 0, 0].sum(axis=0), coefficients[:, 1, 0].sum(axis=0))
+    throw_a, throw_b = coefficients[:, 0, 1:3], coefficients[:, 1, 1:3]  # (n_cyl, 2, n_orders)
+    if unbalance is not None:
+        assert isinstance(unbalance, UnbalanceParams)
+        evaluated.append("unbalance")
+        c = unbalance.throw
+        if not 1 <= c <= n:
+            raise SceneError(f"effect 'unbalance': throw {c} does not exist (the engine has {n})")
+        # U w^2 (sin, cos) of the throw's angle plus the offset: order 1 of the crank angle
+        phase = unbalance.angle_deg * math.pi / 180 - engine.firing_angles[c - 1]
+        k1 = int(np.argmin(np.abs(orders - 1.0)))
+        throw_b = throw_b.copy()
+        throw_b[c - 1, 0, k1] += unbalance.kgm * -1j * np.exp(1j * phase)
+        throw_b[c - 1, 1, k1] += unbalance.kgm * np.exp(1j * phase)
+    share = engine.bearing_share
+    bearing = Orders(
+        orders, np.einsum("bc,cko->bko", share, throw_a), np.einsum("bc,cko->bko", share, throw_b)
+    )
+    has_cylinders = inertia is not None or gas is not None
+    per_cylinder = Orders(orders, coefficients[:, 0, 0], coefficients[:, 1, 0]) if has_cylinders else None
+    external_torque: ComplexArray | None = None
+    if external is not None:
+        evaluated.append("external_torque")
+        external_torque = external_torque_orders(external, orders)
+        torque = Orders(orders, torque.a + external_torque, torque.b)
+    return Sources(
+        orders,
+        gas_model=model.gas if gas is not None else "none",
+        cylinder_torque=per_cylinder,
+        external=external_torque,
+        torque=torque if (has_cylinders or external is not None) else None,
+        bearing=bearing,
+        pressure=pressure,
+        grid=model.crank_angle,
+        gas_scale=gas_scale,
+        charge_scale=charge_scale,
+    )
+
+
+def _cylinder_scales(
+    scene: Scene, engine: Engine, gas: BaseModel | None, evaluated: list[str]
+) -> tuple[list[float], list[float]]:
+    """Each cylinder's heat-release and charge-pressure scale: the gas source's, times its faults'."""
+    n = engine.cylinders
+    gas_scale = list(gas.scale) if isinstance(gas, GasParams) and gas.scale is not None else [1.0] * n
+    charge_scale = [1.0] * n
+    for effect, params in (
+        ("misfire", named(scene, "misfire")),
+        ("weak_cylinder", named(scene, "weak_cylinder")),
+        ("leaking_cylinder", named(scene, "leaking_cylinder")),
+    ):
+        if params is None:
+            continue
+        evaluated.append(effect)
+        cylinders = (
+            params.cylinders if isinstance(params, MisfireParams) else [params.cylinder]  # type: ignore[attr-defined]
+        )
+        for c in cylinders:
+            if not 1 <= c <= n:
+                raise SceneError(f"effect {effect!r}: cylinder {c} does not exist (the engine has {n})")
+            if isinstance(params, MisfireParams):
+                gas_scale[c - 1] = 0.0
+            elif isinstance(params, WeakCylinderParams):
+                gas_scale[c - 1] *= params.scale
+            elif isinstance(params, LeakingCylinderParams):
+                charge_scale[c - 1] = params.compression
+    return gas_scale, charge_scale
+
+
+def _engine_model(
+    engine: Engine, inertia: BaseModel | None, gas: BaseModel | None, *, faulted: bool
+) -> EngineModel:
+    """The crank-train model of the named sources (parametric gas when a cylinder fault scales it)."""
+    rod_model = inertia.rod_model if isinstance(inertia, InertiaParams) else "rigid"
+    kinematics = inertia.kinematics if isinstance(inertia, InertiaParams) else "exact"
+    gas_model: GasModel = "none"
+    if isinstance(gas, GasParams):
+        gas_model = gas.model
+        if faulted:
+            if gas_model == "measured":
+                raise SceneError(
+                    "cylinder faults scale the parametric cycle's heat release and charge pressure: "
+                    "set gas.model = 'parametric' (or 'auto')"
+                )
+            gas_model = "parametric"
+    return EngineModel(
+        engine,
+        grid_size=1024,
+        rod_model=rod_model,
+        kinematics=kinematics,
+        gas=gas_model,
+    )
+
+
+def _cylinder_forces(
+    scene: Scene,
+    engine: Engine,
+    model: EngineModel,
+    inertia: BaseModel | None,
+    gas: BaseModel | None,
+    gas_scale: list[float],
+    charge_scale: list[float],
+    evaluated: list[str],
+) -> tuple[FloatArray, FloatArray | None]:
+    """Each cylinder's torque and pin forces (x, y) as ``A + w^2 B`` over its cycle, and its pressure.
+
+    Returns the rows (n_cylinders, 2 (A, B), 3 (torque, x, y), grid) and the absolute pressures
+    (n_cylinders, grid) [Pa] (None without gas).
+    """
+    n = engine.cylinders
+    rod_model = model.rod_model
+    kin, train = model.kinematics, model.train
+    load = scene.operating_point.load
+    ambient = model._ambient
+
+    def rows(speed: float, force: FloatArray | float, gravity: float) -> FloatArray:
+        f = crank_train_forces(
+            kin, train, crank_speed=speed, gas_force=force, rod_model=rod_model, gravity=gravity
+        )
+        return np.stack([f.torque, f.pin_force_x, f.pin_force_y])
+
+    parts: list[tuple[FloatArray, FloatArray]] = []  # per cylinder: (A rows, B rows) over the cycle grid
+    zero = np.zeros((3, model.grid_size))
+    inertia_a, inertia_b = zero, zero
+    if inertia is not None:
+        evaluated.append("inertia")
+        base = rows(1.0, 0.0, model.gravity)
+        twice = rows(2.0, 0.0, model.gravity)
+        inertia_b = (twice - base) / 3.0  # forces a + w^2 b at w = 1 and 2
+        inertia_a = base - inertia_b
+        unb_x, unb_y = model.unbalance_force(1.0)
+        inertia_b = inertia_b + np.stack([np.zeros_like(unb_x), unb_x, unb_y])
+    pressure = None
+    if gas is not None:
+        evaluated.append("gas")
+        if model.gas == "parametric":
+            assert model._cycle is not None and model._setup.gas_basis is not None
+            basis_a, basis_b = model._setup.gas_basis
+            charge, heat = model._cycle.charge_pressure(load), model._cycle.heat_release(load)
+            pressure = np.stack(
+                [charge_scale[c] * charge * basis_a + gas_scale[c] * heat * basis_b for c in range(n)]
+            )
+        else:
+            pressure = np.repeat(model.cylinder_pressure(load)[None, :], n, axis=0)
+    for c in range(n):
+        a_rows = inertia_a.copy()
+        if pressure is not None:
+            f_gas = gas_force(pressure[c], engine.piston_area, ambient)
+            a_rows += rows(1.0, f_gas, 0.0) - rows(1.0, 0.0, 0.0)  # the gas part alone (linear in it)
+        parts.append((a_rows, inertia_b))
+    return np.stack([np.stack([a, b]) for a, b in parts]), pressure  # (n_cyl, 2, 3, grid)
+
+
+def external_torque_orders(params: BaseModel, orders: FloatArray) -> ComplexArray:
+    """The external torque's coefficients on the grid of orders (speed-independent) [N m]."""
+    assert isinstance(params, ExternalTorqueParams)
+    out = np.zeros(orders.size, dtype=np.complex128)
+    for item in params.orders:
+        i = int(np.argmin(np.abs(orders - item.order)))
+        if abs(orders[i] - item.order) > 1e-9:
+            step = orders[1] - orders[0]
+            raise SceneError(
+                f"effect 'external_torque': order {item.order:g} is not a multiple of {step:g} "
+                f"(the engine's cycle) or above {orders[-1]:g}"
+            )
+        out[i] += item.amplitude_nm * np.exp(1j * math.radians(item.phase_deg))
+    return out

@@ -1,0 +1,227 @@
+"""Crank-train kinematics, inertia and the vertical forces a throw puts on its main bearings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from validation.simulator.engine import SimEngine
+from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray
+
+
+@dataclass(frozen=True)
+class SliderCrank:
+    """Positions and their derivatives in the crank angle of one cylinder's crank train.
+
+    ``y`` is measured along the cylinder axis from the crank axis towards the head, ``x`` across
+    it; ``phi`` is the rod's angle to the cylinder axis. Primes are derivatives in the crank angle.
+
+    Attributes
+    ----------
+    piston, piston_1, piston_2 : ndarray
+        Piston pin height y_p and its first and second derivatives [m], [m/rad], [m/rad^2].
+    rod_x_1, rod_x_2, rod_y_1, rod_y_2 : ndarray
+        Derivatives of the rod centre of gravity's position [m/rad], [m/rad^2].
+    rod_angle_1, rod_angle_2 : ndarray
+        Derivatives of the rod angle [-], [1/rad].
+    """
+
+    piston: FloatArray
+    piston_1: FloatArray
+    piston_2: FloatArray
+    rod_x_1: FloatArray
+    rod_x_2: FloatArray
+    rod_y_1: FloatArray
+    rod_y_2: FloatArray
+    rod_angle_1: FloatArray
+    rod_angle_2: FloatArray
+
+
+def slider_crank(
+    crank_angle: npt.ArrayLike, *, crank_radius: float, rod_length: float, rod_cg_from_pin: float
+) -> SliderCrank:
+    """Exact slider-crank kinematics.
+
+    Parameters
+    ----------
+    crank_angle : array_like
+        The cylinder's crank angle from its TDC, psi [rad].
+    crank_radius : float
+        R [m].
+    rod_length : float
+        L, pin centre to pin centre [m].
+    rod_cg_from_pin : float
+        a, the rod's centre of gravity from the piston pin [m].
+
+    Returns
+    -------
+    SliderCrank
+
+    Notes
+    -----
+    ``sin phi = lambda sin psi`` (``lambda = R / L``); crank pin at ``(R sin psi, R cos psi)``,
+    piston pin at ``(0, y_p)`` with ``y_p = R cos psi + L cos phi``, rod centre of gravity at
+    ``((a / L) R sin psi, R cos psi + (L - a) cos phi)``.  ``phi' = lambda cos psi / cos phi`` and
+    ``phi'' = lambda (cos psi sin phi phi' - sin psi cos phi) / cos^2 phi``.
+    """
+    psi = np.asarray(crank_angle, dtype=np.float64)
+    r, length, a = crank_radius, rod_length, rod_cg_from_pin
+    lam = r / length
+    s, c = np.sin(psi), np.cos(psi)
+    sin_phi = lam * s
+    cos_phi = np.sqrt(1 - sin_phi**2)
+    phi_1 = lam * c / cos_phi
+    phi_2 = lam * (c * sin_phi * phi_1 - s * cos_phi) / cos_phi**2
+    bend = cos_phi * phi_1**2 + sin_phi * phi_2  # d^2(cos phi)/dpsi^2 with the sign flipped
+    return SliderCrank(
+        piston=r * c + length * cos_phi,
+        piston_1=-r * s - length * sin_phi * phi_1,
+        piston_2=-r * c - length * bend,
+        rod_x_1=(a / length) * r * c,
+        rod_x_2=-(a / length) * r * s,
+        rod_y_1=-r * s - (length - a) * sin_phi * phi_1,
+        rod_y_2=-r * c - (length - a) * bend,
+        rod_angle_1=phi_1,
+        rod_angle_2=phi_2,
+    )
+
+
+def engine_kinematics(engine: SimEngine, psi: npt.ArrayLike) -> SliderCrank:
+    return slider_crank(
+        psi,
+        crank_radius=engine.crank_radius,
+        rod_length=engine.rod_length,
+        rod_cg_from_pin=engine.rod_cg_from_pin,
+    )
+
+
+def equivalent_inertia(engine: SimEngine, crank_angle: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """One cylinder's piston and rod as an inertia on the crank, and its derivative.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    crank_angle : array_like
+        The cylinder's crank angle from its TDC [rad].
+
+    Returns
+    -------
+    inertia, derivative : ndarray
+        ``J_c`` [kg m^2] and ``dJ_c/dpsi`` [kg m^2/rad].
+
+    Notes
+    -----
+    From the kinetic energy ``T = J_c omega^2 / 2`` of piston and rod (exact, no two-mass split):
+    ``J_c = m_p y_p'^2 + m_r (x_g'^2 + y_g'^2) + I_r phi'^2``.
+    """
+    k = engine_kinematics(engine, crank_angle)
+    mp, mr, ir = engine.piston_mass, engine.rod_mass, engine.rod_inertia
+    inertia = mp * k.piston_1**2 + mr * (k.rod_x_1**2 + k.rod_y_1**2) + ir * k.rod_angle_1**2
+    derivative = 2 * (
+        mp * k.piston_1 * k.piston_2
+        + mr * (k.rod_x_1 * k.rod_x_2 + k.rod_y_1 * k.rod_y_2)
+        + ir * k.rod_angle_1 * k.rod_angle_2
+    )
+    return inertia, derivative
+
+
+def inertia_force_coefficients(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """``K2, K1`` with ``sum_i m_i ddot(y_i) = K2 omega^2 + K1 omega_dot``, piston, rod, throw [kg m]."""
+    k = engine_kinematics(engine, psi)
+    psi = np.asarray(psi, dtype=np.float64)
+    net = engine.crank_unbalance - engine.counterweight  # throw's mass x radius towards the pin
+    k2 = engine.piston_mass * k.piston_2 + engine.rod_mass * k.rod_y_2 - net * np.cos(psi)
+    k1 = engine.piston_mass * k.piston_1 + engine.rod_mass * k.rod_y_1 - net * np.sin(psi)
+    return k2, k1
+
+
+def throw_vertical_force(
+    engine: SimEngine,
+    crank_angle: npt.ArrayLike,
+    pressure: npt.ArrayLike,
+    speed: npt.ArrayLike,
+    acceleration: npt.ArrayLike,
+) -> FloatArray:
+    """Vertical force of one throw on its main bearings, upwards (towards the head) positive.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    crank_angle : array_like
+        The cylinder's crank angle from its TDC [rad].
+    pressure : array_like
+        Its cylinder pressure, absolute [Pa].
+    speed : array_like
+        Crank speed [rad/s].
+    acceleration : array_like
+        Crank angular acceleration [rad/s^2].
+
+    Returns
+    -------
+    ndarray
+        [N].
+
+    Notes
+    -----
+    Newton's second law along the cylinder axis for piston, rod and throw, each a free body: the
+    rod passes the piston's load plus its own inertia to the crank pin, and the throw passes
+    that plus its own to the bearings, so ``F = -(p - p_amb) A - (m_p ddot(y_p) + m_r ddot(y_g)
+    + u ddot(cos psi))`` with ``ddot(y) = y'' omega^2 + y' omega_dot`` and the throw's net
+    unbalance ``u`` (crank pin and webs less counterweights) [kg m].
+    """
+    k2, k1 = inertia_force_coefficients(engine, crank_angle)
+    w = np.asarray(speed, dtype=np.float64)
+    gas = (np.asarray(pressure, dtype=np.float64) - AMBIENT_PRESSURE) * engine.piston_area
+    return np.asarray(-gas - (k2 * w**2 + k1 * np.asarray(acceleration, dtype=np.float64)))
+
+
+def bearing_split(
+    cylinder_positions: npt.ArrayLike,
+    bearing_positions: npt.ArrayLike,
+    throw_bearings: list[tuple[int, int]],
+) -> FloatArray:
+    """Share of each throw's force carried by each main bearing (statically determinate throws).
+
+    Parameters
+    ----------
+    cylinder_positions : array_like, shape (n,)
+        Axial position of each throw's force [m].
+    bearing_positions : array_like, shape (b,)
+        Axial position of each main bearing [m].
+    throw_bearings : list of (int, int)
+        The two bearings (1-based) each throw sits between.
+
+    Returns
+    -------
+    ndarray, shape (b, n)
+        ``F_bearings = share @ F_throws`` [-].
+
+    Raises
+    ------
+    ValueError
+        If a throw does not lie between its two bearings.
+
+    Notes
+    -----
+    Each throw is a beam simply supported on its two bearings: moments about one bearing give the
+    other's reaction, ``F_2 = F (z_c - z_1) / (z_2 - z_1)`` and ``F_1 = F - F_2``, so every column
+    sums to 1 (force equilibrium) and ``sum_b z_b share[b, c] = z_c`` (moment equilibrium).
+    """
+    zc = np.asarray(cylinder_positions, dtype=np.float64)
+    zb = np.asarray(bearing_positions, dtype=np.float64)
+    if len(throw_bearings) != zc.size:
+        raise ValueError(f"throw_bearings has {len(throw_bearings)} pairs: expected {zc.size}, one per throw")
+    share = np.zeros((zb.size, zc.size))
+    for c, (b1, b2) in enumerate(throw_bearings):
+        z1, z2 = zb[b1 - 1], zb[b2 - 1]
+        if not min(z1, z2) <= zc[c] <= max(z1, z2) or z1 == z2:
+            raise ValueError(
+                f"throw {c + 1} at {zc[c]:.4g} m: expected between its bearings {b1} and {b2} "
+                f"({z1:.4g}, {z2:.4g} m)"
+            )
+        w2 = (zc[c] - z1) / (z2 - z1)
+        share[b1 - 1, c] += 1 - w2
+        share[b2 - 1, c] += w2
+    return share
