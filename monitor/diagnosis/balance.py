@@ -1,7 +1,7 @@
 """Cylinder balance: each cylinder's strength from the crank-speed orders, by least squares.
 
 Below the crankshaft's first torsional mode the engine side turns as one
-rigid body of inertia ``J`` (:func:`monitor.torsion.shaft_line.engine_side_inertia`):
+rigid body of inertia ``J`` (:func:`monitor.model.inertia.engine_side_inertia`):
 ``1/2 J omega^2 = E0 + integral (T - T_mean) dtheta``, so the torque orders
 follow from the measured speed without a small-fluctuation approximation,
 ``T_k = i k (J / 2) (omega^2)_k``, with ``omega^2`` formed from the measured
@@ -43,8 +43,10 @@ import numpy.typing as npt
 from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
+from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts
 from monitor.signal.angle_domain import OrderSpectrum
+from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
@@ -238,7 +240,7 @@ def measured_torque(
         Crank-speed orders (order 0 the mean speed) [rad/s].
     inertia : float or ndarray, complex, shape (n_orders,)
         The rigid body's inertia, or the inertia each order meets
-        (:func:`monitor.torsion.shaft_line.engine_side_inertia_at`; order 0's unused) [kg m^2].
+        (:func:`monitor.model.inertia.engine_side_inertia_at`; order 0's unused) [kg m^2].
     cycle_revolutions : int
 
     Returns
@@ -261,25 +263,6 @@ def measured_torque(
     torque = 1j * orders * (np.asarray(inertia) / 2) * squared.coefficients[: orders.size]
     torque[0] = 0.0
     return torque, orders * np.abs(inertia) * mean * speed.standard_error
-
-
-def _shaft_line_receptance(engine: Engine, orders: FloatArray, crank_speed: float) -> ComplexArray:
-    """Speed at the tooth wheel per unit torque at each throw, per order: shape (n_cylinders, n_orders)."""
-    from monitor.torsion.shaft_line import shaft_line_of
-
-    if engine.shaft_line is None:
-        raise ModelError(f"transfer 'shaft-line' needs the [shaft_line] of engine {engine.id!r}")
-    line = shaft_line_of(engine)
-    probe = line.index(engine.shaft_line.tooth_wheel or line.node_names[0])
-    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
-    out = np.zeros((engine.cylinders, orders.size), dtype=np.complex128)
-    for j, k in enumerate(orders):
-        for i, node in enumerate(throws):
-            unit = np.zeros(len(line.nodes))
-            unit[node] = 1.0
-            angle = line.harmonic_response(float(k * crank_speed), unit)[0][probe]
-            out[i, j] = 1j * k * crank_speed * angle
-    return out
 
 
 def cylinder_balance(
@@ -333,8 +316,6 @@ def cylinder_balance(
         Without gas forces in the model, with too few resolvable orders, or a transfer the
         engine description cannot give.
     """
-    from monitor.torsion.shaft_line import engine_side_inertia, engine_side_inertia_at
-
     n = engine.cylinders
     R = engine.cycle_revolutions
     if not parts.strength:
@@ -365,7 +346,7 @@ def cylinder_balance(
         H = np.ones((n, orders.size), dtype=np.complex128)
     elif transfer == "shaft-line":
         y, se, unit = speed.amplitude[use], speed.standard_error[use], "rad/s"
-        H = _shaft_line_receptance(engine, orders, parts.crank_speed)
+        H = tooth_wheel_receptance(engine, orders, parts.crank_speed)
     else:
         raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
     # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error

@@ -62,6 +62,7 @@ from monitor.fourier import order_coefficients
 from monitor.io.recording import Channel, Recording
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine
+from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import (
     CombinedOrders,
     CylinderParts,
@@ -77,6 +78,7 @@ from monitor.signal.measure import (
     spectra,
 )
 from monitor.signal.pitch import PitchCorrection
+from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -367,8 +369,6 @@ def _analyse(
     covariance = balance.strength_covariance if balance is not None and balance.separable else None
     inertia = 0.0
     if transfer == "rigid":
-        from monitor.torsion.shaft_line import engine_side_inertia
-
         try:
             inertia = engine_side_inertia(engine)
         except ModelError as error:
@@ -449,8 +449,6 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
     if transfer == "rigid":
         if analysis.inertia <= 0:
             return None
-        from monitor.torsion.shaft_line import engine_side_inertia_at
-
         mean = float(speed.amplitude[0].real)
         met = np.full(orders.size, analysis.inertia, dtype=np.complex128)
         met[1:] = engine_side_inertia_at(engine, orders[1:] * mean)
@@ -460,9 +458,7 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
             "through its shafts"
         )
     else:
-        from monitor.diagnosis.balance import _shaft_line_receptance
-
-        receptance = _shaft_line_receptance(engine, orders[1:], float(speed.amplitude[0].real))
+        receptance = tooth_wheel_receptance(engine, orders[1:], float(speed.amplitude[0].real))
         predicted = np.concatenate(
             [[speed.amplitude[0]], (receptance * nominal.cylinder_torque[:, index[1:]]).sum(axis=0)]
         )

@@ -531,7 +531,7 @@ def _check_locations(scene: Scene, engine: Engine) -> None:
 
 def _rigid_inertia(engine: Engine) -> float:
     """The engine side of the shaft line as one rigid body [kg m^2] (see ``engine_side_inertia``)."""
-    from monitor.torsion.shaft_line import engine_side_inertia
+    from monitor.model.inertia import engine_side_inertia
 
     if engine.shaft_line is None:
         raise SceneError(

@@ -73,6 +73,9 @@ from scipy.integrate import solve_ivp
 
 from monitor.errors import ModelError
 from monitor.model.engine import Engine
+from monitor.model.excitation import gas_torque_orders
+from monitor.model.inertia import throw_inertia
+from monitor.torsion.shaft_line import shaft_line_of
 from monitor.types import FloatArray
 
 __all__ = [
@@ -250,12 +253,8 @@ def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> Var
         ``epsilon = (m_rec R^2 / 2) / (I_throw + m_rot R^2 + m_rec R^2 / 2)`` and
         ``r = omega / omega_mode`` with the mean-inertia shaft line.
     """
-    from monitor.torsion.shaft_line import shaft_line_of
-
-    if engine.shaft_line is None:
-        raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
     half = 0.5 * engine.reciprocating_mass * engine.crank_radius**2
-    rotating = engine.shaft_line.throw_inertia_kgm2 + engine.rotating_rod_mass * engine.crank_radius**2
+    rotating = throw_inertia(engine)
     frequencies = shaft_line_of(engine).modes().frequencies
     if not 1 <= mode <= frequencies.size:
         raise ModelError(f"mode = {mode!r}: the shaft line has modes 1..{frequencies.size}")
@@ -288,22 +287,12 @@ def gas_excitation(
     HarmonicExcitation
         ``amplitude_k = |T_k| / (omega^2 J_0)``, ``J_0 = I_throw + m_rot R^2 + m_rec R^2 / 2``.
     """
-    from monitor.model.crankshaft import EngineModel
-    from monitor.model.predicted import predict_orders
-
-    if engine.shaft_line is None:
-        raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
     r2 = engine.crank_radius**2
-    j0 = (
-        engine.shaft_line.throw_inertia_kgm2
-        + engine.rotating_rod_mass * r2
-        + 0.5 * engine.reciprocating_mass * r2
-    )
-    result = predict_orders(EngineModel(engine), crank_speed=crank_speed, load=load, max_order=max_order)
-    torque = result.cylinder_gas_torque[0, 1:]  # cylinder 1: its own angle is the engine's crank angle
+    j0 = throw_inertia(engine) + 0.5 * engine.reciprocating_mass * r2
+    orders, torque = gas_torque_orders(engine, crank_speed, load=load, max_order=max_order)
     scale = crank_speed**2 * j0
     return HarmonicExcitation(
-        tuple(float(k) for k in result.orders[1:]),
+        tuple(float(k) for k in orders),
         tuple(float(v) for v in np.abs(torque) / scale),
         tuple(float(v) for v in np.angle(torque)),
     )

@@ -104,7 +104,7 @@ def test_engine_shaft_line_matches_opentorsion_to_1e_6() -> None:
     """The 7K98MC shaft line built in openTorsion straight from the engine description (disks and
     massless shafts, assembled by openTorsion, not from our nodes) gives the same natural
     frequencies as shaft_line_of to 1e-6 relative."""
-    from monitor.torsion.shaft_line import mean_reciprocating_inertia
+    from monitor.model.inertia import mean_reciprocating_inertia
 
     e = load_engine("man-b-w-7k98mc")
     line = e.shaft_line
@@ -227,8 +227,8 @@ def test_engine_without_shaft_line_is_refused() -> None:
 def test_mean_reciprocating_inertia_of_the_exact_kinematics() -> None:
     """Mean of m_rec x'^2 over a revolution: m_rec R^2 (1/2 + lambda^2/8 + lambda^4/... ), here
     against a 20 000-point trapezoid (an independent quadrature); it tends to m R^2 / 2 as lambda -> 0."""
+    from monitor.model.inertia import mean_reciprocating_inertia
     from monitor.model.kinematics import piston_x_derivatives
-    from monitor.torsion.shaft_line import mean_reciprocating_inertia
 
     e = load_engine("man-b-w-7k98mc")
     a = np.linspace(0, 2 * np.pi, 20001)
