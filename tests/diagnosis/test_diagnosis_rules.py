@@ -254,10 +254,10 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     case = random_case(525, duration_s=10.0)
     engine = _validation_engine(case.engine_toml)
     twin = healthy_twin(case, seed=525 + 1_000_000)
-    from monitor.diagnosis.diagnose import _engine_orders
+    from monitor.diagnosis.analysis import engine_orders
     from monitor.signal.measure import learn_pitch_errors
 
-    harmonics = _engine_orders(engine, twin.recording, firing_only=True)
+    harmonics = engine_orders(engine, twin.recording, firing_only=True)
     assert harmonics is not None
     assert learn_pitch_errors(twin.recording, engine_orders=harmonics) is None
     baseline = calibrate(twin.recording, engine, load=twin.load_given)
