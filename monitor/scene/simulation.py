@@ -440,13 +440,9 @@ def _variable_inertia_crank(
     import dataclasses
 
     from monitor.fourier import order_coefficients
-    from monitor.torsion.variable_inertia import (
-        HarmonicExcitation,
-        crank_of_engine,
-        gas_excitation,
-        harmonic_content,
-    )
-    from monitor.torsion.variable_inertia import simulate as respond
+    from monitor.torsion.time_response import harmonic_content
+    from monitor.torsion.time_response import simulate as respond
+    from monitor.torsion.variable_inertia import HarmonicExcitation, crank_of_engine, gas_excitation
 
     if scene.operating_point.trend.kind != "constant":
         raise SceneError("crank_speed (variable_inertia) is for a constant speed: remove the trend")
