@@ -50,10 +50,33 @@ def _bearing_of(channel: Channel) -> int | None:
 
 
 def vibration_channels(recording: Recording) -> list[Channel]:
+    """The recording's acceleration and velocity channels (not event channels).
+
+    Parameters
+    ----------
+    recording : Recording
+
+    Returns
+    -------
+    list of Channel
+    """
     return [c for c in recording.channels if c.kind in ("acceleration", "velocity") and not c.is_events]
 
 
 def bearing_sensors(recording: Recording, engine: Engine) -> list[tuple[Channel, int]]:
+    """The vibration channels on a main bearing ('main bearing N', vertical or horizontal).
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+        Its bearing count bounds N.
+
+    Returns
+    -------
+    list of (Channel, int)
+        Each channel with its bearing's number (from 1).
+    """
     out = []
     for channel in vibration_channels(recording):
         b = _bearing_of(channel)
@@ -124,8 +147,29 @@ def analyse(
 ) -> Analysis:
     """The recording's spectra, its cylinder balance and the model combined with the strengths found.
 
-    Parameters as :func:`monitor.diagnosis.diagnose.diagnose`; ``pitch`` is a learned tooth-pitch
-    correction (default: estimated on the recording), ``crank`` a baseline's crank calibration.
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    load : float
+        The load it ran at, fraction of rated IMEP [-].
+    transfer : {"rigid", "shaft-line"}
+        From the torque to the crank speed.
+    max_order : float
+        Highest order analysed [-].
+    cycle_phase : float or "unknown", optional
+        Four-stroke: the shift that puts cylinder 1's firing TDC at cycle angle 0 [rad], or
+        "unknown" (analysed with 0, each cylinder's 360 deg partner kept).
+    pitch : PitchCorrection, optional
+        A learned tooth-pitch correction (default: estimated on the recording).
+    crank : CrankCalibration, optional
+        A baseline's calibration of the crank-speed model.
+    progress : callable, optional
+        Told the fraction of the resampling done, from 0 to 1 [-].
+
+    Returns
+    -------
+    Analysis
 
     Raises
     ------
@@ -249,6 +293,19 @@ def engine_orders(engine: Engine, recording: Recording, *, firing_only: bool = F
     of which a cylinder that fires unlike the others excites; not with ``firing_only``, for a
     healthy baseline), and every integer multiple of the firing frequency (cylinders / revolutions
     per cycle) below 0.4 of them (where the gas and inertia torques of cylinders firing alike are).
+
+    Parameters
+    ----------
+    engine : Engine
+    recording : Recording
+        Its first tooth-wheel or encoder channel gives the pulses per revolution.
+    firing_only : bool, optional
+        Only the firing harmonics (for a healthy baseline).
+
+    Returns
+    -------
+    list of int or None
+        None without a tooth wheel or encoder.
     """
     wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
     if not wheels:
@@ -262,7 +319,17 @@ def engine_orders(engine: Engine, recording: Recording, *, firing_only: bool = F
 
 
 def phase_partners(engine: Engine) -> list[int | None]:
-    """For each cylinder, the one that fires 360 deg after it (0-based), or None if no cylinder does."""
+    """For each cylinder, the one that fires 360 deg after it (0-based), or None if no cylinder does.
+
+    Parameters
+    ----------
+    engine : Engine
+        A four-stroke engine.
+
+    Returns
+    -------
+    list of int or None
+    """
     angles = np.mod(engine.firing_angles, 4 * math.pi)
     partners: list[int | None] = []
     for c in range(engine.cylinders):

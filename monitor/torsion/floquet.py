@@ -109,14 +109,38 @@ class Monodromy:
 
 
 def largest_multiplier(trace: FloatArray, det: FloatArray) -> FloatArray:
-    """Largest modulus of the eigenvalues of 2 x 2 matrices with these traces and determinants."""
+    """Largest modulus of the eigenvalues of 2 x 2 matrices with these traces and determinants.
+
+    Parameters
+    ----------
+    trace, det : ndarray
+        [-].
+
+    Returns
+    -------
+    ndarray
+        [-].
+    """
     disc = trace * trace - 4.0 * det
     real = 0.5 * (np.abs(trace) + np.sqrt(np.maximum(disc, 0.0)))
     return np.asarray(np.where(disc >= 0.0, real, np.sqrt(np.maximum(det, 0.0))))
 
 
 def magnus_monodromy(epsilon: FloatArray, r: FloatArray, zeta: FloatArray, steps: int) -> FloatArray:
-    """Monodromy over [0, pi] for arrays of parameters (broadcast), 4th-order Magnus."""
+    """Monodromy over [0, pi] for arrays of parameters (broadcast), 4th-order Magnus.
+
+    Parameters
+    ----------
+    epsilon, r, zeta : ndarray
+        Inertia ratio, speed ratio, damping ratio, broadcast together [-].
+    steps : int
+        Magnus steps per period.
+
+    Returns
+    -------
+    ndarray, shape (..., 2, 2)
+        Maps ``(gamma, J gamma')`` at 0 to ``pi``.
+    """
     eps, inv_r2, damp = np.broadcast_arrays(epsilon, 1.0 / (r * r), 2.0 * zeta / r)
     shape = eps.shape
     h = math.pi / steps

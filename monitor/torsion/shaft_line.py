@@ -425,7 +425,27 @@ def shaft_line_of(
 
 
 def tooth_wheel_receptance(engine: Engine, orders: FloatArray, crank_speed: float) -> ComplexArray:
-    """Speed at the tooth wheel per unit torque at each throw, per order: shape (n_cylinders, n_orders)."""
+    """Speed at the tooth wheel per unit torque at each throw, per order.
+
+    Parameters
+    ----------
+    engine : Engine
+        With its ``[shaft_line]`` (the tooth wheel's element, else the first node).
+    orders : ndarray, shape (n_orders,)
+        [-].
+    crank_speed : float
+        Mean crank speed [rad/s].
+
+    Returns
+    -------
+    ndarray, complex, shape (n_cylinders, n_orders)
+        [rad/s per N m].
+
+    Raises
+    ------
+    ModelError
+        Without a ``[shaft_line]``.
+    """
     if engine.shaft_line is None:
         raise ModelError(f"transfer 'shaft-line' needs the [shaft_line] of engine {engine.id!r}")
     line = shaft_line_of(engine)

@@ -263,7 +263,20 @@ def gas_excitation(
 
 
 def check_ratios(epsilon: float, r: float) -> None:
-    """Refuse an inertia ratio outside ``[0, 1)`` or a speed ratio that is not positive."""
+    """Refuse an inertia ratio outside ``[0, 1)`` or a speed ratio that is not positive.
+
+    Parameters
+    ----------
+    epsilon : float
+        Inertia ratio [-].
+    r : float
+        Speed ratio [-].
+
+    Raises
+    ------
+    ModelError
+        For either out of range.
+    """
     if not (math.isfinite(epsilon) and 0.0 <= epsilon < 1.0):
         raise ModelError(
             f"epsilon = {epsilon!r}: expected 0 <= epsilon < 1 (the reciprocating share of the "
