@@ -4,7 +4,7 @@ Called by ``benchmarks.accuracy_vs_time`` (``make bench``), or alone with
 ``python -m benchmarks.torsion``, which rewrites only the torsion sections
 (between their markers) and says so in their first line.  Every number comes
 from the run that wrote it.  The boundary-error table gives the constants of
-``BOUNDARY_ERROR`` in monitor/torsion/variable_inertia.py; the run prints them
+``BOUNDARY_ERROR`` in monitor/torsion/stability.py; the run prints them
 and flags any row the code's table no longer covers.
 """
 
@@ -24,16 +24,16 @@ import numpy as np
 
 from benchmarks.sections import replace_section
 from monitor import __version__
-from monitor.torsion.variable_inertia import (
+from monitor.torsion.floquet import monodromy
+from monitor.torsion.stability import (
     BOUNDARY_ERROR,
     BOUNDARY_WINDOW,
     UNSTABLE_MARGIN,
-    VariableInertiaCrank,
     instability_ranges,
-    monodromy,
-    simulate,
     stability_chart,
 )
+from monitor.torsion.time_response import simulate
+from monitor.torsion.variable_inertia import VariableInertiaCrank
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "accuracy-vs-time.md"
@@ -148,7 +148,7 @@ def relation() -> tuple[list[str], dict[float, float]]:
         "Magnus method.",
         "",
         "The step count for a wanted boundary accuracy: the largest steps^4 x error of every inertia "
-        "ratio up to epsilon_max (these are `BOUNDARY_ERROR` in monitor/torsion/variable_inertia.py; "
+        "ratio up to epsilon_max (these are `BOUNDARY_ERROR` in monitor/torsion/stability.py; "
         "`boundary_steps` takes the steps that make C / steps^4 half the tolerance):",
         "",
         "| epsilon_max | C = largest steps^4 x boundary error | steps for 1e-6 | in the code |",

@@ -413,7 +413,7 @@ def _stability(args: argparse.Namespace) -> None:
     from monitor.errors import ModelError
     from monitor.report.torsion_plots import plot_stability
     from monitor.runtime.progress import progress_bar
-    from monitor.torsion.variable_inertia import boundary_steps, instability_ranges, stability_chart
+    from monitor.torsion.stability import boundary_steps, instability_ranges, stability_chart
 
     if args.points < 2 or not (0 < args.r_min < args.r_max) or not (0 <= args.eps_min < args.eps_max < 1):
         raise ModelError("expected points >= 2, 0 < r-min < r-max and 0 <= eps-min < eps-max < 1")
@@ -467,7 +467,8 @@ def _stability(args: argparse.Namespace) -> None:
 def _simulate(args: argparse.Namespace) -> None:
     from monitor.errors import ModelError
     from monitor.report.torsion_plots import plot_time_response
-    from monitor.torsion.variable_inertia import Integrator, VariableInertiaCrank, simulate
+    from monitor.torsion.time_response import Integrator, simulate
+    from monitor.torsion.variable_inertia import VariableInertiaCrank
 
     if not (args.revolutions > 0 and args.samples >= 8):
         raise ModelError("expected revolutions > 0 and at least 8 samples per revolution")

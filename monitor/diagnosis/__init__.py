@@ -1,6 +1,8 @@
 """Diagnosis: measured orders against the engine's model; cylinders and main bearings named.
 
 See :mod:`monitor.diagnosis.diagnose` for the steps and thresholds,
+:mod:`monitor.diagnosis.analysis` for the analysis the calibration and the diagnosis share,
+:mod:`monitor.diagnosis.calibration` for the baseline's calibration,
 :mod:`monitor.diagnosis.balance` for the cylinder balance,
 :mod:`monitor.diagnosis.bearings` for the bearing indicators,
 :mod:`monitor.diagnosis.zones` for the vibration zones and
@@ -9,13 +11,13 @@ See :mod:`monitor.diagnosis.diagnose` for the steps and thresholds,
 
 from monitor.diagnosis.balance import CylinderBalance, cylinder_balance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
+from monitor.diagnosis.calibration import calibrate
 from monitor.diagnosis.diagnose import (
     ANALYSIS_VERSION,
     BearingResult,
     ChannelComparison,
     Diagnosis,
     Finding,
-    calibrate,
     diagnose,
     predicted_speed,
 )

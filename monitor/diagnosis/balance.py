@@ -1,7 +1,7 @@
 """Cylinder balance: each cylinder's strength from the crank-speed orders, by least squares.
 
 Below the crankshaft's first torsional mode the engine side turns as one
-rigid body of inertia ``J`` (:func:`monitor.torsion.shaft_line.engine_side_inertia`):
+rigid body of inertia ``J`` (:func:`monitor.model.inertia.engine_side_inertia`):
 ``1/2 J omega^2 = E0 + integral (T - T_mean) dtheta``, so the torque orders
 follow from the measured speed without a small-fluctuation approximation,
 ``T_k = i k (J / 2) (omega^2)_k``, with ``omega^2`` formed from the measured
@@ -43,8 +43,10 @@ import numpy.typing as npt
 from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
+from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts
 from monitor.signal.angle_domain import OrderSpectrum
+from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
@@ -238,7 +240,7 @@ def measured_torque(
         Crank-speed orders (order 0 the mean speed) [rad/s].
     inertia : float or ndarray, complex, shape (n_orders,)
         The rigid body's inertia, or the inertia each order meets
-        (:func:`monitor.torsion.shaft_line.engine_side_inertia_at`; order 0's unused) [kg m^2].
+        (:func:`monitor.model.inertia.engine_side_inertia_at`; order 0's unused) [kg m^2].
     cycle_revolutions : int
 
     Returns
@@ -261,25 +263,6 @@ def measured_torque(
     torque = 1j * orders * (np.asarray(inertia) / 2) * squared.coefficients[: orders.size]
     torque[0] = 0.0
     return torque, orders * np.abs(inertia) * mean * speed.standard_error
-
-
-def _shaft_line_receptance(engine: Engine, orders: FloatArray, crank_speed: float) -> ComplexArray:
-    """Speed at the tooth wheel per unit torque at each throw, per order: shape (n_cylinders, n_orders)."""
-    from monitor.torsion.shaft_line import shaft_line_of
-
-    if engine.shaft_line is None:
-        raise ModelError(f"transfer 'shaft-line' needs the [shaft_line] of engine {engine.id!r}")
-    line = shaft_line_of(engine)
-    probe = line.index(engine.shaft_line.tooth_wheel or line.node_names[0])
-    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
-    out = np.zeros((engine.cylinders, orders.size), dtype=np.complex128)
-    for j, k in enumerate(orders):
-        for i, node in enumerate(throws):
-            unit = np.zeros(len(line.nodes))
-            unit[node] = 1.0
-            angle = line.harmonic_response(float(k * crank_speed), unit)[0][probe]
-            out[i, j] = 1j * k * crank_speed * angle
-    return out
 
 
 def cylinder_balance(
@@ -333,61 +316,14 @@ def cylinder_balance(
         Without gas forces in the model, with too few resolvable orders, or a transfer the
         engine description cannot give.
     """
-    from monitor.torsion.shaft_line import engine_side_inertia, engine_side_inertia_at
-
-    n = engine.cylinders
-    R = engine.cycle_revolutions
     if not parts.strength:
         raise ModelError("the model has no gas forces: cylinder strengths cannot be estimated")
-    top = highest_order if highest_order is not None else n / R
-    use = (speed.orders > 1e-9) & (speed.orders <= top + 1e-9)
-    orders = speed.orders[use]
-    if 2 * orders.size < n:
-        raise ModelError(
-            f"the crank speed resolves {orders.size} orders up to {top:g}: too few for {n} cylinders "
-            "(a tooth wheel with more teeth, or longer blocks, resolve more)"
-        )
-    index = [int(np.argmin(np.abs(parts.orders - k))) for k in orders]
-    if np.max(np.abs(parts.orders[index] - orders)) > 1e-9:
-        raise ModelError("the model's orders do not cover the measured ones: raise its max_order")
-    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))  # (n_cyl, n_orders)
-    known = (parts.inertia[0, index] + parts.fixed[0, index])[None, :] * rotation
-    combustion = parts.combustion[0, index][None, :] * rotation
-    inertia = 0.0
-    if transfer == "rigid":
-        inertia = engine_side_inertia(engine)
-        # each order meets the engine side and, through its shafts, what the engine drives
-        met = np.full(speed.orders.size, inertia, dtype=np.complex128)
-        positive = speed.orders > 1e-9
-        met[positive] = engine_side_inertia_at(engine, speed.orders[positive] * parts.crank_speed)
-        y_all, se_all = measured_torque(speed, met, R)
-        y, se, unit = y_all[use], se_all[use], "N m"
-        H = np.ones((n, orders.size), dtype=np.complex128)
-    elif transfer == "shaft-line":
-        y, se, unit = speed.amplitude[use], speed.standard_error[use], "rad/s"
-        H = _shaft_line_receptance(engine, orders, parts.crank_speed)
-    else:
-        raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
+    use, orders, known, combustion = _cylinder_orders(speed, engine, parts, highest_order)
+    y, se, unit, H, inertia = _left_hand_side(speed, use, engine, parts, transfer)
     # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
-    factor = np.ones(orders.size, dtype=np.complex128)
-    factor_error = np.zeros(orders.size)
-    inertia_factor = np.ones(orders.size, dtype=np.complex128)
-    inertia_factor_error = np.zeros(orders.size)
-    calibrated = np.zeros(orders.size, dtype=bool)
-    if calibration is not None:
-        if calibration.transfer != transfer:
-            raise ModelError(
-                f"the crank calibration is for the {calibration.transfer} transfer, "
-                f"the balance uses {transfer}"
-            )
-        for i, k in enumerate(orders):
-            match = np.flatnonzero(np.abs(calibration.orders - k) < 1e-9)
-            if match.size:
-                factor[i] = calibration.factor[match[0]]
-                factor_error[i] = calibration.factor_error[match[0]]
-                inertia_factor[i] = calibration.inertia_factor[match[0]]
-                inertia_factor_error[i] = calibration.inertia_factor_error[match[0]]
-                calibrated[i] = True
+    factor, factor_error, inertia_factor, inertia_factor_error, calibrated = _factors(
+        calibration, transfer, orders
+    )
     plain = (H * known).sum(axis=0)  # the inertia and fixed torques, at the recording's own speed
     fixed = inertia_factor * plain
     burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
@@ -405,47 +341,22 @@ def cylinder_balance(
     timed = np.where(calibrated, 0.0, timing * np.abs((factor * H * combustion).sum(axis=0)))
     # the healthy cylinders' own differences, independent from cylinder to cylinder
     uneven = imbalance * np.sqrt((np.abs(factor * H * combustion) ** 2).sum(axis=0))
-    floor = 1e-6 * float(np.abs(y).max()) + 1e-300
     if np.any(np.linalg.norm(np.abs(design), axis=0) == 0):
         raise ModelError("a cylinder's combustion does not reach the orders used: strengths not identifiable")
-    strength = np.ones(n)
-    for _ in range(3):
-        # a cylinder that fires unlike the model's (a misfire, a weak one) has a torque the model knows to
-        # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel
-        unlike = np.sqrt((np.abs((strength - 1.0)[:, None] * factor * H * combustion) ** 2).sum(axis=0))
-        spread = np.sqrt(
-            se**2
-            + (uncertainty * np.abs(nominal)) ** 2
-            + (factor_error * np.abs(burning)) ** 2
-            + (inertia_factor_error * np.abs(plain)) ** 2
-            + (np.hypot(model_uncertainty, timing) * unlike) ** 2
-            + timed**2
-            + uneven**2
-        )
-        sigma = np.maximum(spread, floor) / math.sqrt(2.0)
-        a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
-        b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
-        if n > 1 and level_uncertainty > 0:
-            # the cylinders' common level, as the model gives it at the stated load: weighs only where
-            # the orders leave the level loose (a firing harmonic the inertia torque dominates)
-            a = np.vstack([a, np.full((1, n), 1.0 / (n * level_uncertainty))])
-            b = np.concatenate([b, [1.0 / level_uncertainty]])
-        norms = np.linalg.norm(a, axis=0)
-        scaled = a / norms
-        strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
-        strength = strength_scaled / norms
-    # whether the orders tell the cylinders apart is the measurement's geometry (the firing order, the
-    # orders resolved), judged with the measurement's own weights: the model's uncertainty weakens only
-    # the cylinders' common level, which no single cylinder's finding rests on
-    own = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
-    geometry = np.vstack([design.real, design.imag]) / np.concatenate([own, own])[:, None]
-    singular = np.linalg.svd(geometry / np.linalg.norm(geometry, axis=0), compute_uv=False)
-    condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
-    residual = scaled @ strength_scaled - b
-    dof = a.shape[0] - n
-    chi2 = float(residual @ residual / dof) if dof > 0 else 1.0
-    inverse = np.linalg.pinv(scaled.T @ scaled)
-    covariance = inverse / np.outer(norms, norms) * max(chi2, 1.0)
+    spread = _Spread(
+        se=se,
+        model=uncertainty * np.abs(nominal),
+        calibration=factor_error * np.abs(burning),
+        inertia=inertia_factor_error * np.abs(plain),
+        unlike_share=np.hypot(model_uncertainty, timing),
+        timed=timed,
+        uneven=uneven,
+        factor=factor,
+        transfer=H,
+        combustion=combustion,
+    )
+    strength, covariance, chi2 = _fit(design, rhs, y, spread, level_uncertainty)
+    condition = _condition(design, se, y)
     relative, relative_error, contrast_error = _relative(strength, covariance)
     predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
     return CylinderBalance(
@@ -471,6 +382,156 @@ def cylinder_balance(
         known=plain,
         combustion=burning,
     )
+
+
+def _cylinder_orders(
+    speed: OrderSpectrum, engine: Engine, parts: CylinderParts, highest_order: float | None
+) -> tuple[npt.NDArray[np.bool_], FloatArray, ComplexArray, ComplexArray]:
+    """The orders used (mask and values) and each cylinder's known and combustion torques at them."""
+    n = engine.cylinders
+    R = engine.cycle_revolutions
+    top = highest_order if highest_order is not None else n / R
+    use = (speed.orders > 1e-9) & (speed.orders <= top + 1e-9)
+    orders = speed.orders[use]
+    if 2 * orders.size < n:
+        raise ModelError(
+            f"the crank speed resolves {orders.size} orders up to {top:g}: too few for {n} cylinders "
+            "(a tooth wheel with more teeth, or longer blocks, resolve more)"
+        )
+    index = [int(np.argmin(np.abs(parts.orders - k))) for k in orders]
+    if np.max(np.abs(parts.orders[index] - orders)) > 1e-9:
+        raise ModelError("the model's orders do not cover the measured ones: raise its max_order")
+    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))  # (n_cyl, n_orders)
+    known = (parts.inertia[0, index] + parts.fixed[0, index])[None, :] * rotation
+    combustion = parts.combustion[0, index][None, :] * rotation
+    return use, orders, known, combustion
+
+
+def _left_hand_side(
+    speed: OrderSpectrum, use: npt.NDArray[np.bool_], engine: Engine, parts: CylinderParts, transfer: Transfer
+) -> tuple[ComplexArray, FloatArray, str, ComplexArray, float]:
+    """The measured left-hand side ``y`` at the orders used, its standard error and unit, the transfer
+    ``H`` from each throw's torque to it, and the rigid body's inertia (0 for the shaft line)."""
+    orders = speed.orders[use]
+    inertia = 0.0
+    if transfer == "rigid":
+        inertia = engine_side_inertia(engine)
+        # each order meets the engine side and, through its shafts, what the engine drives
+        met = np.full(speed.orders.size, inertia, dtype=np.complex128)
+        positive = speed.orders > 1e-9
+        met[positive] = engine_side_inertia_at(engine, speed.orders[positive] * parts.crank_speed)
+        y_all, se_all = measured_torque(speed, met, engine.cycle_revolutions)
+        y, se, unit = y_all[use], se_all[use], "N m"
+        H = np.ones((engine.cylinders, orders.size), dtype=np.complex128)
+    elif transfer == "shaft-line":
+        y, se, unit = speed.amplitude[use], speed.standard_error[use], "rad/s"
+        H = tooth_wheel_receptance(engine, orders, parts.crank_speed)
+    else:
+        raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
+    return y, se, unit, H, inertia
+
+
+def _factors(
+    calibration: CrankCalibration | None, transfer: Transfer, orders: FloatArray
+) -> tuple[ComplexArray, FloatArray, ComplexArray, FloatArray, npt.NDArray[np.bool_]]:
+    """A baseline's factors at the orders it calibrated (1 elsewhere), their errors, and which it did."""
+    factor = np.ones(orders.size, dtype=np.complex128)
+    factor_error = np.zeros(orders.size)
+    inertia_factor = np.ones(orders.size, dtype=np.complex128)
+    inertia_factor_error = np.zeros(orders.size)
+    calibrated = np.zeros(orders.size, dtype=bool)
+    if calibration is not None:
+        if calibration.transfer != transfer:
+            raise ModelError(
+                f"the crank calibration is for the {calibration.transfer} transfer, "
+                f"the balance uses {transfer}"
+            )
+        for i, k in enumerate(orders):
+            match = np.flatnonzero(np.abs(calibration.orders - k) < 1e-9)
+            if match.size:
+                factor[i] = calibration.factor[match[0]]
+                factor_error[i] = calibration.factor_error[match[0]]
+                inertia_factor[i] = calibration.inertia_factor[match[0]]
+                inertia_factor_error[i] = calibration.inertia_factor_error[match[0]]
+                calibrated[i] = True
+    return factor, factor_error, inertia_factor, inertia_factor_error, calibrated
+
+
+@dataclass(frozen=True)
+class _Spread:
+    """The terms of each order's uncertainty beside the measurement's (see :func:`cylinder_balance`)."""
+
+    se: FloatArray  # the measurement's block spread
+    model: FloatArray  # the model's uncertainty of the engine's value at nominal strengths
+    calibration: FloatArray  # a baseline factor's error on the combustion
+    inertia: FloatArray  # and on the inertia and fixed torques
+    unlike_share: FloatArray  # the share of a cylinder's own deviation from the model that is uncertain
+    timed: FloatArray  # the combustion's timing
+    uneven: FloatArray  # the healthy cylinders' own differences
+    factor: ComplexArray
+    transfer: ComplexArray
+    combustion: ComplexArray
+
+    def at(self, strength: FloatArray) -> FloatArray:
+        """Each order's standard error with the cylinders at these strengths."""
+        # a cylinder that fires unlike the model's (a misfire, a weak one) has a torque the model knows to
+        # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel
+        unlike = np.sqrt(
+            (np.abs((strength - 1.0)[:, None] * self.factor * self.transfer * self.combustion) ** 2).sum(
+                axis=0
+            )
+        )
+        return np.asarray(
+            np.sqrt(
+                self.se**2
+                + self.model**2
+                + self.calibration**2
+                + self.inertia**2
+                + (self.unlike_share * unlike) ** 2
+                + self.timed**2
+                + self.uneven**2
+            )
+        )
+
+
+def _fit(
+    design: ComplexArray, rhs: ComplexArray, y: ComplexArray, spread: _Spread, level_uncertainty: float
+) -> tuple[FloatArray, FloatArray, float]:
+    """The strengths by weighted least squares, re-weighted at the strengths found; their covariance
+    (scaled by the reduced chi-square where it exceeds 1) and the reduced chi-square."""
+    n = design.shape[1]
+    floor = 1e-6 * float(np.abs(y).max()) + 1e-300
+    strength = np.ones(n)
+    for _ in range(3):
+        sigma = np.maximum(spread.at(strength), floor) / math.sqrt(2.0)
+        a = np.vstack([design.real, design.imag]) / np.concatenate([sigma, sigma])[:, None]
+        b = np.concatenate([rhs.real, rhs.imag]) / np.concatenate([sigma, sigma])
+        if n > 1 and level_uncertainty > 0:
+            # the cylinders' common level, as the model gives it at the stated load: weighs only where
+            # the orders leave the level loose (a firing harmonic the inertia torque dominates)
+            a = np.vstack([a, np.full((1, n), 1.0 / (n * level_uncertainty))])
+            b = np.concatenate([b, [1.0 / level_uncertainty]])
+        norms = np.linalg.norm(a, axis=0)
+        scaled = a / norms
+        strength_scaled, *_ = np.linalg.lstsq(scaled, b, rcond=None)
+        strength = strength_scaled / norms
+    residual = scaled @ strength_scaled - b
+    dof = a.shape[0] - n
+    chi2 = float(residual @ residual / dof) if dof > 0 else 1.0
+    inverse = np.linalg.pinv(scaled.T @ scaled)
+    covariance = inverse / np.outer(norms, norms) * max(chi2, 1.0)
+    return strength, covariance, chi2
+
+
+def _condition(design: ComplexArray, se: FloatArray, y: ComplexArray) -> float:
+    """Condition number of the column-normalised problem with the measurement's own weights."""
+    # whether the orders tell the cylinders apart is the measurement's geometry (the firing order, the
+    # orders resolved), judged with the measurement's own weights: the model's uncertainty weakens only
+    # the cylinders' common level, which no single cylinder's finding rests on
+    own = np.maximum(se, 1e-6 * float(np.abs(y).max()) + 1e-300) / math.sqrt(2.0)
+    geometry = np.vstack([design.real, design.imag]) / np.concatenate([own, own])[:, None]
+    singular = np.linalg.svd(geometry / np.linalg.norm(geometry, axis=0), compute_uv=False)
+    return float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
 
 
 def _relative(strength: FloatArray, covariance: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:

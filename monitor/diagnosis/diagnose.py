@@ -19,6 +19,9 @@ Steps (DESIGN.md, "Diagnosis: the sums behind it"):
    confidence.  A recording without findings is healthy only when the checks
    could be made (a steady run, the cylinders resolved); otherwise it is
    inconclusive (:data:`STEADY`, :data:`RESOLVED`, :data:`MISFIT`).
+
+Steps 1 and 2, and the model combined with the strengths, are the analysis the calibration of a
+baseline shares (:mod:`monitor.diagnosis.analysis`, :mod:`monitor.diagnosis.calibration`).
 """
 
 from __future__ import annotations
@@ -26,17 +29,19 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal, TypeAlias
 
 import numpy as np
 
-from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfer, cylinder_balance
-from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import (
-    SPEED_TOLERANCE,
-    impact_score,
-    order_deviations,
+from monitor.diagnosis.analysis import (
+    Analysis,
+    CyclePhase,
+    analyse,
+    bearing_sensors,
+    vibration_channels,
 )
+from monitor.diagnosis.balance import CylinderBalance, Transfer
+from monitor.diagnosis.baseline import Baseline, SensorBaseline
+from monitor.diagnosis.bearings import SPEED_TOLERANCE, OrderDeviation, impact_score, order_deviations
 from monitor.diagnosis.findings import (
     BearingResult,
     Finding,
@@ -49,7 +54,7 @@ from monitor.diagnosis.findings import (
     with_elsewhere,
     worse,
 )
-from monitor.diagnosis.sensors import level_faults, screen_sensors, without
+from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
     DEFAULT_BOUNDARIES_MM_S,
@@ -57,26 +62,15 @@ from monitor.diagnosis.zones import (
     velocity_rms,
     zone_of,
 )
-from monitor.errors import DiagnosisError, ModelError, SignalError
+from monitor.errors import DiagnosisError, SignalError
 from monitor.fourier import order_coefficients
 from monitor.io.recording import Channel, Recording
-from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine
-from monitor.model.predicted import (
-    CombinedOrders,
-    CylinderParts,
-    combine_cylinders,
-    cylinder_parts,
-    load_reversals,
-)
-from monitor.signal.measure import (
-    SPEED_CHANNEL,
-    SpectrumResult,
-    learn_pitch_errors,
-    learn_pitch_errors_over_speed,
-    spectra,
-)
+from monitor.model.inertia import engine_side_inertia_at
+from monitor.model.predicted import combine_cylinders, load_reversals
+from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult
 from monitor.signal.pitch import PitchCorrection
+from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -85,7 +79,6 @@ __all__ = [
     "ChannelComparison",
     "Diagnosis",
     "Finding",
-    "calibrate",
     "diagnose",
     "predicted_speed",
 ]
@@ -97,7 +90,6 @@ CHANGE_UNCERTAINTY = 0.5
 STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which no cylinder is named (inconclusive)
-POOR_FIT = 4.0  # and above which the notes say it fits poorly (the strengths' errors are widened by it)
 
 
 @dataclass(frozen=True)
@@ -222,195 +214,6 @@ def predicted_speed(
     return np.asarray(out[: orders.size])
 
 
-def _bearing_of(channel: Channel) -> int | None:
-    words = channel.location.lower().split()
-    if len(words) == 3 and words[:2] == ["main", "bearing"] and words[2].isdigit():
-        return int(words[2])
-    return None
-
-
-def _vibration_channels(recording: Recording) -> list[Channel]:
-    return [c for c in recording.channels if c.kind in ("acceleration", "velocity") and not c.is_events]
-
-
-def _bearing_sensors(recording: Recording, engine: Engine) -> list[tuple[Channel, int]]:
-    out = []
-    for channel in _vibration_channels(recording):
-        b = _bearing_of(channel)
-        if (
-            b is not None
-            and channel.direction in ("vertical", "horizontal")
-            and 1 <= b <= engine.bearing_count
-        ):
-            out.append((channel, b))
-    return out
-
-
-@dataclass(frozen=True)
-class _Analysis:
-    spectra: SpectrumResult
-    balance: CylinderBalance | None
-    combined: CombinedOrders
-    nominal: CombinedOrders
-    load: float
-    notes: list[str]
-    inertia: float
-    force_error: FloatArray  # (n_bearings, 2, n_orders): of combined.bearing_force, from the strengths [N]
-    parts: CylinderParts
-    partners: list[int | None] | None = None  # four-stroke phase unknown: each cylinder's 360 deg partner
-
-
-def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
-    """Standard error of each bearing force order that the strengths' covariance gives [N].
-
-    ``dF_bk / ds_c = share_bc combustion_k exp(-i k phi_c)``; ``E |dF|^2 = g^H C g``.
-    """
-    n_orders = parts.orders.size
-    if covariance is None:
-        return np.zeros((engine.bearing_count, 2, n_orders))
-    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))  # (n_cyl, n_orders)
-    g = engine.bearing_share[:, :, None, None] * (
-        rotation[None, :, None, :] * parts.combustion[None, None, 1:3, :]
-    )  # (n_b, n_cyl, 2, n_orders)
-    variance = np.einsum("bcko,cd,bdko->bko", g, covariance, np.conj(g)).real
-    return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
-
-
-CyclePhase: TypeAlias = float | Literal["unknown"] | None
-
-
-def _phase_known(recording: Recording) -> bool:
-    """True if the recording itself tells the four-stroke cycle phase (a cam or a cylinder-1 pressure)."""
-    return (
-        recording.cycle_phase_deg is not None
-        or bool(recording.of_kind("cam"))
-        or any(int(c.fields.get("cylinder", 0)) == 1 for c in recording.of_kind("pressure"))
-    )
-
-
-def _analyse(
-    recording: Recording,
-    engine: Engine,
-    *,
-    load: float,
-    transfer: Transfer,
-    max_order: float,
-    cycle_phase: CyclePhase = None,
-    pitch: PitchCorrection | None = None,
-    crank: CrankCalibration | None = None,
-    progress: Callable[[float], None] | None = None,
-) -> _Analysis:
-    if recording.engine_id and recording.engine_id != engine.id:
-        raise DiagnosisError(
-            f"the recording is of engine {recording.engine_id!r}, the description given is {engine.id!r}"
-        )
-    R = engine.cycle_revolutions
-    ambiguous = R == 2 and cycle_phase == "unknown" and not _phase_known(recording)
-    phase: float | None = None
-    if R == 2 and isinstance(cycle_phase, float | int):
-        phase = float(cycle_phase)
-    elif ambiguous:
-        phase = 0.0
-    result = spectra(
-        recording,
-        cycle_revolutions=R,
-        max_order=max_order,
-        high_frequency=True,
-        cycle_phase=phase,
-        pitch_correction="estimate" if pitch is None else pitch,
-        kept_orders=_engine_orders(engine, recording),
-        progress=progress,
-    )
-    model = EngineModel(engine, gas="auto")
-    parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
-    notes: list[str] = list(result.reference.notes)
-    if recording.truncated:
-        notes.append("the file was cut short: diagnosed up to its last whole chunk")
-    correction = result.reference.pitch_correction
-    if correction is not None and correction.largest > math.radians(0.05):
-        notes.append(
-            f"{result.reference.source}: tooth-pitch errors corrected ({correction.scope} teeth, from the "
-            f"{correction.source}): largest {math.degrees(correction.largest):.2f} deg"
-        )
-    balance = None
-    strengths = np.ones(engine.cylinders)
-    speed = result.spectra.get(SPEED_CHANNEL)
-    if speed is None or speed.orders.size < 2:
-        notes.append(
-            "cylinder balance not done: the angle reference gives no crank-speed orders "
-            f"({result.reference.pulses_per_revolution} pulse(s) per revolution; a tooth wheel gives them)"
-        )
-    else:
-        try:
-            usable = crank if crank is not None and crank.transfer == transfer else None
-            balance = cylinder_balance(speed, engine, parts, transfer=transfer, calibration=usable)
-            if usable is not None and balance.calibrated.any():
-                orders = ", ".join(f"{k:g}" for k in balance.orders[balance.calibrated])
-                notes.append(f"the crank-speed model is calibrated on the baseline at orders {orders}")
-        except ModelError as error:
-            notes.append(f"cylinder balance not done: {error}")
-        else:
-            if balance.chi2_reduced > POOR_FIT:
-                other = "shaft-line" if transfer == "rigid" else "rigid"
-                notes.append(
-                    f"the {transfer} crank-speed model fits the measured orders poorly (reduced chi-square "
-                    f"{balance.chi2_reduced:.3g}; the strengths' errors are widened by it): near a torsional "
-                    f"resonance try the {other} transfer"
-                )
-            if balance.separable:
-                strengths = balance.strength
-            else:
-                notes.append(
-                    f"the crank-speed orders cannot tell the cylinders apart (condition number "
-                    f"{balance.condition:.3g}): no cylinder is named"
-                )
-    covariance = balance.strength_covariance if balance is not None and balance.separable else None
-    inertia = 0.0
-    if transfer == "rigid":
-        from monitor.torsion.shaft_line import engine_side_inertia
-
-        try:
-            inertia = engine_side_inertia(engine)
-        except ModelError as error:
-            notes.append(f"crank speed not predicted: {error}")
-    if ambiguous:
-        notes.append(
-            "the cycle phase is unknown (no cam or cylinder-1 pressure channel, --cycle-phase unknown): "
-            "each cylinder named may be the one that fires 360 deg from it"
-        )
-    return _Analysis(
-        spectra=result,
-        balance=balance,
-        combined=combine_cylinders(parts, engine, strengths),
-        nominal=combine_cylinders(parts, engine, np.ones(engine.cylinders)),
-        load=load,
-        notes=notes,
-        inertia=inertia,
-        force_error=_force_error(parts, engine, covariance),
-        parts=parts,
-        partners=_phase_partners(engine) if ambiguous else None,
-    )
-
-
-def _engine_orders(engine: Engine, recording: Recording, *, firing_only: bool = False) -> list[int] | None:
-    """Integer orders of the crank speed the engine excites: the low ones and the firing harmonics.
-
-    Left to the engine by the tooth-pitch estimate: orders 1 to a sixth of the wheel's pulses (any
-    of which a cylinder that fires unlike the others excites; not with ``firing_only``, for a
-    healthy baseline), and every integer multiple of the firing frequency (cylinders / revolutions
-    per cycle) below 0.4 of them (where the gas and inertia torques of cylinders firing alike are).
-    """
-    wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
-    if not wheels:
-        return None
-    fields = wheels[0].fields
-    pulses = int(fields["teeth"]) if wheels[0].kind == "tooth" else int(fields["pulses_per_revolution"])
-    firing = engine.cylinders / engine.cycle_revolutions
-    harmonics = {round(m * firing) for m in range(1, 64) if float(m * firing).is_integer()}
-    low = set() if firing_only else set(range(1, pulses // 6 + 1))
-    return sorted(low | {k for k in harmonics if k <= 0.4 * pulses})
-
-
 def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCorrection | None:
     """The baseline's learned pitch errors, if they belong to this recording's angle-reference wheel."""
     if baseline is None or baseline.pitch is None:
@@ -427,19 +230,7 @@ def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCor
     return baseline.pitch if baseline.pitch.errors.size == present else None
 
 
-def _phase_partners(engine: Engine) -> list[int | None]:
-    """For each cylinder, the one that fires 360 deg after it (0-based), or None if no cylinder does."""
-    angles = np.mod(engine.firing_angles, 4 * math.pi)
-    partners: list[int | None] = []
-    for c in range(engine.cylinders):
-        target = np.mod(angles[c] + 2 * math.pi, 4 * math.pi)
-        distance = np.abs(np.angle(np.exp(1j * (angles - target) / 2)))  # on the 720 deg cycle
-        match = int(np.argmin(distance))
-        partners.append(match if distance[match] < math.radians(1.0) else None)
-    return partners
-
-
-def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -> ChannelComparison | None:
+def _speed_comparison(analysis: Analysis, engine: Engine, transfer: Transfer) -> ChannelComparison | None:
     speed = analysis.spectra.spectra.get(SPEED_CHANNEL)
     if speed is None or speed.orders.size < 2:
         return None
@@ -449,8 +240,6 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
     if transfer == "rigid":
         if analysis.inertia <= 0:
             return None
-        from monitor.torsion.shaft_line import engine_side_inertia_at
-
         mean = float(speed.amplitude[0].real)
         met = np.full(orders.size, analysis.inertia, dtype=np.complex128)
         met[1:] = engine_side_inertia_at(engine, orders[1:] * mean)
@@ -460,9 +249,7 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
             "through its shafts"
         )
     else:
-        from monitor.diagnosis.balance import _shaft_line_receptance
-
-        receptance = _shaft_line_receptance(engine, orders[1:], float(speed.amplitude[0].real))
+        receptance = tooth_wheel_receptance(engine, orders[1:], float(speed.amplitude[0].real))
         predicted = np.concatenate(
             [[speed.amplitude[0]], (receptance * nominal.cylinder_torque[:, index[1:]]).sum(axis=0)]
         )
@@ -480,154 +267,6 @@ def _speed_comparison(analysis: _Analysis, engine: Engine, transfer: Transfer) -
     )
 
 
-# ---------------------------------------------------------------------------------------- public
-def calibrate(
-    recording: Recording,
-    engine: Engine,
-    *,
-    load: float = 1.0,
-    transfer: Transfer = "rigid",
-    max_order: float = 24.0,
-    source: str = "",
-    cycle_phase: float | None = None,
-    pitch_from: Recording | None = None,
-    exclude: tuple[str, ...] | list[str] = (),
-    progress: Callable[[float], None] | None = None,
-) -> Baseline:
-    """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
-
-    Parameters
-    ----------
-    recording : Recording
-        Healthy, at a steady speed.
-    engine : Engine
-    load : float, optional
-        The load it ran at [-].
-    transfer : {"rigid", "shaft-line"}, optional
-        For the cylinder balance the calibration is made at.
-    max_order : float, optional
-        Highest order analysed [-].
-    source : str, optional
-        Name of the recording, kept in the baseline.
-    cycle_phase : float, optional
-        Four-stroke: the shift (0 or 2 pi) that puts cylinder 1's firing TDC at cycle angle 0, for a
-        recording without a cam or cylinder-1 pressure channel [rad].
-    pitch_from : Recording, optional
-        A run of the same wheel whose speed changes (motored run-up, coast-down with the fuel
-        cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
-        (:func:`monitor.signal.measure.learn_pitch_errors_over_speed`), instead of on ``recording`` with
-        the firing harmonics left to the engine.
-    exclude : sequence of str, optional
-        Channels left out (not calibrated).
-    progress : callable, optional
-        Told the fraction of the resampling done, from 0 to 1 [-].
-
-    Returns
-    -------
-    Baseline
-
-    Raises
-    ------
-    DiagnosisError
-        Without a vibration sensor on a main bearing, or with one that is clipped, dead or
-        implausibly scaled (a baseline is the reference for later recordings: leave it out).
-    """
-    recording, bad, _ = screen_sensors(recording, exclude=exclude)
-    if bad:
-        raise DiagnosisError(
-            "cannot calibrate on faulty sensors: "
-            + "; ".join(f"{f.channel}: {f.fault}: {f.detail}" for f in bad)
-            + ". Mend them, or leave them out with "
-            + " ".join(f"--exclude-channel {f.channel}" for f in bad)
-        )
-    sensors = _bearing_sensors(recording, engine)
-    if not sensors:
-        raise DiagnosisError(
-            "the recording has no acceleration or velocity channel on a main bearing (location "
-            "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
-        )
-    # the wheel's pitch errors, learned here once for every later recording (and used here too)
-    pitch: PitchCorrection | None
-    if pitch_from is not None:
-        pitch = learn_pitch_errors_over_speed(pitch_from, engine)
-    else:
-        harmonics = _engine_orders(engine, recording, firing_only=True)
-        pitch = learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
-    analysis = _analyse(
-        recording,
-        engine,
-        load=load,
-        transfer=transfer,
-        max_order=max_order,
-        cycle_phase=cycle_phase,
-        pitch=pitch,
-        progress=progress,
-    )
-    if analysis.balance is not None and analysis.balance.separable and engine.cylinders > 1:
-        faults = cylinder_findings(analysis.balance)
-        if faults:
-            raise DiagnosisError(
-                "the recording is not healthy enough to calibrate on: "
-                + "; ".join(f.summary for f in faults)
-                + ". Calibrate on a recording of the engine in good order"
-            )
-    result = analysis.spectra
-    out = {}
-    for channel, b in sensors:
-        spectrum = result.spectra[channel.name]
-        component = 1 if channel.direction == "vertical" else 0
-        force_orders = analysis.combined.orders
-        index = [int(np.argmin(np.abs(force_orders - k))) for k in spectrum.orders]
-        force = analysis.combined.bearing_force[b - 1, component, index]
-        magnitude = np.abs(force)
-        safe = np.where(magnitude > 0, force, 1.0)
-        transfer_k = np.where(magnitude > 0, spectrum.amplitude / safe, 0.0)
-        # H = X / F: the relative errors of X (block spread) and of F (the strengths') add
-        relative = np.hypot(
-            spectrum.standard_error
-            / np.where(magnitude > 0, magnitude, 1.0)
-            / np.maximum(np.abs(transfer_k), 1e-300),
-            analysis.force_error[b - 1, component, index] / np.where(magnitude > 0, magnitude, 1.0),
-        )
-        error = np.where(magnitude > 0, relative * np.abs(transfer_k), 0.0)
-        profile = result.high_frequency[channel.name]
-        out[channel.name] = SensorBaseline(
-            channel=channel.name,
-            kind=channel.kind,
-            unit=channel.unit,
-            bearing=b,
-            direction=channel.direction,
-            sample_rate=float(channel.sample_rate or 0.0),
-            orders=spectrum.orders,
-            transfer=np.asarray(transfer_k, dtype=np.complex128),
-            transfer_error=np.asarray(error, dtype=np.float64),
-            high_frequency=profile,
-            velocity_rms=_velocity_or_nan(channel),
-        )
-    balance = analysis.balance
-    used = balance is not None and balance.separable  # the strengths the bearing forces were predicted with
-    strengths = balance.strength.tolist() if balance is not None and used else [1.0] * engine.cylinders
-    return Baseline(
-        engine_id=engine.id,
-        speed_rpm=result.mean_speed * 30 / math.pi,
-        load=load,
-        strengths=[float(s) for s in strengths],
-        samples_per_cycle=int(profile.mean.size),
-        sensors=out,
-        source=source,
-        pitch=result.reference.pitch_correction,
-        pitch_channel=result.reference.source if result.reference.pitch_correction is not None else "",
-        crank=balance.calibration() if balance is not None else None,
-    )
-
-
-def _velocity_or_nan(channel: Channel) -> float:
-    try:
-        return velocity_rms(channel).value
-    except SignalError:  # a channel in volts: no rms velocity
-        return math.nan
-
-
 def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) -> None:
     if baseline.engine_id != engine.id:
         raise DiagnosisError(
@@ -635,7 +274,7 @@ def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) ->
             "calibrate a baseline of this engine"
         )
     missing = []
-    for channel, b in _bearing_sensors(recording, engine):
+    for channel, b in bearing_sensors(recording, engine):
         known = baseline.sensors.get(channel.name)
         if known is None:
             missing.append(f"{channel.name!r} (not in the baseline)")
@@ -658,7 +297,7 @@ def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) ->
         )
 
 
-def _unresolved(analysis: _Analysis, engine: Engine) -> list[str]:
+def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
     """Why a recording without findings cannot be called healthy (empty if it can)."""
     reasons = []
     angle_map = analysis.spectra.reference.angle_map
@@ -741,29 +380,15 @@ def diagnose(
         Without a usable angle reference.
     """
     recording_before = recording
-    recording, sensor_faults, screen_notes = screen_sensors(recording, exclude=exclude)
     limits = engine.vibration_limits
     boundaries = limits.zone_boundaries_mm_s if limits is not None else DEFAULT_BOUNDARIES_MM_S
     band = limits.band_hz if limits is not None else DEFAULT_BAND_HZ
-    rms: dict[str, VelocityRms] = {}
-    unrated = []
-    for channel in _vibration_channels(recording):
-        try:
-            rms[channel.name] = velocity_rms(channel, band)
-        except SignalError as error:
-            unrated.append(f"rms velocity not rated: {error}")
-    if baseline is not None:
-        scaled = level_faults(
-            {name: s.velocity_rms for name, s in baseline.sensors.items()},
-            {name: v.value for name, v in rms.items()},
-        )
-        sensor_faults += scaled
-        recording = without(recording, [f.channel for f in scaled])
+    recording, sensor_faults, screen_notes, rms, unrated = _screen(recording, baseline, band, exclude)
     if baseline is not None:
         _check_baseline(recording, engine, baseline)
     if load is None:
         load = baseline.load if baseline is not None else 1.0
-    analysis = _analyse(
+    analysis = analyse(
         recording,
         engine,
         load=load,
@@ -776,7 +401,6 @@ def diagnose(
     )
     result = analysis.spectra
     notes = screen_notes + list(analysis.notes) + unrated
-    R = engine.cycle_revolutions
     speed_rpm = result.mean_speed * 30 / math.pi
     comparisons = []
     speed_comparison = _speed_comparison(analysis, engine, transfer)
@@ -785,6 +409,99 @@ def diagnose(
     # the transfers: the baseline's, else those given in the engine file
     transfers = baseline if baseline is not None else Baseline.from_engine(engine)
     usable = transfers is not None and abs(speed_rpm / transfers.speed_rpm - 1.0) <= SPEED_TOLERANCE
+    notes += _transfer_notes(transfers, usable, speed_rpm, with_baseline=baseline is not None)
+    bearings = []
+    for channel, b in bearing_sensors(recording, engine):
+        bearing, comparison = _bearing_result(channel, b, analysis, engine, transfers, usable, notes)
+        bearings.append(bearing)
+        if comparison is not None:
+            comparisons.append(comparison)
+    bearings = with_elsewhere(bearings, result.high_frequency, engine, baseline)
+    findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
+    findings += _cylinder_findings(analysis, engine, baseline, load, notes)
+    findings += bearing_findings(
+        bearings,
+        with_baseline=baseline is not None,
+        cylinders_changed=any(f.kind == "cylinder" for f in findings),
+    )
+    velocity, zone_findings = _zones(recording, rms, boundaries)
+    findings += zone_findings
+    status = _status(findings, analysis, engine, notes)
+    order = {"alarm": 0, "warning": 1}
+    findings.sort(key=lambda f: (order[f.severity], -f.confidence, f.subject))
+    return Diagnosis(
+        engine_id=engine.id,
+        speed_rpm=speed_rpm,
+        load=load,
+        status=status,
+        findings=findings,
+        balance=analysis.balance,
+        comparisons=comparisons,
+        bearings=bearings,
+        velocity=velocity,
+        zone_boundaries_mm_s=tuple(boundaries),  # type: ignore[arg-type]
+        notes=notes,
+        spectra=result,
+        baseline=baseline.source if baseline is not None else "",
+    )
+
+
+def _screen(
+    recording: Recording,
+    baseline: Baseline | None,
+    band: tuple[float, float],
+    exclude: tuple[str, ...] | list[str],
+) -> tuple[Recording, list[SensorFault], list[str], dict[str, VelocityRms], list[str]]:
+    """Faulty sensors found and left out, with the vibration channels' rms velocities.
+
+    Returns the recording without them, the faults, the screening's notes, the rms velocities and
+    a note for each channel without one. A sensor whose level is implausible against its
+    baseline's is a fault too (:func:`monitor.diagnosis.sensors.level_faults`).
+    """
+    recording, faults, notes = screen_sensors(recording, exclude=exclude)
+    rms, unrated = _velocities(recording, band)
+    if baseline is not None:
+        scaled = level_faults(
+            {name: s.velocity_rms for name, s in baseline.sensors.items()},
+            {name: v.value for name, v in rms.items()},
+        )
+        faults += scaled
+        recording = without(recording, [f.channel for f in scaled])
+    return recording, faults, notes, rms, unrated
+
+
+def _status(findings: list[Finding], analysis: Analysis, engine: Engine, notes: list[str]) -> str:
+    """The worst finding's severity; "inconclusive" (reasons noted) if none and the checks were not made."""
+    status = "healthy"
+    for f in findings:
+        status = worse(f.severity, status)
+    # no finding is "healthy" only if the checks were made: the cylinders resolved (where an engine has
+    # several and a gas model) and the speed steady; otherwise the recording is inconclusive
+    if status == "healthy":
+        reasons = _unresolved(analysis, engine)
+        if reasons:
+            status = "inconclusive"
+            notes += [f"inconclusive: {reason}" for reason in reasons]
+    return status
+
+
+def _velocities(recording: Recording, band: tuple[float, float]) -> tuple[dict[str, VelocityRms], list[str]]:
+    """Each vibration channel's rms velocity over the band, and a note for each that has none."""
+    rms: dict[str, VelocityRms] = {}
+    unrated = []
+    for channel in vibration_channels(recording):
+        try:
+            rms[channel.name] = velocity_rms(channel, band)
+        except SignalError as error:
+            unrated.append(f"rms velocity not rated: {error}")
+    return rms, unrated
+
+
+def _transfer_notes(
+    transfers: Baseline | None, usable: bool, speed_rpm: float, *, with_baseline: bool
+) -> list[str]:
+    """What the sensors' transfers leave undone: bearing orders not compared, impacts judged how."""
+    notes = []
     if transfers is not None and not usable:
         notes.append(
             f"bearing orders not compared: {transfers.source or 'the baseline'} holds at "
@@ -797,85 +514,113 @@ def diagnose(
             "impacts judged against the recording's own median (a warning at 10 times, where the "
             "bearing's own sensor hears it loudest)"
         )
-    elif baseline is None:
+    elif not with_baseline:
         notes.append(
             "no baseline: impacts judged against the recording's own median (a warning at 10 times, "
             "where the bearing's own sensor hears it loudest)"
         )
-    bearings = []
-    for channel, b in _bearing_sensors(recording, engine):
-        spectrum = result.spectra[channel.name]
-        component = 1 if channel.direction == "vertical" else 0
-        calibration = transfers.sensors.get(channel.name) if transfers is not None else None
-        if calibration is not None and (calibration.bearing, calibration.direction) != (b, channel.direction):
-            notes.append(
-                f"{channel.name}: the engine file's transfer is for main bearing {calibration.bearing} "
-                f"{calibration.direction}, the channel is on main bearing {b} {channel.direction}: not used"
+    return notes
+
+
+def _bearing_result(
+    channel: Channel,
+    b: int,
+    analysis: Analysis,
+    engine: Engine,
+    transfers: Baseline | None,
+    usable: bool,
+    notes: list[str],
+) -> tuple[BearingResult, ChannelComparison | None]:
+    """One bearing sensor's orders against the calibrated model (where usable) and its impacts."""
+    result = analysis.spectra
+    calibration = transfers.sensors.get(channel.name) if transfers is not None else None
+    if calibration is not None and (calibration.bearing, calibration.direction) != (b, channel.direction):
+        notes.append(
+            f"{channel.name}: the engine file's transfer is for main bearing {calibration.bearing} "
+            f"{calibration.direction}, the channel is on main bearing {b} {channel.direction}: not used"
+        )
+        calibration = None
+    deviation = comparison = None
+    if calibration is not None and transfers is not None and usable:
+        deviation, comparison = _order_comparison(channel, b, analysis, engine, calibration, transfers)
+    impacts = []
+    profile = result.high_frequency.get(channel.name)
+    if profile is not None:
+        R = engine.cycle_revolutions
+        for neighbour in (b - 1, b, b + 1):
+            if not 1 <= neighbour <= engine.bearing_count:
+                continue
+            reversals = load_reversals(
+                analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
             )
-            calibration = None
-        deviation = None
-        if calibration is not None and transfers is not None and usable:
-            force = analysis.combined.bearing_force[b - 1, component]
-            # what the cylinders' strengths change against the baseline's is the model's to explain, and
-            # it explains a changed gas force's high orders to tens of per cent only: that share of the
-            # change is uncertain, so an order that a misfire moves is no bearing finding
-            calibrated = np.asarray(transfers.strengths, dtype=np.float64)
-            if calibrated.shape != (engine.cylinders,):
-                calibrated = np.ones(engine.cylinders)
-            before = combine_cylinders(analysis.parts, engine, calibrated).bearing_force[b - 1, component]
-            force_error = np.hypot(
-                analysis.force_error[b - 1, component], CHANGE_UNCERTAINTY * np.abs(force - before)
-            )
-            deviation = order_deviations(
-                spectrum,
-                force,
-                analysis.combined.orders,
-                calibration.transfer,
-                calibration.transfer_error,
-                calibration.orders,
-                force_error,
-            )
-            k = spectrum.orders
-            index = np.array([int(np.argmin(np.abs(calibration.orders - v))) for v in k])
-            f_index = np.array([int(np.argmin(np.abs(analysis.combined.orders - v))) for v in k])
-            covered = (k > 1e-9) & (np.abs(calibration.orders[index] - k) < 1e-9)
-            covered &= np.abs(analysis.combined.orders[f_index] - k) < 1e-9
-            h, f = calibration.transfer[index[covered]], force[f_index[covered]]
-            comparisons.append(
-                ChannelComparison(
-                    channel.name,
-                    channel.unit,
-                    k[covered],
-                    spectrum.amplitude[covered],
-                    h * f,
-                    np.sqrt(
-                        spectrum.standard_error[covered] ** 2
-                        + (calibration.transfer_error[index[covered]] * np.abs(f)) ** 2
-                        + (np.abs(h) * force_error[f_index[covered]]) ** 2
-                    ),
-                    f"bearing {b} force through the transfer of {transfers.source or 'the baseline'}",
-                )
-            )
-        impacts = []
-        profile = result.high_frequency.get(channel.name)
-        if profile is not None:
-            for neighbour in (b - 1, b, b + 1):
-                if not 1 <= neighbour <= engine.bearing_count:
-                    continue
-                reversals = load_reversals(
-                    analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
-                )
-                own, reference = reference_profile(calibration, profile)
-                impacts.append(impact_score(own, reversals, neighbour, R, reference))
-        bearings.append(BearingResult(channel.name, b, deviation, impacts))
-    bearings = with_elsewhere(bearings, result.high_frequency, engine, baseline)
-    velocity = {}
-    findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
+            own, reference = reference_profile(calibration, profile)
+            impacts.append(impact_score(own, reversals, neighbour, R, reference))
+    return BearingResult(channel.name, b, deviation, impacts), comparison
+
+
+def _order_comparison(
+    channel: Channel,
+    b: int,
+    analysis: Analysis,
+    engine: Engine,
+    calibration: SensorBaseline,
+    transfers: Baseline,
+) -> tuple[OrderDeviation, ChannelComparison]:
+    """A bearing sensor's orders against the model's bearing force through its calibrated transfer."""
+    spectrum = analysis.spectra.spectra[channel.name]
+    component = 1 if channel.direction == "vertical" else 0
+    force = analysis.combined.bearing_force[b - 1, component]
+    # what the cylinders' strengths change against the baseline's is the model's to explain, and
+    # it explains a changed gas force's high orders to tens of per cent only: that share of the
+    # change is uncertain, so an order that a misfire moves is no bearing finding
+    calibrated = np.asarray(transfers.strengths, dtype=np.float64)
+    if calibrated.shape != (engine.cylinders,):
+        calibrated = np.ones(engine.cylinders)
+    before = combine_cylinders(analysis.parts, engine, calibrated).bearing_force[b - 1, component]
+    force_error = np.hypot(
+        analysis.force_error[b - 1, component], CHANGE_UNCERTAINTY * np.abs(force - before)
+    )
+    deviation = order_deviations(
+        spectrum,
+        force,
+        analysis.combined.orders,
+        calibration.transfer,
+        calibration.transfer_error,
+        calibration.orders,
+        force_error,
+    )
+    k = spectrum.orders
+    index = np.array([int(np.argmin(np.abs(calibration.orders - v))) for v in k])
+    f_index = np.array([int(np.argmin(np.abs(analysis.combined.orders - v))) for v in k])
+    covered = (k > 1e-9) & (np.abs(calibration.orders[index] - k) < 1e-9)
+    covered &= np.abs(analysis.combined.orders[f_index] - k) < 1e-9
+    h, f = calibration.transfer[index[covered]], force[f_index[covered]]
+    comparison = ChannelComparison(
+        channel.name,
+        channel.unit,
+        k[covered],
+        spectrum.amplitude[covered],
+        h * f,
+        np.sqrt(
+            spectrum.standard_error[covered] ** 2
+            + (calibration.transfer_error[index[covered]] * np.abs(f)) ** 2
+            + (np.abs(h) * force_error[f_index[covered]]) ** 2
+        ),
+        f"bearing {b} force through the transfer of {transfers.source or 'the baseline'}",
+    )
+    return deviation, comparison
+
+
+def _cylinder_findings(
+    analysis: Analysis, engine: Engine, baseline: Baseline | None, load: float, notes: list[str]
+) -> list[Finding]:
+    """The cylinders' findings from the balance, where it fits the model (else none: inconclusive)."""
+    balance = analysis.balance
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
-    fits = analysis.balance is not None and analysis.balance.chi2_reduced <= MISFIT
-    if analysis.balance is not None and fits and analysis.balance.separable and engine.cylinders > 1:
-        findings += cylinder_findings(analysis.balance, analysis.partners)
-    elif analysis.balance is not None and fits and engine.cylinders == 1:
+    fits = balance is not None and balance.chi2_reduced <= MISFIT
+    if balance is not None and fits and balance.separable and engine.cylinders > 1:
+        return cylinder_findings(balance, analysis.partners)
+    if balance is not None and fits and engine.cylinders == 1:
         single = (
             # a calibrated model gives the strength against the baseline's directly
             (
@@ -886,18 +631,23 @@ def diagnose(
             if baseline is not None and len(baseline.strengths) == 1
             else None
         )
-        findings += single_cylinder_findings(analysis.balance, load, single)
+        findings = single_cylinder_findings(balance, load, single)
         notes.append(
             f"a single cylinder is judged against the load stated ({load:.2f}): state the load set "
             "(the fuel or the governor's setting), not the power delivered, or a weak cylinder reads as "
             "a lower load"
         )
-    findings += bearing_findings(
-        bearings,
-        with_baseline=baseline is not None,
-        cylinders_changed=any(f.kind == "cylinder" for f in findings),
-    )
-    for channel in _vibration_channels(recording):
+        return findings
+    return []
+
+
+def _zones(
+    recording: Recording, rms: dict[str, VelocityRms], boundaries: tuple[float, float, float]
+) -> tuple[dict[str, tuple[VelocityRms, str]], list[Finding]]:
+    """Each vibration channel's rms velocity with its zone; a finding for each in zone C or D."""
+    velocity = {}
+    findings = []
+    for channel in vibration_channels(recording):
         if (v := rms.get(channel.name)) is None:
             continue
         zone = zone_of(v.value, boundaries)
@@ -927,30 +677,4 @@ def diagnose(
                     ],
                 )
             )
-    status = "healthy"
-    for f in findings:
-        status = worse(f.severity, status)
-    # no finding is "healthy" only if the checks were made: the cylinders resolved (where an engine has
-    # several and a gas model) and the speed steady; otherwise the recording is inconclusive
-    if status == "healthy":
-        reasons = _unresolved(analysis, engine)
-        if reasons:
-            status = "inconclusive"
-            notes += [f"inconclusive: {reason}" for reason in reasons]
-    order = {"alarm": 0, "warning": 1}
-    findings.sort(key=lambda f: (order[f.severity], -f.confidence, f.subject))
-    return Diagnosis(
-        engine_id=engine.id,
-        speed_rpm=speed_rpm,
-        load=load,
-        status=status,
-        findings=findings,
-        balance=analysis.balance,
-        comparisons=comparisons,
-        bearings=bearings,
-        velocity=velocity,
-        zone_boundaries_mm_s=tuple(boundaries),  # type: ignore[arg-type]
-        notes=notes,
-        spectra=result,
-        baseline=baseline.source if baseline is not None else "",
-    )
+    return velocity, findings

@@ -421,130 +421,151 @@ def bearing_findings(
         One per bearing, the most severe.
     """
     by_subject: dict[str, Finding] = {}
-
-    def add(finding: Finding) -> None:
-        old = by_subject.get(finding.subject)
-        if old is None:
-            by_subject[finding.subject] = finding
-            return
-        keep = finding if SEVERITIES.index(finding.severity) > SEVERITIES.index(old.severity) else old
-        by_subject[finding.subject] = Finding(
-            keep.kind,
-            keep.subject,
-            keep.severity,
-            keep.summary,
-            max(old.confidence, finding.confidence),
-            old.evidence + finding.evidence,
-        )
-
     sensed = {result.bearing for result in results}
     for result in results:
-        dev = result.orders
-        if dev is not None and dev.orders.size:
-            error = np.maximum(dev.deviation_error, 1e-12)
-            beyond = (dev.deviation >= BEARING_WARNING) & (dev.deviation >= SIGNIFICANCE * error)
-            if beyond.any():
-                worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))
-                d = float(dev.deviation[worst])
-                severity = "alarm" if d >= BEARING_ALARM else "warning"
-                threshold = BEARING_ALARM if severity == "alarm" else BEARING_WARNING
-                orders = ", ".join(f"{k:g}" for k in dev.orders[beyond])
-                add(
-                    Finding(
-                        kind="main bearing",
-                        subject=f"main bearing {result.bearing}",
-                        severity=severity,
-                        summary=(
-                            f"main bearing {result.bearing}: orders {orders} of {result.channel} deviate "
-                            f"from the calibrated model, up to {100 * d:.0f} % (order {dev.orders[worst]:g})"
-                        ),
-                        confidence=confidence_beyond((d - threshold) / float(error[worst])),
-                        evidence=[
-                            {
-                                "quantity": "order deviation",
-                                "channel": result.channel,
-                                "order": float(k),
-                                "measured": abs(complex(m)),
-                                "predicted": abs(complex(p)),
-                                "deviation": float(v),
-                                "standard_error": float(s),
-                                "threshold": BEARING_WARNING,
-                                "unit": "-",
-                            }
-                            for k, m, p, v, s in zip(
-                                dev.orders[beyond],
-                                dev.measured[beyond],
-                                dev.predicted[beyond],
-                                dev.deviation[beyond],
-                                error[beyond],
-                                strict=True,
-                            )
-                        ],
-                    )
-                )
-        if not result.impacts:
-            continue
-        own = next(s for s in result.impacts if s.bearing == result.bearing)
-
-        def heard(score: ImpactScore) -> bool:
-            least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
-            if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
-                least = max(least, IMPACT_WITH_CYLINDER_FINDING)
-            localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
-                score.elsewhere - 1.0, 0.0
-            )
-            return (
-                score.score >= least
-                and score.significance >= max(SIGNIFICANCE, score.significance_needed)
-                and localised
-            )
-
-        # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
-        # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
-        best = own
-        if not heard(own):
-            others = [
-                s
-                for s in result.impacts
-                if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
-            ]
-            best = max(others, key=lambda s: s.score) if others else own
-        if best is own and not with_baseline and math.isnan(own.elsewhere):
-            continue  # against its own median only, a knock must be shown to be this sensor's alone
-        e = max(best.score_error, 1e-12)
-        if heard(best):
-            severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
-            threshold = (
-                (IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING)
-                if with_baseline
-                else IMPACT_WITHOUT_BASELINE
-            )
-            add(
-                Finding(
-                    kind="main bearing",
-                    subject=f"main bearing {best.bearing}",
-                    severity=severity,
-                    summary=(
-                        f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
-                        f"the {best.reference}'s high-frequency power at {best.angle_deg:.0f} deg "
-                        f"({result.channel}; clearance or wear)"
-                    ),
-                    confidence=confidence_beyond((best.score - threshold) / e),
-                    evidence=[
-                        {
-                            "quantity": "impact power in load-reversal windows",
-                            "channel": result.channel,
-                            "measured": best.score,
-                            "standard_error": best.score_error,
-                            "predicted": 1.0,
-                            "threshold": threshold,
-                            "unit": f"x {best.reference}",
-                            "reversal_angles_deg": best.reversal_angles_deg,
-                            "angle_deg": best.angle_deg,
-                            "significance": best.significance,
-                            "significance_needed": best.significance_needed,
-                        }
-                    ],
-                )
-            )
+        for finding in (
+            _order_finding(result),
+            _impact_finding(result, sensed, with_baseline=with_baseline, cylinders_changed=cylinders_changed),
+        ):
+            if finding is not None:
+                _add(by_subject, finding)
     return list(by_subject.values())
+
+
+def _add(by_subject: dict[str, Finding], finding: Finding) -> None:
+    """Keep one finding per subject: the most severe, with the highest confidence and all the evidence."""
+    old = by_subject.get(finding.subject)
+    if old is None:
+        by_subject[finding.subject] = finding
+        return
+    keep = finding if SEVERITIES.index(finding.severity) > SEVERITIES.index(old.severity) else old
+    by_subject[finding.subject] = Finding(
+        keep.kind,
+        keep.subject,
+        keep.severity,
+        keep.summary,
+        max(old.confidence, finding.confidence),
+        old.evidence + finding.evidence,
+    )
+
+
+def _order_finding(result: BearingResult) -> Finding | None:
+    """A bearing finding from the sensor's orders that deviate from the calibrated model, if any."""
+    dev = result.orders
+    if dev is None or not dev.orders.size:
+        return None
+    error = np.maximum(dev.deviation_error, 1e-12)
+    beyond = (dev.deviation >= BEARING_WARNING) & (dev.deviation >= SIGNIFICANCE * error)
+    if not beyond.any():
+        return None
+    worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))
+    d = float(dev.deviation[worst])
+    severity = "alarm" if d >= BEARING_ALARM else "warning"
+    threshold = BEARING_ALARM if severity == "alarm" else BEARING_WARNING
+    orders = ", ".join(f"{k:g}" for k in dev.orders[beyond])
+    return Finding(
+        kind="main bearing",
+        subject=f"main bearing {result.bearing}",
+        severity=severity,
+        summary=(
+            f"main bearing {result.bearing}: orders {orders} of {result.channel} deviate "
+            f"from the calibrated model, up to {100 * d:.0f} % (order {dev.orders[worst]:g})"
+        ),
+        confidence=confidence_beyond((d - threshold) / float(error[worst])),
+        evidence=[
+            {
+                "quantity": "order deviation",
+                "channel": result.channel,
+                "order": float(k),
+                "measured": abs(complex(m)),
+                "predicted": abs(complex(p)),
+                "deviation": float(v),
+                "standard_error": float(s),
+                "threshold": BEARING_WARNING,
+                "unit": "-",
+            }
+            for k, m, p, v, s in zip(
+                dev.orders[beyond],
+                dev.measured[beyond],
+                dev.predicted[beyond],
+                dev.deviation[beyond],
+                error[beyond],
+                strict=True,
+            )
+        ],
+    )
+
+
+def _heard(score: ImpactScore, *, with_baseline: bool, cylinders_changed: bool) -> bool:
+    """Whether a knock span stands out enough, significantly, and loudest on its own bearing."""
+    least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
+    if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
+        least = max(least, IMPACT_WITH_CYLINDER_FINDING)
+    localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
+        score.elsewhere - 1.0, 0.0
+    )
+    return (
+        score.score >= least
+        and score.significance >= max(SIGNIFICANCE, score.significance_needed)
+        and localised
+    )
+
+
+def _impact_finding(
+    result: BearingResult, sensed: set[int], *, with_baseline: bool, cylinders_changed: bool
+) -> Finding | None:
+    """A bearing finding from the impacts the sensor hears, its own bearing's first, if any."""
+    if not result.impacts:
+        return None
+    own = next(s for s in result.impacts if s.bearing == result.bearing)
+
+    def heard(score: ImpactScore) -> bool:
+        return _heard(score, with_baseline=with_baseline, cylinders_changed=cylinders_changed)
+
+    # a bearing is named from its own sensor's evidence first; a neighbour only where no sensor sits on
+    # it (one that does speaks for it) and this sensor clearly hears it louder than its own bearing
+    best = own
+    if not heard(own):
+        others = [
+            s
+            for s in result.impacts
+            if s.bearing != result.bearing and s.bearing not in sensed and s.score >= 1.5 * own.score
+        ]
+        best = max(others, key=lambda s: s.score) if others else own
+    if best is own and not with_baseline and math.isnan(own.elsewhere):
+        return None  # against its own median only, a knock must be shown to be this sensor's alone
+    if not heard(best):
+        return None
+    e = max(best.score_error, 1e-12)
+    severity = "alarm" if with_baseline and best.score >= IMPACT_ALARM else "warning"
+    threshold = (
+        (IMPACT_ALARM if severity == "alarm" else IMPACT_WARNING)
+        if with_baseline
+        else IMPACT_WITHOUT_BASELINE
+    )
+    return Finding(
+        kind="main bearing",
+        subject=f"main bearing {best.bearing}",
+        severity=severity,
+        summary=(
+            f"main bearing {best.bearing}: impacts where its load reverses, {best.score:.1f} x "
+            f"the {best.reference}'s high-frequency power at {best.angle_deg:.0f} deg "
+            f"({result.channel}; clearance or wear)"
+        ),
+        confidence=confidence_beyond((best.score - threshold) / e),
+        evidence=[
+            {
+                "quantity": "impact power in load-reversal windows",
+                "channel": result.channel,
+                "measured": best.score,
+                "standard_error": best.score_error,
+                "predicted": 1.0,
+                "threshold": threshold,
+                "unit": f"x {best.reference}",
+                "reversal_angles_deg": best.reversal_angles_deg,
+                "angle_deg": best.angle_deg,
+                "significance": best.significance,
+                "significance_needed": best.significance_needed,
+            }
+        ],
+    )

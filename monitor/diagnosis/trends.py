@@ -80,6 +80,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.special import ndtri, stdtr
 
 from monitor.types import FloatArray
 
@@ -369,8 +370,6 @@ def standardised(
     ndarray
         ``u`` of each value, of the values' shape; NaN before ``first`` [-].
     """
-    from scipy.special import ndtri, stdtr  # where it is used: scipy is slow to import
-
     _check_band(robust_sigmas)
     x = np.asarray(values, dtype=np.float64)
     u = np.full(x.shape, np.nan)

@@ -39,7 +39,7 @@ import numpy as np
 
 from monitor.errors import DataQualityWarning, ModelError
 from monitor.fourier import cycle_grid
-from monitor.model.engine import Engine, read_pressure_trace
+from monitor.model.engine import Engine
 from monitor.model.forces import (
     STANDARD_GRAVITY,
     CrankTrain,
@@ -48,7 +48,7 @@ from monitor.model.forces import (
     crank_kinematics,
     crank_train_forces,
 )
-from monitor.model.gas import ParametricCycle, gas_force, resample_trace
+from monitor.model.gas import ParametricCycle, gas_force, read_pressure_trace, resample_trace
 from monitor.model.kinematics import check_crank_speed
 from monitor.types import ComplexArray, FloatArray
 

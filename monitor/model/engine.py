@@ -23,7 +23,6 @@ and the rule.
 
 from __future__ import annotations
 
-import csv
 import difflib
 import math
 import tomllib
@@ -666,67 +665,3 @@ def load_engine(path: str | Path) -> Engine:
 def bundled_engines() -> dict[str, Path]:
     """The engine descriptions shipped with the product, by id (file stem)."""
     return {p.stem: p for p in sorted(BUNDLED_DIR.glob("*.toml"))}
-
-
-def read_pressure_trace(engine: Engine) -> tuple[FloatArray, FloatArray]:
-    """The measured pressure trace of an engine, in SI.
-
-    Parameters
-    ----------
-    engine : Engine
-        An engine whose description has a ``[pressure_trace]``.
-
-    Returns
-    -------
-    crank_angle, pressure : ndarray
-        Crank angle from firing TDC [rad] and absolute cylinder pressure [Pa].
-
-    Raises
-    ------
-    EngineDescriptionError
-        If the trace is absent, unreadable, or its arrays are inconsistent.
-    """
-    trace = engine.pressure_trace
-    if trace is None:
-        raise EngineDescriptionError(f"engine {engine.id!r} has no [pressure_trace]")
-    if trace.file is not None:
-        path = Path(trace.file)
-        if not path.is_absolute() and engine.source_dir is not None:
-            path = engine.source_dir / path
-        try:
-            with path.open(newline="", encoding="utf-8") as handle:
-                rows = list(csv.DictReader(handle))
-        except OSError as error:
-            raise EngineDescriptionError(f"pressure_trace.file = {trace.file!r}: {error}") from None
-        try:
-            angle_deg = [float(r["crank_angle_deg"]) for r in rows]
-            p_bar = [float(r["pressure_bar"]) for r in rows]
-        except (KeyError, TypeError, ValueError) as error:
-            raise EngineDescriptionError(
-                f"pressure_trace.file = {trace.file!r}: expected numeric columns crank_angle_deg "
-                f"and pressure_bar ({error})"
-            ) from None
-    else:
-        angle_deg, p_bar = trace.crank_angle_deg or [], trace.pressure_bar or []
-    angle = np.radians(np.asarray(angle_deg, dtype=np.float64))
-    pressure = np.asarray(p_bar, dtype=np.float64) * 1e5
-    if angle.shape != pressure.shape or angle.size < 8:
-        raise EngineDescriptionError(
-            f"pressure_trace: {angle.size} angles and {pressure.size} pressures: expected equal "
-            "lengths of at least 8 points"
-        )
-    if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(pressure))):
-        bad = int(np.count_nonzero(~np.isfinite(angle)) + np.count_nonzero(~np.isfinite(pressure)))
-        raise EngineDescriptionError(
-            f"pressure_trace: {bad} value(s) are NaN or Inf: expected finite numbers"
-        )
-    if not trace.absolute:
-        pressure = pressure + (engine.combustion.ambient_pressure_bar if engine.combustion else 1.013) * 1e5
-    if np.any(pressure <= 0):
-        first = int(np.flatnonzero(pressure <= 0)[0])
-        raise EngineDescriptionError(
-            f"pressure_trace: absolute pressure {pressure[first] / 1e5:.6g} bar at "
-            f"{math.degrees(angle[first]):.6g} deg: expected positive pressures everywhere"
-            + ("" if trace.absolute else " (the trace is gauge; ambient was added)")
-        )
-    return angle, pressure

@@ -3,7 +3,8 @@
 Two sources of the pressure trace ``p(theta)``, ``theta`` the crank angle from
 the cylinder's own firing TDC:
 
-- a measured indicator diagram on any angular grid, resampled by monotone
+- a measured indicator diagram on any angular grid (read from the engine
+  description or its CSV file by :func:`read_pressure_trace`), resampled by monotone
   (PCHIP) interpolation of its periodic extension (:func:`resample_trace`);
 - a parametric cycle where none is measured (:class:`ParametricCycle`):
   polytropic compression from inlet closing (two-stroke: exhaust valve or
@@ -37,14 +38,16 @@ sec. 9.2 (Wiebe function), 4.2 (polytropic processes).
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from monitor.errors import ModelError
+from monitor.errors import EngineDescriptionError, ModelError
 from monitor.model.engine import Combustion, Engine
 from monitor.model.kinematics import piston_displacement
 from monitor.types import FloatArray
@@ -54,6 +57,7 @@ __all__ = [
     "cylinder_volume",
     "gas_force",
     "indicated_mean_effective_pressure",
+    "read_pressure_trace",
     "resample_trace",
 ]
 
@@ -137,6 +141,70 @@ def indicated_mean_effective_pressure(pressure: npt.ArrayLike, volume: npt.Array
     v = np.asarray(volume, dtype=np.float64)
     dv = 0.5 * (np.roll(v, -1) - np.roll(v, 1))
     return float(np.sum(p * dv) / (v.max() - v.min()))
+
+
+def read_pressure_trace(engine: Engine) -> tuple[FloatArray, FloatArray]:
+    """The measured pressure trace of an engine, in SI.
+
+    Parameters
+    ----------
+    engine : Engine
+        An engine whose description has a ``[pressure_trace]``.
+
+    Returns
+    -------
+    crank_angle, pressure : ndarray
+        Crank angle from firing TDC [rad] and absolute cylinder pressure [Pa].
+
+    Raises
+    ------
+    EngineDescriptionError
+        If the trace is absent, unreadable, or its arrays are inconsistent.
+    """
+    trace = engine.pressure_trace
+    if trace is None:
+        raise EngineDescriptionError(f"engine {engine.id!r} has no [pressure_trace]")
+    if trace.file is not None:
+        path = Path(trace.file)
+        if not path.is_absolute() and engine.source_dir is not None:
+            path = engine.source_dir / path
+        try:
+            with path.open(newline="", encoding="utf-8") as handle:
+                rows = list(csv.DictReader(handle))
+        except OSError as error:
+            raise EngineDescriptionError(f"pressure_trace.file = {trace.file!r}: {error}") from None
+        try:
+            angle_deg = [float(r["crank_angle_deg"]) for r in rows]
+            p_bar = [float(r["pressure_bar"]) for r in rows]
+        except (KeyError, TypeError, ValueError) as error:
+            raise EngineDescriptionError(
+                f"pressure_trace.file = {trace.file!r}: expected numeric columns crank_angle_deg "
+                f"and pressure_bar ({error})"
+            ) from None
+    else:
+        angle_deg, p_bar = trace.crank_angle_deg or [], trace.pressure_bar or []
+    angle = np.radians(np.asarray(angle_deg, dtype=np.float64))
+    pressure = np.asarray(p_bar, dtype=np.float64) * 1e5
+    if angle.shape != pressure.shape or angle.size < 8:
+        raise EngineDescriptionError(
+            f"pressure_trace: {angle.size} angles and {pressure.size} pressures: expected equal "
+            "lengths of at least 8 points"
+        )
+    if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(pressure))):
+        bad = int(np.count_nonzero(~np.isfinite(angle)) + np.count_nonzero(~np.isfinite(pressure)))
+        raise EngineDescriptionError(
+            f"pressure_trace: {bad} value(s) are NaN or Inf: expected finite numbers"
+        )
+    if not trace.absolute:
+        pressure = pressure + (engine.combustion.ambient_pressure_bar if engine.combustion else 1.013) * 1e5
+    if np.any(pressure <= 0):
+        first = int(np.flatnonzero(pressure <= 0)[0])
+        raise EngineDescriptionError(
+            f"pressure_trace: absolute pressure {pressure[first] / 1e5:.6g} bar at "
+            f"{math.degrees(angle[first]):.6g} deg: expected positive pressures everywhere"
+            + ("" if trace.absolute else " (the trace is gauge; ambient was added)")
+        )
+    return angle, pressure
 
 
 def resample_trace(

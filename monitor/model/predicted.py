@@ -50,6 +50,7 @@ from monitor.model.crankshaft import EngineModel, phase_shift
 from monitor.model.engine import Engine
 from monitor.model.forces import crank_train_forces
 from monitor.model.gas import gas_force
+from monitor.model.inertia import engine_side_inertia
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -429,7 +430,7 @@ def inertia_angle_fluctuation(
 
     Notes
     -----
-    For a rigid engine side of inertia ``J`` (:func:`monitor.torsion.shaft_line.engine_side_inertia`)
+    For a rigid engine side of inertia ``J`` (:func:`monitor.model.inertia.engine_side_inertia`)
     turning at ``Omega (1 + delta)``, ``J Omega^2 d delta / d theta = T(theta)`` to first order, and
     the angle ahead of uniform rotation obeys ``df / d theta = delta``; so order ``k`` of the
     torque gives ``f_k = -T_k / (J Omega^2 k^2)``. The inertia torque (every cylinder's moving
@@ -437,8 +438,6 @@ def inertia_angle_fluctuation(
     ``f`` does not depend on speed; it is evaluated at the rated speed, without the weights (whose
     torque does not scale with ``Omega^2``), and repeats every revolution.
     """
-    from monitor.torsion.shaft_line import engine_side_inertia
-
     inertia = engine_side_inertia(engine)
     omega = engine.operation.rated_speed_rpm * math.pi / 30
     model = EngineModel(engine, gas="none", gravity=0.0, grid_size=max(256, 8 * max_order))

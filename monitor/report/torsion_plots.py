@@ -9,7 +9,8 @@ import numpy as np
 
 from monitor.report.plots import new_figure, save_figure
 from monitor.torsion.shaft_line import CampbellData, ForcedResponse, Modes
-from monitor.torsion.variable_inertia import StabilityChart, TimeResponse
+from monitor.torsion.stability import StabilityChart
+from monitor.torsion.time_response import TimeResponse
 
 __all__ = [
     "plot_axial",

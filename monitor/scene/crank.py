@@ -23,18 +23,15 @@ import numpy as np
 from monitor.errors import SceneError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
+from monitor.model.inertia import engine_side_inertia
 from monitor.scene.effects import CrankSpeedParams, ExternalTorqueParams, GasParams, named
 from monitor.scene.model import Scene
 from monitor.scene.sources import Sources
 from monitor.scene.synthesis import MAX_ORDER, CycleTable, synthesise
-from monitor.torsion.shaft_line import engine_side_inertia, shaft_line_of
-from monitor.torsion.variable_inertia import (
-    HarmonicExcitation,
-    crank_of_engine,
-    gas_excitation,
-    harmonic_content,
-)
-from monitor.torsion.variable_inertia import simulate as respond
+from monitor.torsion.shaft_line import shaft_line_of
+from monitor.torsion.time_response import harmonic_content
+from monitor.torsion.time_response import simulate as respond
+from monitor.torsion.variable_inertia import HarmonicExcitation, crank_of_engine, gas_excitation
 from monitor.types import FloatArray
 
 __all__ = ["FINE", "Crank", "crank_motion"]

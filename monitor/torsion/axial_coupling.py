@@ -51,6 +51,8 @@ import scipy.linalg
 
 from monitor.errors import ModelError
 from monitor.model.engine import Engine
+from monitor.model.excitation import cylinder_torque_orders
+from monitor.model.inertia import mean_reciprocating_inertia
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -498,8 +500,6 @@ class AxialTorsionalCrankshaft:
         -------
         AxialTorsionalCrankshaft
         """
-        from monitor.torsion.shaft_line import mean_reciprocating_inertia
-
         line = engine.shaft_line
         if line is None or line.axial is None:
             raise ModelError(f"engine {engine.id!r} has no [shaft_line.axial] data for the coupled model")
@@ -617,8 +617,6 @@ def engine_axial_response(
     -------
     AxialResponse
     """
-    from monitor.torsion.shaft_line import cylinder_torque_orders
-
     shaft = model if model is not None else AxialTorsionalCrankshaft.of_engine(engine)
     w, orders, cylinder_torque = cylinder_torque_orders(engine, speeds, load=load, max_order=max_order)
     axial = np.zeros((shaft.n_nodes, w.size, orders.size), dtype=np.complex128)

@@ -25,9 +25,11 @@ which converges to the continuous shaft as it is divided).
   its mean over a revolution, or its value at a given crank angle to follow
   the natural frequencies through a revolution (the variation itself is the
   subject of :mod:`monitor.torsion.variable_inertia`); then the free-end and
-  driven-end elements.  The forced response to the engine's excitation orders uses each
-  cylinder's torque orders, with their phases, from
-  :func:`monitor.model.predicted.predict_orders`.
+  driven-end elements (the inertias from :mod:`monitor.model.inertia`).  The forced
+  response to the engine's excitation orders uses each cylinder's torque orders, with
+  their phases, from :func:`monitor.model.excitation.cylinder_torque_orders`; the
+  speed at the tooth wheel per unit torque at each throw is
+  :func:`tooth_wheel_receptance`.
 
 References
 ----------
@@ -49,6 +51,8 @@ import scipy.linalg
 
 from monitor.errors import ModelError
 from monitor.model.engine import Engine
+from monitor.model.excitation import cylinder_torque_orders
+from monitor.model.inertia import node_inertias
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -60,13 +64,9 @@ __all__ = [
     "ShaftElement",
     "ShaftLineModel",
     "campbell",
-    "cylinder_torque_orders",
     "engine_forced_response",
-    "engine_side_inertia",
-    "engine_side_inertia_at",
-    "mean_reciprocating_inertia",
-    "reciprocating_inertia",
     "shaft_line_of",
+    "tooth_wheel_receptance",
 ]
 
 
@@ -356,147 +356,6 @@ class ShaftLineModel:
 
 
 # ------------------------------------------------------------------------------- engine shaft lines
-def reciprocating_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatArray:
-    """Inertia of one cylinder's reciprocating parts about the crankshaft, ``m_rec (dx/dalpha)^2``.
-
-    Parameters
-    ----------
-    engine : Engine
-        The engine (two-mass reciprocating mass, exact kinematics).
-    crank_angle : array_like
-        The cylinder's own crank angle from TDC [rad].
-
-    Returns
-    -------
-    ndarray
-        [kg m^2]; its mean over a revolution is ``m_rec R^2 (1/2 + lambda^2 / 8 + ...)``.
-    """
-    from monitor.model.kinematics import piston_x_derivatives
-
-    dx = piston_x_derivatives(crank_angle, engine.crank_radius, engine.rod_ratio)[1]
-    return engine.reciprocating_mass * dx * dx
-
-
-def mean_reciprocating_inertia(engine: Engine) -> float:
-    """Mean of :func:`reciprocating_inertia` over a revolution (spectrally exact quadrature).
-
-    Parameters
-    ----------
-    engine : Engine
-
-    Returns
-    -------
-    float
-        [kg m^2].
-    """
-    grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
-    return float(np.mean(reciprocating_inertia(engine, grid)))
-
-
-def engine_side_inertia(engine: Engine) -> float:
-    """The engine side of the shaft line as one rigid body [kg m^2].
-
-    Free-end elements, throws (reciprocating parts at their mean) and the
-    driven-end elements up to the flywheel: above the first mode (the engine
-    against its propeller or generator: 3.3 Hz on the 7K98MC, 3.5 Hz on the
-    6L32) the engine side turns as one body up to the crankshaft's own modes
-    (24 Hz on the 7K98MC, 54 Hz on the 6L32), below which their firing orders lie;
-    without a flywheel, the throws and free end.
-
-    Parameters
-    ----------
-    engine : Engine
-        With its ``[shaft_line]``.
-
-    Returns
-    -------
-    float
-        [kg m^2]
-
-    Raises
-    ------
-    ModelError
-        If the engine has no ``[shaft_line]``.
-    """
-    line, last = _engine_side(engine)
-    return float(sum(node.inertia for node in line.nodes[: last + 1]))
-
-
-def _engine_side(engine: Engine) -> tuple[ShaftLineModel, int]:
-    """The shaft-line model and the index of the engine side's last node (the flywheel, or last throw)."""
-    if engine.shaft_line is None:
-        raise ModelError(f"engine {engine.id!r} has no [shaft_line]: its inertias are unknown")
-    line = shaft_line_of(engine)
-    names = list(line.node_names)
-    last = max(names.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1))
-    for element in engine.shaft_line.driven_end:
-        if element.kind == "flywheel":
-            last = names.index(element.name)
-            break
-    return line, last
-
-
-def engine_side_inertia_at(engine: Engine, angular_frequency: npt.ArrayLike) -> ComplexArray:
-    """The inertia a torque on the engine side meets at each frequency [kg m^2], complex.
-
-    The engine side (:func:`engine_side_inertia`) turns as one body; the driven end beyond it
-    (propeller, generator, a shaft) follows through its shafts.  Seen from the engine side's last
-    node, the elements beyond it, from the far end inwards, have the dynamic stiffness
-    ``Z_i = -w^2 J_i + i w c_i + Z'_(i+1)`` and, through their shaft ``k_i + i w d_i``,
-    ``Z'_i = (k_i + i w d_i) Z_i / (k_i + i w d_i + Z_i)``; the torque on the engine side for an
-    angle ``theta`` is ``(-w^2 J_engine + Z'_first) theta``, so ``J(w) = J_engine - Z'_first / w^2``.
-    Far below the engine-against-load mode the whole line turns as one (``J`` the sum of every
-    inertia); far above it the driven end stands still (``J`` the engine side's), the rigid
-    engine side's usual regime (a propeller or generator on a flexible shaft or coupling, its mode
-    at a few hertz).  The driven end is taken in this way only where that mode (two masses: the
-    engine side, and everything beyond on the first shaft) lies above every frequency asked for: a
-    stiff coupling; where it lies among them the orders straddle a resonance that no rigid body
-    describes, and the engine side alone is kept, as :func:`engine_side_inertia` gives it.
-
-    Parameters
-    ----------
-    engine : Engine
-        With its ``[shaft_line]``.
-    angular_frequency : array_like
-        [rad/s], positive.
-
-    Returns
-    -------
-    ndarray, complex, shape of ``angular_frequency``
-        [kg m^2]; the imaginary part is the driven end's damping seen by the engine side.
-
-    Raises
-    ------
-    ModelError
-        If the engine has no ``[shaft_line]``, or for a frequency that is not positive.
-    """
-    w = np.asarray(angular_frequency, dtype=np.float64)
-    if np.any(~np.isfinite(w)) or np.any(w <= 0):
-        raise ModelError(
-            "engine_side_inertia_at: the angular frequencies must be positive and finite [rad/s]"
-        )
-    line, last = _engine_side(engine)
-    rigid = float(sum(node.inertia for node in line.nodes[: last + 1]))
-    driven = engine.shaft_line.driven_end if engine.shaft_line is not None else []
-    beyond = [e for e in driven if line.node_names.index(e.name) > last]
-    tail = np.zeros(w.shape, dtype=np.complex128)
-    if beyond:
-        rest = sum(e.inertia_kgm2 for e in beyond)
-        first = beyond[0].stiffness_to_previous_nm_per_rad
-        mode = math.sqrt(first * (1 / rigid + 1 / rest)) if rest > 0 else math.inf
-        if mode <= float(w.max(initial=0.0)):
-            beyond = []  # a flexible coupling: above its mode the driven end is left to itself
-    for element in reversed(beyond):
-        own = -(w**2) * element.inertia_kgm2 + 1j * w * element.absolute_damping_nms_per_rad + tail
-        shaft = element.stiffness_to_previous_nm_per_rad + 1j * w * element.relative_damping_nms_per_rad
-        total = shaft + own
-        # at a free resonance of the tail (total = 0) the tail holds the engine side still: huge stiffness
-        tail = np.where(
-            np.abs(total) > 0, shaft * own / np.where(np.abs(total) > 0, total, 1.0), shaft * 1e12
-        )
-    return np.asarray(rigid - tail / w**2)
-
-
 def shaft_line_of(
     engine: Engine, *, reciprocating: Literal["mean", "none"] | float = "mean"
 ) -> ShaftLineModel:
@@ -518,26 +377,20 @@ def shaft_line_of(
         Nodes in order along the shaft: free-end elements (outermost first),
         the throws (named ``cylinder 1`` ...), the driven-end elements.
     """
+    named = node_inertias(engine, reciprocating=reciprocating)
     line = engine.shaft_line
-    if line is None:
-        raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
-    r2 = engine.crank_radius**2
-    base = line.throw_inertia_kgm2 + engine.rotating_rod_mass * r2
-    if reciprocating == "mean":
-        throws = np.full(engine.cylinders, base + mean_reciprocating_inertia(engine))
-    elif reciprocating == "none":
-        throws = np.full(engine.cylinders, base)
-    elif isinstance(reciprocating, float) and math.isfinite(reciprocating):
-        throws = base + reciprocating_inertia(engine, reciprocating - engine.firing_angles)
-    else:
-        raise ModelError(f"reciprocating = {reciprocating!r}: expected 'mean', 'none' or a crank angle [rad]")
-    nodes: list[Node] = []
-    shafts: list[ShaftElement] = []
-    for element in reversed(line.free_end):
-        nodes.append(
-            Node(element.name, element.inertia_kgm2, damping_to_ground=element.absolute_damping_nms_per_rad)
-        )
+    assert line is not None  # node_inertias raised otherwise
     free = list(reversed(line.free_end))
+    grounded = (
+        [e.absolute_damping_nms_per_rad for e in free]
+        + [0.0] * engine.cylinders
+        + [e.absolute_damping_nms_per_rad for e in line.driven_end]
+    )
+    nodes = [
+        Node(name, inertia, damping_to_ground=damping)
+        for (name, inertia), damping in zip(named, grounded, strict=True)
+    ]
+    shafts: list[ShaftElement] = []
     for i in range(len(free) - 1):
         # element i+1 is nearer the engine; its stiffness joins it to element i
         shafts.append(
@@ -545,12 +398,7 @@ def shaft_line_of(
                 i, i + 1, free[i].stiffness_to_previous_nm_per_rad, free[i].relative_damping_nms_per_rad
             )
         )
-    order = range(1, engine.cylinders + 1)
-    if engine.cylinder_numbering == "from flywheel end":
-        order = range(engine.cylinders, 0, -1)
-    first_throw = len(nodes)
-    for c in order:
-        nodes.append(Node(f"cylinder {c}", float(throws[c - 1])))
+    first_throw = len(free)
     if free:
         shafts.append(
             ShaftElement(
@@ -562,21 +410,55 @@ def shaft_line_of(
         )
     for i in range(first_throw, first_throw + engine.cylinders - 1):
         shafts.append(ShaftElement(i, i + 1, line.throw_stiffness_nm_per_rad))
-    previous = len(nodes) - 1
+    previous = first_throw + engine.cylinders - 1
     for element in line.driven_end:
-        nodes.append(
-            Node(element.name, element.inertia_kgm2, damping_to_ground=element.absolute_damping_nms_per_rad)
-        )
         shafts.append(
             ShaftElement(
                 previous,
-                len(nodes) - 1,
+                previous + 1,
                 element.stiffness_to_previous_nm_per_rad,
                 element.relative_damping_nms_per_rad,
             )
         )
-        previous = len(nodes) - 1
+        previous += 1
     return ShaftLineModel(nodes, shafts)
+
+
+def tooth_wheel_receptance(engine: Engine, orders: FloatArray, crank_speed: float) -> ComplexArray:
+    """Speed at the tooth wheel per unit torque at each throw, per order.
+
+    Parameters
+    ----------
+    engine : Engine
+        With its ``[shaft_line]`` (the tooth wheel's element, else the first node).
+    orders : ndarray, shape (n_orders,)
+        [-].
+    crank_speed : float
+        Mean crank speed [rad/s].
+
+    Returns
+    -------
+    ndarray, complex, shape (n_cylinders, n_orders)
+        [rad/s per N m].
+
+    Raises
+    ------
+    ModelError
+        Without a ``[shaft_line]``.
+    """
+    if engine.shaft_line is None:
+        raise ModelError(f"transfer 'shaft-line' needs the [shaft_line] of engine {engine.id!r}")
+    line = shaft_line_of(engine)
+    probe = line.index(engine.shaft_line.tooth_wheel or line.node_names[0])
+    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
+    out = np.zeros((engine.cylinders, orders.size), dtype=np.complex128)
+    for j, k in enumerate(orders):
+        for i, node in enumerate(throws):
+            unit = np.zeros(len(line.nodes))
+            unit[node] = 1.0
+            angle = line.harmonic_response(float(k * crank_speed), unit)[0][probe]
+            out[i, j] = 1j * k * crank_speed * angle
+    return out
 
 
 @dataclass(frozen=True)
@@ -611,53 +493,6 @@ class ForcedResponse:
     def total_angle(self) -> FloatArray:
         """Sum of the order amplitudes per node and speed (an upper bound of the peak) [rad]."""
         return np.asarray(np.abs(self.angle).sum(axis=-1))
-
-
-def cylinder_torque_orders(
-    engine: Engine,
-    speeds: npt.ArrayLike,
-    *,
-    load: float | str = "propeller",
-    max_order: float = 12,
-) -> tuple[FloatArray, FloatArray, ComplexArray]:
-    """Each cylinder's torque orders (gas and inertia, with phases) at every speed of a range.
-
-    Parameters
-    ----------
-    engine : Engine
-        With a gas-force model.
-    speeds : array_like
-        Crank speeds, > 0 [rad/s].
-    load : float or "propeller"
-        Fraction of rated IMEP, or "propeller" for the propeller law
-        (IMEP proportional to speed squared, rated at rated speed, at most 1.1) [-].
-    max_order : float, optional
-        Highest order [-].
-
-    Returns
-    -------
-    speeds : ndarray, shape (n_speeds,)
-        [rad/s].
-    orders : ndarray, shape (n_orders,)
-        Orders without order 0 [-].
-    torque : ndarray, shape (n_speeds, n_cylinders, n_orders)
-        Complex torque orders [N m], phases relative to TDC of cylinder 1.
-    """
-    from monitor.model.crankshaft import EngineModel
-    from monitor.model.predicted import predict_orders
-
-    w = np.asarray(speeds, dtype=np.float64)
-    if w.ndim != 1 or w.size == 0 or np.any(~np.isfinite(w)) or np.any(w <= 0):
-        raise ModelError("speeds: expected a non-empty 1-D array of positive crank speeds [rad/s]")
-    if load != "propeller" and not isinstance(load, int | float):
-        raise ModelError(f"load = {load!r}: expected a fraction of rated IMEP or 'propeller'")
-    model = EngineModel(engine)
-    results = []
-    for speed in w:
-        point_load = min(1.1, (speed / engine.rated_speed) ** 2) if load == "propeller" else float(load)
-        results.append(predict_orders(model, crank_speed=float(speed), load=point_load, max_order=max_order))
-    torque = np.stack([r.cylinder_torque[:, 1:] for r in results])
-    return w, results[0].orders[1:], torque
 
 
 def engine_forced_response(

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from monitor.diagnosis import Baseline, calibrate, diagnose
 from monitor.errors import DiagnosisError, EngineDescriptionError, SignalError
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
-from monitor.model.engine import Engine, VibrationLimits, bundled_engines, load_engine
+from monitor.model.engine import Engine, VibrationLimits, bundled_engines, load_engine, parse_engine
 from monitor.scene import load_scene, parse_scene, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -239,9 +240,6 @@ def test_transfers_given_in_the_engine_file_compare_the_bearing_orders(
     """The baseline's transfers written as [[sensor_transfers]] into the engine file give, without a
     baseline, the same predicted bearing orders (to the TOML's 7 significant digits); a transfer
     for a bearing the engine lacks is refused."""
-    import tomllib
-
-    from monitor.model.engine import parse_engine
 
     source = bundled_engines()["man-b-w-7k98mc"]
     data = tomllib.loads(source.read_text())

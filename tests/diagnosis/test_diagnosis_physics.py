@@ -19,6 +19,7 @@ from monitor.errors import SignalError
 from monitor.io.recording import Channel
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine, load_engine
+from monitor.model.inertia import engine_side_inertia
 from monitor.model.predicted import (
     CylinderParts,
     combine_cylinders,
@@ -35,7 +36,6 @@ from monitor.signal.angle_domain import (
     to_angle_domain,
 )
 from monitor.signal.anglemap import AngleMap
-from monitor.torsion.shaft_line import engine_side_inertia
 
 TWO_STROKE, FOUR_STROKE = "man-b-w-7k98mc", "medium-speed-6l32"
 # operating points: the 7K98MC at 104 rpm, the 6L32 at 750 rpm (their rated speeds), part load

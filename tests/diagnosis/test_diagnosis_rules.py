@@ -12,20 +12,27 @@
 from __future__ import annotations
 
 import math
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from monitor.diagnosis import calibrate, diagnose
+from monitor.diagnosis.analysis import engine_orders
 from monitor.diagnosis.balance import CrankCalibration, cylinder_balance
 from monitor.diagnosis.baseline import Baseline
-from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_score
+from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_score, window_bins
 from monitor.diagnosis.diagnose import predicted_speed
+from monitor.errors import ModelError
 from monitor.model.engine import Engine, bundled_engines, load_engine
+from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts, combine_cylinders, cylinder_parts
 from monitor.signal.angle_domain import HighFrequencyPower, OrderSpectrum
-from monitor.torsion.shaft_line import engine_side_inertia, engine_side_inertia_at
+from monitor.signal.measure import PLAUSIBLE_PITCH_ERROR, learn_pitch_errors
+from tests.diagnosis.test_diagnosis_physics import _model, _parts
+from validation.simulator import healthy_twin, random_case
 
 ENGINE = "medium-speed-6l32"
 
@@ -87,7 +94,6 @@ def test_a_stiff_driven_end_follows_the_engine_side_as_the_two_mass_closed_form_
 
 
 def test_frequencies_must_be_positive() -> None:
-    from monitor.errors import ModelError
 
     with pytest.raises(ModelError, match="positive"):
         engine_side_inertia_at(_engine(), [0.0, 1.0])
@@ -114,7 +120,6 @@ def test_a_baseline_calibrates_a_firing_harmonic_the_engine_file_has_wrong() -> 
     calibration's combustion factor is the gap put in within 1 % (the inertia torque takes a small
     share of it: its 10 % uncertainty against the combustion's 100 %). Noise-free speed orders with a
     stated error of 1e-4 rad/s."""
-    from tests.diagnosis.test_diagnosis_physics import _model, _parts
 
     engine = _engine()
     parts = _parts(ENGINE)
@@ -201,7 +206,6 @@ def test_a_narrow_knock_is_found_where_a_window_mean_would_dilute_it(rng: np.ran
     assert score.score == pytest.approx(2.0, abs=0.3)
     assert score.significance > score.significance_needed + 3
     assert score.angle_deg == pytest.approx(100.0, abs=1.5)
-    from monitor.diagnosis.bearings import window_bins
 
     mask = window_bins(reversal, bins, 2)
     assert knocked[mask].mean() / reference[mask].mean() < 1.1
@@ -247,17 +251,12 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     learn reach degrees, where a wheel's machining is hundredths. They were applied and failed the
     half-pitch check; now they are not learned (what the baseline keeps is within a tenth of a pitch),
     and the recording is diagnosed (the spectra's own estimate says in a note when it leaves one out)."""
-    from monitor.diagnosis import calibrate, diagnose
-    from monitor.signal.measure import PLAUSIBLE_PITCH_ERROR
-    from validation.simulator import healthy_twin, random_case
 
     case = random_case(525, duration_s=10.0)
     engine = _validation_engine(case.engine_toml)
     twin = healthy_twin(case, seed=525 + 1_000_000)
-    from monitor.diagnosis.diagnose import _engine_orders
-    from monitor.signal.measure import learn_pitch_errors
 
-    harmonics = _engine_orders(engine, twin.recording, firing_only=True)
+    harmonics = engine_orders(engine, twin.recording, firing_only=True)
     assert harmonics is not None
     assert learn_pitch_errors(twin.recording, engine_orders=harmonics) is None
     baseline = calibrate(twin.recording, engine, load=twin.load_given)
@@ -267,7 +266,6 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
 
 
 def _validation_engine(text: str) -> Engine:
-    import tempfile
 
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "engine.toml"

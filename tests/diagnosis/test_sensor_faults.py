@@ -17,9 +17,11 @@ from monitor.cli import main
 from monitor.diagnosis import Baseline, calibrate, diagnose
 from monitor.errors import DiagnosisError
 from monitor.io import read_recording
-from monitor.io.hdf5 import write_hdf5
+from monitor.io.hdf5 import open_hdf5, write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import load_engine
+from monitor.scene import load_scene, simulate
+from monitor.signal.measure import angle_reference
 from tests.conftest import ROOT
 
 SAMPLES = ROOT / "recordings" / "samples"
@@ -183,7 +185,6 @@ def test_a_clipped_sensor_read_from_a_file_is_found_while_reading(
 ) -> None:
     """A channel opened in a file is read by slices and refuses clipped samples as they are read: the
     screening reads it once and turns that refusal into the sensor finding."""
-    from monitor.io.hdf5 import open_hdf5
 
     data = np.asarray(misfire.channel("mb5-vertical").data, dtype=np.float64)
     limit = 0.3 * float(np.max(np.abs(data)))
@@ -200,7 +201,6 @@ def _with_knocks(
 ) -> Recording:
     """Decaying 2 kHz rings (``peak`` m/s^2, 2 ms) on the named channels at the given cycle angles of
     every revolution, placed in time by the recording's own angle reference."""
-    from monitor.signal.measure import angle_reference
 
     angle_map = angle_reference(recording, cycle_revolutions=1).angle_map
     first, last = angle_map.angles[0], angle_map.angles[-1]
@@ -248,7 +248,6 @@ def test_a_bearing_is_named_from_its_own_sensor_not_on_a_neighbour_with_a_quiet_
     its neighbour's windows); bearing 6's own sensor is quiet. The rule that named the loudest window
     named bearing 6; bearing 5's own evidence comes first, and bearing 6 has a sensor of its own that
     speaks for it: only bearing 5 is named."""
-    from monitor.scene import load_scene, simulate
 
     scene = load_scene(ROOT / "recordings" / "scenes" / "7k98mc-worn-bearing-5.toml")
     template = scene.sensors[1]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -10,10 +11,12 @@ import pytest
 from monitor.errors import ModelError
 from monitor.fourier import cycle_grid, order_coefficients
 from monitor.model.crankshaft import EngineModel
-from monitor.model.engine import load_engine
+from monitor.model.crankshaft import EngineModel as Model
+from monitor.model.engine import load_engine, parse_engine
 from monitor.model.forces import CrankTrain, crank_kinematics, crank_train_forces
 from monitor.model.gas import ParametricCycle, gas_force
 from monitor.model.predicted import predict_orders
+from tests.conftest import ENGINES
 
 
 @pytest.fixture(scope="module")
@@ -158,11 +161,6 @@ def test_bad_operating_points_are_refused(k98: EngineModel) -> None:
 def test_measured_trace_route() -> None:
     """An engine described by a measured trace (the parametric cycle sampled at 2 deg) predicts the
     same torque orders as the parametric model, within the interpolation error."""
-    import tomllib
-
-    from monitor.model.crankshaft import EngineModel as Model
-    from monitor.model.engine import parse_engine
-    from tests.conftest import ENGINES
 
     with (ENGINES / "medium-speed-6l32.toml").open("rb") as handle:
         data = tomllib.load(handle)

@@ -25,8 +25,8 @@ from monitor.errors import SignalError
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine, load_engine
+from monitor.model.inertia import engine_side_inertia
 from monitor.signal.measure import learn_pitch_errors_over_speed, spectra
-from monitor.torsion.shaft_line import engine_side_inertia
 from tests.signal.test_real_sensors import FS, _vr_voltage
 
 TEETH, MISSING = 60, 2

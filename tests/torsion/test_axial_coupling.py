@@ -3,18 +3,26 @@
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
 import scipy.linalg
 
 from monitor.errors import ModelError
+from monitor.model.engine import load_engine, parse_engine
 from monitor.torsion.axial_coupling import (
     AxialTorsionalCrankshaft,
     CrankFlexibility,
     condense,
+    constrained_coupling,
+    engine_axial_response,
     pair_coupling,
+    pair_flexibility,
+    rotate_flexibility,
 )
+from monitor.torsion.shaft_line import shaft_line_of
+from tests.conftest import ENGINES
 
 C14 = pair_coupling(3e-10, 4e-10, 1e-9, 2e-9, math.radians(360 / 7 / 2))
 
@@ -154,7 +162,6 @@ def test_eq_1_from_the_single_crank_flexibilities() -> None:
     radial-axial term C21 and the tangential-torsional term C34 but no C14) constrained laterally along
     the bisector of a crank pair (delta from the crank plane) by a Schur complement. The constrained
     u_x / M_x equals eq. 1 (up to the sign convention of delta) for every delta."""
-    from monitor.torsion.axial_coupling import constrained_coupling
 
     c11, c22, c33, c44, c55, c66 = 5e-10, 1e-9, 2e-9, 1e-10, 3e-11, 2e-11
     c21, c34, c61, c54 = (
@@ -175,10 +182,6 @@ def test_eq_1_from_the_single_crank_flexibilities() -> None:
 
 
 def _engine_with(c21: float):  # type: ignore[no-untyped-def]
-    import tomllib
-
-    from monitor.model.engine import parse_engine
-    from tests.conftest import ENGINES
 
     with (ENGINES / "man-b-w-7k98mc.toml").open("rb") as handle:
         data = tomllib.load(handle)
@@ -204,7 +207,6 @@ def test_superelement_with_held_laterals_reduces_to_eq_1() -> None:
 
 
 def test_engine_crankshaft_couplings_follow_the_neighbouring_throws() -> None:
-    from monitor.model.engine import load_engine
 
     e = load_engine("man-b-w-7k98mc")
     model = AxialTorsionalCrankshaft.of_engine(e)
@@ -227,8 +229,6 @@ def test_engine_crankshaft_couplings_follow_the_neighbouring_throws() -> None:
 def test_engine_crankshaft_carries_the_shaft_line_s_inertia_and_the_throws_mass() -> None:
     """Review finding: each throw's inertia was counted one and a half times. The coupled model's
     polar inertia is the shaft line's throws plus the flywheel, and its axial mass the throws'."""
-    from monitor.model.engine import load_engine
-    from monitor.torsion.shaft_line import shaft_line_of
 
     e = load_engine("man-b-w-7k98mc")
     model = AxialTorsionalCrankshaft.of_engine(e)
@@ -243,7 +243,6 @@ def test_engine_crankshaft_carries_the_shaft_line_s_inertia_and_the_throws_mass(
 def test_engine_axial_response_is_first_order_in_the_coupling() -> None:
     """Torsion-driven axial motion is proportional to C14 (so to C21) away from resonance: doubling C21
     doubles it within the second-order change of the modes; with C21 = 0 there is none."""
-    from monitor.torsion.axial_coupling import engine_axial_response
 
     speeds = np.array([0.5, 0.75]) * (104 * math.pi / 30)
     responses = [engine_axial_response(_engine_with(c21), speeds, max_order=8) for c21 in (1.5e-10, 3.0e-10)]
@@ -254,7 +253,6 @@ def test_engine_axial_response_is_first_order_in_the_coupling() -> None:
 
 
 def test_engine_without_axial_data_is_refused() -> None:
-    from monitor.model.engine import load_engine
 
     with pytest.raises(ModelError, match=r"no \[shaft_line.axial\] data"):
         AxialTorsionalCrankshaft.of_engine(load_engine("medium-speed-6l32"))
@@ -265,7 +263,6 @@ def test_a_crank_pair_reproduces_eq_1() -> None:
     by its bearing along their bisector, axial force and torque at the outer journal. Each crank's own
     flexibility has no C14; the pair's u_x / M_x is eq. 1 for every delta, from the single-crank C21, C34,
     C22, C33 alone; and it vanishes when the middle bearing is left out."""
-    from monitor.torsion.axial_coupling import pair_flexibility, rotate_flexibility
 
     c11, c22, c33, c44 = 5e-10, 1e-9, 2e-9, 1e-10
     c21, c34 = 3e-10, 4e-10

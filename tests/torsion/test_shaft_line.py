@@ -9,7 +9,11 @@ import opentorsion as ot
 import pytest
 
 from monitor.errors import ModelError
+from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import load_engine
+from monitor.model.inertia import mean_reciprocating_inertia
+from monitor.model.kinematics import piston_x_derivatives
+from monitor.model.predicted import predict_orders
 from monitor.torsion.shaft_line import (
     GearMesh,
     Node,
@@ -103,7 +107,6 @@ def test_engine_shaft_line_matches_opentorsion_to_1e_6() -> None:
     """The 7K98MC shaft line built in openTorsion straight from the engine description (disks and
     massless shafts, assembled by openTorsion, not from our nodes) gives the same natural
     frequencies as shaft_line_of to 1e-6 relative."""
-    from monitor.torsion.shaft_line import mean_reciprocating_inertia
 
     e = load_engine("man-b-w-7k98mc")
     line = e.shaft_line
@@ -176,8 +179,6 @@ def test_rigid_engine_response_is_the_total_torque_over_the_total_inertia() -> N
     )
     speed = e.rated_speed * 0.5
     response = engine_forced_response(e, [speed], load=0.6, line=stiff, max_order=14)
-    from monitor.model.crankshaft import EngineModel
-    from monitor.model.predicted import predict_orders
 
     torque = predict_orders(EngineModel(e), crank_speed=speed, load=0.6, max_order=14).engine_torque[1:]
     total_inertia = sum(n.inertia for n in line.nodes)
@@ -226,8 +227,6 @@ def test_engine_without_shaft_line_is_refused() -> None:
 def test_mean_reciprocating_inertia_of_the_exact_kinematics() -> None:
     """Mean of m_rec x'^2 over a revolution: m_rec R^2 (1/2 + lambda^2/8 + lambda^4/... ), here
     against a 20 000-point trapezoid (an independent quadrature); it tends to m R^2 / 2 as lambda -> 0."""
-    from monitor.model.kinematics import piston_x_derivatives
-    from monitor.torsion.shaft_line import mean_reciprocating_inertia
 
     e = load_engine("man-b-w-7k98mc")
     a = np.linspace(0, 2 * np.pi, 20001)

@@ -12,14 +12,18 @@ from scipy.integrate import solve_ivp
 from scipy.signal import hilbert
 
 from monitor.errors import ModelError
+from monitor.model.crankshaft import EngineModel
+from monitor.model.engine import load_engine
+from monitor.model.predicted import predict_orders
+from monitor.torsion.floquet import monodromy
+from monitor.torsion.shaft_line import shaft_line_of
+from monitor.torsion.stability import boundary_error, instability_ranges, stability_chart
+from monitor.torsion.time_response import harmonic_content, simulate
 from monitor.torsion.variable_inertia import (
     HarmonicExcitation,
     VariableInertiaCrank,
-    harmonic_content,
-    instability_ranges,
-    monodromy,
-    simulate,
-    stability_chart,
+    crank_of_engine,
+    gas_excitation,
 )
 
 
@@ -278,9 +282,6 @@ def test_out_of_range_parameters_are_refused(eps: float, r: float, message: str)
 
 def test_equivalent_crank_of_an_engine() -> None:
     """epsilon from one throw's inertias, r from a shaft-line mode (paper 002 eq. 5 in engine terms)."""
-    from monitor.model.engine import load_engine
-    from monitor.torsion.shaft_line import shaft_line_of
-    from monitor.torsion.variable_inertia import crank_of_engine
 
     e = load_engine("man-b-w-7k98mc")
     crank = crank_of_engine(e, e.rated_speed, mode=2)
@@ -297,10 +298,6 @@ def test_gas_excitation_of_an_engine_drives_the_equivalent_crank() -> None:
     cylinder 1 was put against the crank's own inertia variation). Every cylinder's torque, taken back
     to its own angle (times exp(+j k phi_c)), is the excitation; a constant-inertia crank (eps = 0) then
     responds at each order with the textbook amplitude."""
-    from monitor.model.crankshaft import EngineModel
-    from monitor.model.engine import load_engine
-    from monitor.model.predicted import predict_orders
-    from monitor.torsion.variable_inertia import gas_excitation
 
     e = load_engine("man-b-w-7k98mc")
     w = e.rated_speed
@@ -394,7 +391,6 @@ def test_boundary_error_relation_bounds_the_measured_error(eps: float) -> None:
     """The step-count relation (BOUNDARY_ERROR, measured by the benchmark at other inertia ratios and
     over r 0.1..3) bounds the error of every boundary in r 0.3..1.5 bisected with 32 steps, against
     1024 steps (whose own error, by the same relation, is 1024^4 / 32^4 = 10^6 times smaller)."""
-    from monitor.torsion.variable_inertia import boundary_error
 
     located = instability_ranges(eps, 0.3, 1.5, steps=256, tolerance=1e-9)
     bounds = np.array([x for pair in located for x in pair])

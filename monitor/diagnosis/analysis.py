@@ -1,0 +1,340 @@
+"""The analysis the calibration and the diagnosis both start from.
+
+The recording's order spectra and high-frequency profiles (with the tooth-pitch correction and the
+cycle phase), the model's cylinder parts at the recording's own mean speed and the load stated,
+the cylinder balance from the crank-speed orders (:mod:`monitor.diagnosis.balance`), and the
+engine's orders and main-bearing forces combined with the strengths it estimates
+(:func:`analyse`); which vibration channels sit on which main bearing (:func:`bearing_sensors`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal, TypeAlias
+
+import numpy as np
+
+from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfer, cylinder_balance
+from monitor.errors import DiagnosisError, ModelError
+from monitor.io.recording import Channel, Recording
+from monitor.model.crankshaft import EngineModel
+from monitor.model.engine import Engine
+from monitor.model.inertia import engine_side_inertia
+from monitor.model.predicted import CombinedOrders, CylinderParts, combine_cylinders, cylinder_parts
+from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult, spectra
+from monitor.signal.pitch import PitchCorrection
+from monitor.types import FloatArray
+
+__all__ = [
+    "Analysis",
+    "CyclePhase",
+    "analyse",
+    "bearing_sensors",
+    "engine_orders",
+    "phase_partners",
+    "vibration_channels",
+]
+
+# reduced chi-square of the cylinder balance above which the notes say it fits poorly (the strengths'
+# errors are widened by it); above diagnose.MISFIT no cylinder is named
+POOR_FIT = 4.0
+
+
+def _bearing_of(channel: Channel) -> int | None:
+    words = channel.location.lower().split()
+    if len(words) == 3 and words[:2] == ["main", "bearing"] and words[2].isdigit():
+        return int(words[2])
+    return None
+
+
+def vibration_channels(recording: Recording) -> list[Channel]:
+    """The recording's acceleration and velocity channels (not event channels).
+
+    Parameters
+    ----------
+    recording : Recording
+
+    Returns
+    -------
+    list of Channel
+    """
+    return [c for c in recording.channels if c.kind in ("acceleration", "velocity") and not c.is_events]
+
+
+def bearing_sensors(recording: Recording, engine: Engine) -> list[tuple[Channel, int]]:
+    """The vibration channels on a main bearing ('main bearing N', vertical or horizontal).
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+        Its bearing count bounds N.
+
+    Returns
+    -------
+    list of (Channel, int)
+        Each channel with its bearing's number (from 1).
+    """
+    out = []
+    for channel in vibration_channels(recording):
+        b = _bearing_of(channel)
+        if (
+            b is not None
+            and channel.direction in ("vertical", "horizontal")
+            and 1 <= b <= engine.bearing_count
+        ):
+            out.append((channel, b))
+    return out
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """What :func:`analyse` found: the spectra, the balance, the model at nominal and found strengths."""
+
+    spectra: SpectrumResult
+    balance: CylinderBalance | None
+    combined: CombinedOrders
+    nominal: CombinedOrders
+    load: float
+    notes: list[str]
+    inertia: float
+    force_error: FloatArray  # (n_bearings, 2, n_orders): of combined.bearing_force, from the strengths [N]
+    parts: CylinderParts
+    partners: list[int | None] | None = None  # four-stroke phase unknown: each cylinder's 360 deg partner
+
+
+def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
+    """Standard error of each bearing force order that the strengths' covariance gives [N].
+
+    ``dF_bk / ds_c = share_bc combustion_k exp(-i k phi_c)``; ``E |dF|^2 = g^H C g``.
+    """
+    n_orders = parts.orders.size
+    if covariance is None:
+        return np.zeros((engine.bearing_count, 2, n_orders))
+    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))  # (n_cyl, n_orders)
+    g = engine.bearing_share[:, :, None, None] * (
+        rotation[None, :, None, :] * parts.combustion[None, None, 1:3, :]
+    )  # (n_b, n_cyl, 2, n_orders)
+    variance = np.einsum("bcko,cd,bdko->bko", g, covariance, np.conj(g)).real
+    return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
+
+
+CyclePhase: TypeAlias = float | Literal["unknown"] | None
+
+
+def _phase_known(recording: Recording) -> bool:
+    """True if the recording itself tells the four-stroke cycle phase (a cam or a cylinder-1 pressure)."""
+    return (
+        recording.cycle_phase_deg is not None
+        or bool(recording.of_kind("cam"))
+        or any(int(c.fields.get("cylinder", 0)) == 1 for c in recording.of_kind("pressure"))
+    )
+
+
+def analyse(
+    recording: Recording,
+    engine: Engine,
+    *,
+    load: float,
+    transfer: Transfer,
+    max_order: float,
+    cycle_phase: CyclePhase = None,
+    pitch: PitchCorrection | None = None,
+    crank: CrankCalibration | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> Analysis:
+    """The recording's spectra, its cylinder balance and the model combined with the strengths found.
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    load : float
+        The load it ran at, fraction of rated IMEP [-].
+    transfer : {"rigid", "shaft-line"}
+        From the torque to the crank speed.
+    max_order : float
+        Highest order analysed [-].
+    cycle_phase : float or "unknown", optional
+        Four-stroke: the shift that puts cylinder 1's firing TDC at cycle angle 0 [rad], or
+        "unknown" (analysed with 0, each cylinder's 360 deg partner kept).
+    pitch : PitchCorrection, optional
+        A learned tooth-pitch correction (default: estimated on the recording).
+    crank : CrankCalibration, optional
+        A baseline's calibration of the crank-speed model.
+    progress : callable, optional
+        Told the fraction of the resampling done, from 0 to 1 [-].
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    DiagnosisError
+        For a recording of another engine than its description.
+    """
+    if recording.engine_id and recording.engine_id != engine.id:
+        raise DiagnosisError(
+            f"the recording is of engine {recording.engine_id!r}, the description given is {engine.id!r}"
+        )
+    R = engine.cycle_revolutions
+    ambiguous = R == 2 and cycle_phase == "unknown" and not _phase_known(recording)
+    phase: float | None = None
+    if R == 2 and isinstance(cycle_phase, float | int):
+        phase = float(cycle_phase)
+    elif ambiguous:
+        phase = 0.0
+    result = spectra(
+        recording,
+        cycle_revolutions=R,
+        max_order=max_order,
+        high_frequency=True,
+        cycle_phase=phase,
+        pitch_correction="estimate" if pitch is None else pitch,
+        kept_orders=engine_orders(engine, recording),
+        progress=progress,
+    )
+    model = EngineModel(engine, gas="auto")
+    parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
+    notes: list[str] = list(result.reference.notes)
+    if recording.truncated:
+        notes.append("the file was cut short: diagnosed up to its last whole chunk")
+    correction = result.reference.pitch_correction
+    if correction is not None and correction.largest > math.radians(0.05):
+        notes.append(
+            f"{result.reference.source}: tooth-pitch errors corrected ({correction.scope} teeth, from the "
+            f"{correction.source}): largest {math.degrees(correction.largest):.2f} deg"
+        )
+    balance, strengths = _balance(result, engine, parts, transfer, crank, notes)
+    covariance = balance.strength_covariance if balance is not None and balance.separable else None
+    inertia = _rigid_inertia(engine, notes) if transfer == "rigid" else 0.0
+    if ambiguous:
+        notes.append(
+            "the cycle phase is unknown (no cam or cylinder-1 pressure channel, --cycle-phase unknown): "
+            "each cylinder named may be the one that fires 360 deg from it"
+        )
+    return Analysis(
+        spectra=result,
+        balance=balance,
+        combined=combine_cylinders(parts, engine, strengths),
+        nominal=combine_cylinders(parts, engine, np.ones(engine.cylinders)),
+        load=load,
+        notes=notes,
+        inertia=inertia,
+        force_error=_force_error(parts, engine, covariance),
+        parts=parts,
+        partners=phase_partners(engine) if ambiguous else None,
+    )
+
+
+def _balance(
+    result: SpectrumResult,
+    engine: Engine,
+    parts: CylinderParts,
+    transfer: Transfer,
+    crank: CrankCalibration | None,
+    notes: list[str],
+) -> tuple[CylinderBalance | None, FloatArray]:
+    """The cylinder balance from the crank-speed orders, and the strengths the model is combined with.
+
+    Notes what was not done, or how well it fits, onto ``notes``.
+    """
+    balance = None
+    strengths = np.ones(engine.cylinders)
+    speed = result.spectra.get(SPEED_CHANNEL)
+    if speed is None or speed.orders.size < 2:
+        notes.append(
+            "cylinder balance not done: the angle reference gives no crank-speed orders "
+            f"({result.reference.pulses_per_revolution} pulse(s) per revolution; a tooth wheel gives them)"
+        )
+    else:
+        try:
+            usable = crank if crank is not None and crank.transfer == transfer else None
+            balance = cylinder_balance(speed, engine, parts, transfer=transfer, calibration=usable)
+            if usable is not None and balance.calibrated.any():
+                orders = ", ".join(f"{k:g}" for k in balance.orders[balance.calibrated])
+                notes.append(f"the crank-speed model is calibrated on the baseline at orders {orders}")
+        except ModelError as error:
+            notes.append(f"cylinder balance not done: {error}")
+        else:
+            if balance.chi2_reduced > POOR_FIT:
+                other = "shaft-line" if transfer == "rigid" else "rigid"
+                notes.append(
+                    f"the {transfer} crank-speed model fits the measured orders poorly (reduced chi-square "
+                    f"{balance.chi2_reduced:.3g}; the strengths' errors are widened by it): near a torsional "
+                    f"resonance try the {other} transfer"
+                )
+            if balance.separable:
+                strengths = balance.strength
+            else:
+                notes.append(
+                    f"the crank-speed orders cannot tell the cylinders apart (condition number "
+                    f"{balance.condition:.3g}): no cylinder is named"
+                )
+    return balance, strengths
+
+
+def _rigid_inertia(engine: Engine, notes: list[str]) -> float:
+    """The rigid engine side's inertia, or 0 (noted) when the engine description lacks it [kg m^2]."""
+    try:
+        return engine_side_inertia(engine)
+    except ModelError as error:
+        notes.append(f"crank speed not predicted: {error}")
+        return 0.0
+
+
+def engine_orders(engine: Engine, recording: Recording, *, firing_only: bool = False) -> list[int] | None:
+    """Integer orders of the crank speed the engine excites: the low ones and the firing harmonics.
+
+    Left to the engine by the tooth-pitch estimate: orders 1 to a sixth of the wheel's pulses (any
+    of which a cylinder that fires unlike the others excites; not with ``firing_only``, for a
+    healthy baseline), and every integer multiple of the firing frequency (cylinders / revolutions
+    per cycle) below 0.4 of them (where the gas and inertia torques of cylinders firing alike are).
+
+    Parameters
+    ----------
+    engine : Engine
+    recording : Recording
+        Its first tooth-wheel or encoder channel gives the pulses per revolution.
+    firing_only : bool, optional
+        Only the firing harmonics (for a healthy baseline).
+
+    Returns
+    -------
+    list of int or None
+        None without a tooth wheel or encoder.
+    """
+    wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
+    if not wheels:
+        return None
+    fields = wheels[0].fields
+    pulses = int(fields["teeth"]) if wheels[0].kind == "tooth" else int(fields["pulses_per_revolution"])
+    firing = engine.cylinders / engine.cycle_revolutions
+    harmonics = {round(m * firing) for m in range(1, 64) if float(m * firing).is_integer()}
+    low = set() if firing_only else set(range(1, pulses // 6 + 1))
+    return sorted(low | {k for k in harmonics if k <= 0.4 * pulses})
+
+
+def phase_partners(engine: Engine) -> list[int | None]:
+    """For each cylinder, the one that fires 360 deg after it (0-based), or None if no cylinder does.
+
+    Parameters
+    ----------
+    engine : Engine
+        A four-stroke engine.
+
+    Returns
+    -------
+    list of int or None
+    """
+    angles = np.mod(engine.firing_angles, 4 * math.pi)
+    partners: list[int | None] = []
+    for c in range(engine.cylinders):
+        target = np.mod(angles[c] + 2 * math.pi, 4 * math.pi)
+        distance = np.abs(np.angle(np.exp(1j * (angles - target) / 2)))  # on the 720 deg cycle
+        match = int(np.argmin(distance))
+        partners.append(match if distance[match] < math.radians(1.0) else None)
+    return partners
