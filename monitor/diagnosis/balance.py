@@ -44,7 +44,7 @@ from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
 from monitor.model.predicted import CylinderParts
-from monitor.signal.angle_domain import OrderSpectrum
+from monitor.signal.spectrum import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = ["CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]

@@ -50,19 +50,10 @@ from monitor.io import open_recording, read_recording
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine
 from monitor.runtime.timing import StageClock, stage
-from monitor.signal.angle_domain import (
-    AngleGrid,
-    HighFrequencyPower,
-    OrderSpectrum,
-    OrderSpeedMap,
-    angle_domain_spectrum,
-    angle_grid,
-    order_spectrum,
-    order_speed_map,
-    to_angle_domain,
-)
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
 from monitor.signal.crank_speed import crank_speed_spectra
+from monitor.signal.grid import AngleGrid, angle_grid
+from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.pitch import (
     PitchCorrection,
     correct_pitch,
@@ -70,6 +61,8 @@ from monitor.signal.pitch import (
     learn_pitch_over_speed,
 )
 from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
+from monitor.signal.spectrum import OrderSpectrum, OrderSpeedMap, order_spectrum, order_speed_map
 from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 from monitor.signal.toothwheel import (
     ToothWheelDecoding,
@@ -489,7 +482,7 @@ def spectra(
         Cycles per averaged block.
     interpolation_order : int, optional
         1, 3 or 5: B-spline resampling after an FFT filter instead of the fused band-limited kernel
-        (see :mod:`monitor.signal.angle_domain`).
+        (see :mod:`monitor.signal.kernels`).
     cycle_phase : float, optional
         Four-stroke phase shift if known [rad].
     speed_bins : int, optional

@@ -24,7 +24,8 @@ from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_sc
 from monitor.diagnosis.diagnose import predicted_speed
 from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.model.predicted import CylinderParts, combine_cylinders, cylinder_parts
-from monitor.signal.angle_domain import HighFrequencyPower, OrderSpectrum
+from monitor.signal.impact import HighFrequencyPower
+from monitor.signal.spectrum import OrderSpectrum
 from monitor.torsion.shaft_line import engine_side_inertia, engine_side_inertia_at
 
 ENGINE = "medium-speed-6l32"

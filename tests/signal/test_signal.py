@@ -12,10 +12,11 @@ from hypothesis import strategies as st
 from scipy.integrate import cumulative_trapezoid
 
 from monitor.errors import SignalError
-from monitor.signal.angle_domain import order_spectrum, to_angle_domain
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
 from monitor.signal.pitch import tooth_spacing_errors
 from monitor.signal.pulses import detect_edges, repair_keyphasor
+from monitor.signal.resample import to_angle_domain
+from monitor.signal.spectrum import order_spectrum
 from monitor.signal.toothwheel import decode_tooth_wheel
 from tests.conftest import shared_path
 
@@ -278,7 +279,7 @@ def test_real_four_stroke_cycle_phase_from_the_pressure_channel() -> None:
 def test_order_speed_map_of_a_run_up() -> None:
     """A run-up from 300 to 900 rpm with an order-4 component whose amplitude grows with speed squared
     (an inertia force) and a fixed order 2: the map shows both laws bin by bin."""
-    from monitor.signal.angle_domain import order_speed_map
+    from monitor.signal.spectrum import order_speed_map
 
     t = np.arange(int(20.0 * FS)) / FS
     w = (300 + 600 * t / t[-1]) * math.pi / 30
@@ -318,7 +319,7 @@ def test_a_lost_tooth_anywhere_is_repaired_with_the_right_angles(revolution: int
 
 def test_run_up_map_leaves_out_what_the_filter_attenuated() -> None:
     """Review finding: a high order was silently attenuated at the fast end of a run-up."""
-    from monitor.signal.angle_domain import order_speed_map
+    from monitor.signal.spectrum import order_speed_map
 
     t = np.arange(int(20.0 * FS)) / FS
     w = (300 + 600 * t / t[-1]) * math.pi / 30
@@ -383,7 +384,7 @@ def test_compiled_splines_are_scipys_splines(order: int) -> None:
     independent implementation) away from the ends, where the boundary rule no longer matters."""
     from scipy.ndimage import map_coordinates
 
-    from monitor.signal.angle_domain import _interpolate, _spline_coefficients
+    from monitor.signal.kernels import _interpolate, _spline_coefficients
 
     rng = np.random.default_rng(order)
     y = rng.standard_normal(5000)
@@ -396,7 +397,7 @@ def test_compiled_splines_are_scipys_splines(order: int) -> None:
 def test_order_spectrum_in_chunks_equals_the_direct_statistics() -> None:
     """More blocks than one chunk: the mean, the magnitudes' mean and spread equal numpy's on all."""
     from monitor.fourier import scaled_rfft
-    from monitor.signal.angle_domain import AngleDomainSignal
+    from monitor.signal.grid import AngleDomainSignal
 
     rng = np.random.default_rng(11)
     values = rng.standard_normal((10_001, 32)) + 3 * np.cos(2 * np.pi * 2 * np.arange(32) / 32)
@@ -440,7 +441,7 @@ def _gapped_wheel(gap_deg: float, revolutions: int = 40) -> tuple[AngleMap, floa
 
 def _order_leak(angle_map: AngleMap) -> tuple[float, float]:
     """Order 12's relative amplitude, and the largest of orders 8 to 11 over order 12's."""
-    from monitor.signal.angle_domain import AngleDomainSignal, angle_grid
+    from monitor.signal.grid import AngleDomainSignal, angle_grid
 
     grid = angle_grid(angle_map, angle_map.times[0], angle_map.times[-1], samples_per_cycle=128)
     speed = angle_map.speed_at(grid.times).reshape(grid.cycles, 128)
@@ -476,7 +477,7 @@ def _tone_through_kernel(
     frequency: float, passband: float, stopband: float, fs: float, dtype: type = np.float64
 ) -> float:
     """Largest error of the fused kernel's output against the ideal tone's value at 4000 random times."""
-    from monitor.signal.angle_domain import _band_limited, _resample
+    from monitor.signal.kernels import _band_limited, _resample
 
     kernel = _band_limited(passband, stopband, fs)
     n = 4 * kernel.half + 8000
@@ -503,7 +504,7 @@ def test_fused_kernel_passes_the_passband_within_its_ripple(fraction: float) -> 
 def test_fused_kernel_stops_the_stopband(frequency: float) -> None:
     """A tone in the stopband comes out below 1e-5: the ideal output is zero, so the error is the
     output itself."""
-    from monitor.signal.angle_domain import _band_limited, _resample
+    from monitor.signal.kernels import _band_limited, _resample
 
     fs = 25600.0
     kernel = _band_limited(570.0, 1440.0, fs)
@@ -524,7 +525,7 @@ def test_fused_kernel_stops_the_stopband(frequency: float) -> None:
 def test_fused_kernel_keeps_a_constant_and_a_slow_tone(fs: float, passband: float, transition: float) -> None:
     """Property: any design passes a constant exactly (rows sum to one, up to round-off) and a tone at
     half its passband edge within the ripple and the position rounding."""
-    from monitor.signal.angle_domain import _band_limited, _resample
+    from monitor.signal.kernels import _band_limited, _resample
 
     kernel = _band_limited(passband * fs, min((passband + transition) * fs, 0.5 * fs), fs)
     n = 2 * kernel.half + 500
@@ -572,7 +573,7 @@ def test_max_order_beyond_the_grid_is_refused() -> None:
 
 def test_a_coarser_grid_of_the_same_cycles_is_every_kth_time_of_a_finer_one() -> None:
     """The crank speed's grid reuses the channels' grid times: the same as computing them anew."""
-    from monitor.signal.angle_domain import angle_grid
+    from monitor.signal.grid import angle_grid
 
     t, alpha = _trajectory(3.0, 600.0, 0.1)
     teeth = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * math.pi / 30
@@ -599,7 +600,8 @@ def test_an_order_spectrum_fed_in_parts_equals_the_one_of_all_cycles(
     the cycles gathered before a transform) give the spectrum of all the cycles given at once: the same
     blocks, their statistics combined by Chan's rule (round-off only: a relative 1e-12 on sums of some
     60 terms of order one)."""
-    from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrumStream
+    from monitor.signal.grid import AngleDomainSignal
+    from monitor.signal.spectrum import OrderSpectrumStream
 
     class Gathering(OrderSpectrumStream):
         _GATHER_CYCLES = gather
@@ -625,7 +627,7 @@ def test_an_order_spectrum_fed_in_parts_equals_the_one_of_all_cycles(
 
 
 def test_an_order_spectrum_stream_refuses_a_wrong_shape_and_an_empty_result() -> None:
-    from monitor.signal.angle_domain import OrderSpectrumStream
+    from monitor.signal.spectrum import OrderSpectrumStream
 
     stream = OrderSpectrumStream(16, 1, block_cycles=3)
     with pytest.raises(SignalError, match=r"expected \(k, 16\)"):
@@ -644,7 +646,7 @@ def test_the_streamed_spectrum_is_the_spectrum_of_the_resampled_channel(
     """angle_domain_spectrum (each block transformed as it is resampled, nothing held) against
     to_angle_domain then order_spectrum, the same samples through the same kernel: equal to round-off,
     the high-frequency profile too; a block longer than the signal is refused as order_spectrum does."""
-    from monitor.signal.angle_domain import angle_domain_spectrum
+    from monitor.signal.resample import angle_domain_spectrum
 
     t, alpha = _trajectory(24.0, 720.0, 0.15)
     rng = np.random.default_rng(5)
