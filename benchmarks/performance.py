@@ -257,7 +257,7 @@ def measure(task: str, path: Path) -> dict[str, float]:
 def _to_mcap(source: Path, target: Path) -> None:
     """The same recording in MCAP, written by the product's writer from the HDF5 file read by slices."""
     from monitor.io.hdf5 import open_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     with open_hdf5(source) as recording:
         write_mcap(recording, target)

@@ -1135,7 +1135,7 @@ def _write_recording(recording: Recording, output: str) -> Path:
     """Write to .h5 or .mcap by the file's suffix."""
     from monitor.errors import FormatError
     from monitor.io.hdf5 import write_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     target = Path(output)
     if target.suffix.lower() in (".h5", ".hdf5"):

@@ -308,7 +308,7 @@ def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Gener
     import os
     import stat
 
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     recording = _recording(rng)
     before = os.umask(umask)
@@ -323,7 +323,7 @@ def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Gener
 def test_writers_make_no_folder_they_were_not_asked_for(tmp_path: Path, rng: np.random.Generator) -> None:
     """A recording written into a folder that does not exist is refused naming it; none is created."""
     from monitor.errors import OutputFolderError
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     for write, name in ((write_hdf5, "r.h5"), (write_mcap, "r.mcap")):
         with pytest.raises(OutputFolderError, match=r"missing/deeper.*does not exist"):
@@ -367,7 +367,8 @@ def test_read_into_a_reused_buffer_gives_the_slices_samples_and_their_checks(
 ) -> None:
     """The resampler's reads: straight into a buffer it keeps (HDF5: read_direct; MCAP: the slice
     copied in), the same samples as slicing, unusable samples refused as a slice refuses them."""
-    from monitor.io.mcap_io import open_mcap, write_mcap
+    from monitor.io.mcap.reader import open_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     recording = _recording(rng)
     expected = np.asarray(recording.channel("mb3-vertical").data)

@@ -10,7 +10,10 @@ import pytest
 
 from monitor.errors import FormatError
 from monitor.io.hdf5 import read_hdf5, write_hdf5
-from monitor.io.mcap_io import decode_block, encode_sample_block, list_mcap, read_mcap, write_mcap
+from monitor.io.mcap.listing import list_mcap
+from monitor.io.mcap.reader import read_mcap
+from monitor.io.mcap.wire import decode_block, encode_sample_block
+from monitor.io.mcap.writer import write_mcap
 from tests.conftest import shared_path
 from tests.io.test_hdf5 import _recording
 
@@ -119,10 +122,10 @@ def test_unindexed_files_are_read_by_streaming(tmp_path: Path, rng: np.random.Ge
     streaming one): the reader streams it and gets everything."""
     from mcap.writer import IndexType
 
-    import monitor.io.mcap_io as mcap_io
+    import monitor.io.mcap.writer as mcap_writer
 
     original = _recording(rng)
-    plain = mcap_io.Writer
+    plain = mcap_writer.Writer
 
     class Unindexed(plain):  # type: ignore[misc, valid-type]
         def __init__(self, output, **kwargs):  # type: ignore[no-untyped-def]
@@ -138,11 +141,11 @@ def test_unindexed_files_are_read_by_streaming(tmp_path: Path, rng: np.random.Ge
                 },
             )
 
-    mcap_io.Writer = Unindexed
+    mcap_writer.Writer = Unindexed
     try:
         path = write_mcap(original, tmp_path / "r.mcap")
     finally:
-        mcap_io.Writer = plain
+        mcap_writer.Writer = plain
     _same(original, read_mcap(path))
 
 
@@ -184,7 +187,8 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
     every sample of every channel by slices, equal to reading the file whole."""
     from mcap.reader import make_reader
 
-    from monitor.io.mcap_io import McapSamples, open_mcap
+    from monitor.io.mcap.reader import open_mcap
+    from monitor.io.mcap.samples import McapSamples
 
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=8 * 1024)
@@ -208,7 +212,7 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
 def test_damage_met_while_reading_by_slices_names_the_channel(
     tmp_path: Path, rng: np.random.Generator
 ) -> None:
-    from monitor.io.mcap_io import open_mcap
+    from monitor.io.mcap.reader import open_mcap
 
     path = write_mcap(_recording(rng), tmp_path / "r.mcap", compression="none")
     with open(path, "rb") as fh:
@@ -229,7 +233,7 @@ def test_damage_met_while_reading_by_slices_names_the_channel(
 
 
 def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.random.Generator) -> None:
-    from monitor.io.mcap_io import open_mcap
+    from monitor.io.mcap.reader import open_mcap
 
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=16 * 1024)
@@ -246,11 +250,11 @@ def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: P
     protoc = pytest.importorskip("grpc_tools.protoc", reason="grpcio-tools comes with the test dependencies")
     from google.protobuf import descriptor_pb2
 
-    from monitor.io.mcap_io import schema_descriptor_set
+    from monitor.io.mcap.wire import schema_descriptor_set
     from monitor.io.proto.engine_monitor import recording_pb2
 
     proto = Path(recording_pb2.__file__).with_suffix("").with_name("recording.proto")
-    include = proto.parents[2]
+    include = proto.parents[1]  # monitor/io/proto, as make proto compiles it
     out = tmp_path / "set.pb"
     well_known = Path(protoc.__file__).parent / "_proto"  # google/protobuf/timestamp.proto, from protoc
     argv = ["protoc", f"-I{include}", f"-I{well_known}", f"--descriptor_set_out={out}"]

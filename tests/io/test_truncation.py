@@ -26,7 +26,9 @@ from monitor.cli import main
 from monitor.errors import FormatError, MonitorError
 from monitor.io import open_recording, read_recording
 from monitor.io.hdf5 import write_hdf5
-from monitor.io.mcap_io import MIN_SAMPLES_LEFT, McapListing, list_mcap, write_mcap
+from monitor.io.mcap.listing import McapListing, list_mcap
+from monitor.io.mcap.reader import MIN_SAMPLES_LEFT
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
 from tests.conftest import ROOT, shared_path
 

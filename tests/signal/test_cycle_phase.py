@@ -67,7 +67,7 @@ def test_the_phase_stated_in_the_recording_is_used_and_kept_by_both_formats(
     gives the same diagnosis as the cam did; a value other than 0 or 360 is refused."""
     from dataclasses import replace
 
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     recording, shift = _without_cam()
     stated = replace(recording, cycle_phase_deg=math.degrees(shift))

@@ -14,7 +14,7 @@ from scipy.integrate import cumulative_trapezoid
 from monitor.cli import main
 from monitor.errors import FormatError, SignalError
 from monitor.io.hdf5 import write_hdf5
-from monitor.io.mcap_io import write_mcap
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
 from monitor.signal.measure import read_recording, spectra
 
