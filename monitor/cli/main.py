@@ -1179,7 +1179,8 @@ def _run_simulate(args: argparse.Namespace) -> int:
 
 
 def _run_import(args: argparse.Namespace) -> int:
-    from monitor.io.imports import import_file, load_mapping
+    from monitor.io.imports.dispatch import import_file
+    from monitor.io.imports.mapping import load_mapping
 
     mapping = load_mapping(args.map)
     recording = import_file(args.source, mapping, sample_rate_hz=args.rate)

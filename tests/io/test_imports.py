@@ -9,7 +9,11 @@ import numpy as np
 import pytest
 
 from monitor.errors import FormatError
-from monitor.io.imports import import_file, import_mdf, import_tdms, import_text, load_mapping
+from monitor.io.imports.dispatch import import_file
+from monitor.io.imports.mapping import load_mapping
+from monitor.io.imports.mdf import import_mdf
+from monitor.io.imports.tdms import import_tdms
+from monitor.io.imports.text import import_text
 from tests.conftest import shared_path
 
 MAPPING = """
