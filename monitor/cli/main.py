@@ -524,7 +524,7 @@ def _cycle_phase_deg_or_unknown(text: str) -> float | str:
 
 def _run_calibrate(args: argparse.Namespace) -> int:
     from monitor.diagnosis import calibrate
-    from monitor.signal.measure import open_recording
+    from monitor.io import open_recording
 
     if Path(args.output).suffix.lower() not in (".json", ".toml"):
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
@@ -885,8 +885,8 @@ def _run_keys(args: argparse.Namespace) -> int:
 
 def _run_compare(args: argparse.Namespace) -> int:
     from monitor.diagnosis import Baseline, calibrate, diagnose
+    from monitor.io import open_recording
     from monitor.report.diagnosis import diagnosis_document, diagnosis_table
-    from monitor.signal.measure import open_recording
 
     baseline = None
     with open_recording(args.recording) as recording:
@@ -980,7 +980,7 @@ def _run_orders(args: argparse.Namespace) -> int:
 
 
 def _run_spectrum(args: argparse.Namespace) -> int:
-    from monitor.signal.measure import open_recording
+    from monitor.io import open_recording
 
     with open_recording(args.recording) as recording:
         return _spectrum_of(recording, args)
@@ -1195,7 +1195,8 @@ def _run_import(args: argparse.Namespace) -> int:
 
 def _run_tdc(args: argparse.Namespace) -> int:
     from monitor.errors import ModelError
-    from monitor.signal.measure import angle_reference, open_recording
+    from monitor.io import open_recording
+    from monitor.signal.reference import angle_reference
     from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 
     with open_recording(args.recording) as recording:

@@ -67,16 +67,12 @@ from monitor.model.predicted import (
     CylinderParts,
     combine_cylinders,
     cylinder_parts,
+    inertia_angle_fluctuation,
     load_reversals,
 )
-from monitor.signal.measure import (
-    SPEED_CHANNEL,
-    SpectrumResult,
-    learn_pitch_errors,
-    learn_pitch_errors_over_speed,
-    spectra,
-)
+from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult, spectra
 from monitor.signal.pitch import PitchCorrection
+from monitor.signal.reference import learn_pitch_errors, learn_pitch_errors_over_speed
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -515,7 +511,7 @@ def calibrate(
     pitch_from : Recording, optional
         A run of the same wheel whose speed changes (motored run-up, coast-down with the fuel
         cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
-        (:func:`monitor.signal.measure.learn_pitch_errors_over_speed`), instead of on ``recording`` with
+        (:func:`monitor.signal.reference.learn_pitch_errors_over_speed`), instead of on ``recording`` with
         the firing harmonics left to the engine.
     exclude : sequence of str, optional
         Channels left out (not calibrated).
@@ -549,7 +545,8 @@ def calibrate(
     # the wheel's pitch errors, learned here once for every later recording (and used here too)
     pitch: PitchCorrection | None
     if pitch_from is not None:
-        pitch = learn_pitch_errors_over_speed(pitch_from, engine)
+        inertia = inertia_angle_fluctuation(engine) if engine.shaft_line is not None else None
+        pitch = learn_pitch_errors_over_speed(pitch_from, inertia)
     else:
         harmonics = _engine_orders(engine, recording, firing_only=True)
         pitch = learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None

@@ -13,5 +13,6 @@
 - :mod:`monitor.signal.impact`: the high-frequency (impact) power over the cycle.
 - :mod:`monitor.signal.spectrum`: order spectra of angle-domain signals.
 - :mod:`monitor.signal.crank_speed`: order spectra of the crank's speed.
+- :mod:`monitor.signal.reference`: the angle reference of a recording; tooth-pitch errors learned.
 - :mod:`monitor.signal.measure`: one recording to its spectra.
 """

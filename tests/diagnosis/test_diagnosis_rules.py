@@ -249,14 +249,14 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     half-pitch check; now they are not learned (what the baseline keeps is within a tenth of a pitch),
     and the recording is diagnosed (the spectra's own estimate says in a note when it leaves one out)."""
     from monitor.diagnosis import calibrate, diagnose
-    from monitor.signal.measure import PLAUSIBLE_PITCH_ERROR
+    from monitor.signal.reference import PLAUSIBLE_PITCH_ERROR
     from validation.simulator import healthy_twin, random_case
 
     case = random_case(525, duration_s=10.0)
     engine = _validation_engine(case.engine_toml)
     twin = healthy_twin(case, seed=525 + 1_000_000)
     from monitor.diagnosis.diagnose import _engine_orders
-    from monitor.signal.measure import learn_pitch_errors
+    from monitor.signal.reference import learn_pitch_errors
 
     harmonics = _engine_orders(engine, twin.recording, firing_only=True)
     assert harmonics is not None

@@ -200,7 +200,7 @@ def _with_knocks(
 ) -> Recording:
     """Decaying 2 kHz rings (``peak`` m/s^2, 2 ms) on the named channels at the given cycle angles of
     every revolution, placed in time by the recording's own angle reference."""
-    from monitor.signal.measure import angle_reference
+    from monitor.signal.reference import angle_reference
 
     angle_map = angle_reference(recording, cycle_revolutions=1).angle_map
     first, last = angle_map.angles[0], angle_map.angles[-1]

@@ -118,7 +118,7 @@ def test_cli_import_to_hdf5_and_mcap(
 ) -> None:
     nptdms = pytest.importorskip("nptdms", reason="npTDMS (import extra) not installed")
     from monitor.cli import main
-    from monitor.signal.measure import read_recording
+    from monitor.io import read_recording
 
     props = {"wf_increment": 1 / 1000.0, "wf_start_offset": 0.0, "unit_string": "V"}
     path = tmp_path / "b.tdms"
@@ -285,7 +285,7 @@ def test_real_text_export_of_a_bench(tmp_path: Path, capsys: pytest.CaptureFixtu
     header (time [s], 60-2 tooth-wheel sensor [V], cylinder pressure sensor [V], times printed to 7
     significant digits): 100 kHz derived from its times, the samples as the text has them."""
     from monitor.cli import main
-    from monitor.signal.measure import read_recording
+    from monitor.io import read_recording
 
     path = shared_path("external", "tue-4gb10", "E0NOLOAD1.txt")
     mapping = tmp_path / "tue.toml"
@@ -319,7 +319,7 @@ def test_mdf_times_rounded_to_1us_and_the_rate_override(tmp_path: Path, rng: np.
     a rate given (mapping or --rate) is used as it is, even where the time stamps are irregular."""
     asammdf = pytest.importorskip("asammdf", reason="asammdf (import extra) not installed")
     from monitor.cli import main
-    from monitor.signal.measure import read_recording
+    from monitor.io import read_recording
 
     t = np.round(np.arange(25600) / 25600.0, 6)
     assert set(np.round(np.diff(t) * 1e6).tolist()) == {39.0, 40.0}

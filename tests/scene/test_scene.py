@@ -11,9 +11,10 @@ import pytest
 
 from monitor.cli import main
 from monitor.errors import SceneError
+from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.scene import EFFECTS, Scene, load_scene, parse_scene, simulate
-from monitor.signal.measure import read_recording, spectra
+from monitor.signal.measure import spectra
 
 SCENES = Path(__file__).resolve().parents[2] / "recordings" / "scenes"
 

@@ -14,7 +14,7 @@ from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Recording
 from monitor.model.engine import load_engine
-from monitor.signal.measure import angle_reference
+from monitor.signal.reference import angle_reference
 from tests.conftest import ROOT
 
 SAMPLE = ROOT / "recordings" / "samples" / "6l32-misfire-cyl3.h5"

@@ -20,9 +20,10 @@ from monitor.cli import main
 from monitor.errors import SignalError
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
-from monitor.signal.measure import angle_reference, learn_pitch_errors, spectra
+from monitor.signal.measure import spectra
 from monitor.signal.pitch import estimate_pitch_errors
 from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.reference import angle_reference, learn_pitch_errors
 from monitor.signal.toothwheel import (
     decode_encoder,
     decode_tooth_signal,
