@@ -37,6 +37,7 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
+from scipy.ndimage import median_filter
 
 from monitor.errors import SignalError
 from monitor.signal.pulses import detect_edges
@@ -414,8 +415,6 @@ def _find_gaps(times: FloatArray, threshold: float) -> npt.NDArray[np.int64]:
     The median mirrors the intervals at the record's ends, so a gap in the first or last interval
     is measured against its neighbours, not against copies of itself.
     """
-    from scipy.ndimage import median_filter
-
     dt = np.diff(times)
     reference = median_filter(dt, size=min(9, dt.size), mode="mirror")
     return (np.flatnonzero(dt / reference > threshold) + 1).astype(np.int64)

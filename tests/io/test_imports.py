@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from monitor.cli import main
 from monitor.errors import FormatError
+from monitor.io import read_recording
 from monitor.io.imports.dispatch import import_file
 from monitor.io.imports.mapping import load_mapping
 from monitor.io.imports.mdf import import_mdf
@@ -117,9 +119,6 @@ def test_cli_import_to_hdf5_and_mcap(
     tmp_path: Path, rng: np.random.Generator, capsys: pytest.CaptureFixture[str]
 ) -> None:
     nptdms = pytest.importorskip("nptdms", reason="npTDMS (import extra) not installed")
-    from monitor.cli import main
-    from monitor.io import read_recording
-
     props = {"wf_increment": 1 / 1000.0, "wf_start_offset": 0.0, "unit_string": "V"}
     path = tmp_path / "b.tdms"
     with nptdms.TdmsWriter(str(path)) as writer:
@@ -284,9 +283,6 @@ def test_real_text_export_of_a_bench(tmp_path: Path, capsys: pytest.CaptureFixtu
     """../shared/external/tue-4gb10/E0NOLOAD1.txt: a test rig's own export, tab-separated without a
     header (time [s], 60-2 tooth-wheel sensor [V], cylinder pressure sensor [V], times printed to 7
     significant digits): 100 kHz derived from its times, the samples as the text has them."""
-    from monitor.cli import main
-    from monitor.io import read_recording
-
     path = shared_path("external", "tue-4gb10", "E0NOLOAD1.txt")
     mapping = tmp_path / "tue.toml"
     mapping.write_text(
@@ -318,9 +314,6 @@ def test_mdf_times_rounded_to_1us_and_the_rate_override(tmp_path: Path, rng: np.
     """An MDF whose time stamps were rounded to 1 us (intervals of 39 and 40 us at 25.6 kHz) is 25.6 kHz;
     a rate given (mapping or --rate) is used as it is, even where the time stamps are irregular."""
     asammdf = pytest.importorskip("asammdf", reason="asammdf (import extra) not installed")
-    from monitor.cli import main
-    from monitor.io import read_recording
-
     t = np.round(np.arange(25600) / 25600.0, 6)
     assert set(np.round(np.diff(t) * 1e6).tolist()) == {39.0, 40.0}
     acc, tooth = rng.standard_normal(t.size), np.sin(t * 300) * 2

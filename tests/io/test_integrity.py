@@ -15,7 +15,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
+import monitor.io.mcap.writer
 from monitor.errors import FormatError
 from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.io.mcap.metadata import METADATA_CRC
@@ -71,8 +73,6 @@ def _positions(outside: np.ndarray) -> np.ndarray:
 
 
 def _mcap_outside_chunks(path: Path) -> np.ndarray:
-    from mcap.reader import make_reader
-
     with open(path, "rb") as fh:
         summary = make_reader(fh).get_summary()
     assert summary is not None
@@ -151,8 +151,6 @@ def test_an_mcap_file_without_the_metadata_crc_is_refused_saying_so(
 ) -> None:
     """A file whose channels state no metadata CRC (as written before the format required one)
     cannot have its metadata checked: refused, with what to do."""
-    import monitor.io.mcap.writer
-
     with monkeypatch.context() as patch:
         patch.setattr(monitor.io.mcap.writer, "METADATA_CRC", "written_before")
         path = write_mcap(_small(rng), tmp_path / "old.mcap")

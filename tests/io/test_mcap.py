@@ -7,13 +7,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from google.protobuf import descriptor_pb2
+from mcap.reader import make_reader
+from mcap.writer import IndexType
+from mcap_protobuf.decoder import DecoderFactory
 
+import monitor.io.mcap.writer as mcap_writer
 from monitor.errors import FormatError
 from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.io.mcap.listing import list_mcap
-from monitor.io.mcap.reader import read_mcap
-from monitor.io.mcap.wire import decode_block, encode_sample_block
+from monitor.io.mcap.reader import open_mcap, read_mcap
+from monitor.io.mcap.samples import McapSamples
+from monitor.io.mcap.wire import decode_block, encode_sample_block, schema_descriptor_set
 from monitor.io.mcap.writer import write_mcap
+from monitor.io.proto.engine_monitor import recording_pb2
 from tests.conftest import shared_path
 from tests.io.test_hdf5 import _recording
 
@@ -56,9 +63,6 @@ def test_compressions(tmp_path: Path, rng: np.random.Generator, compression: str
 def test_the_official_protobuf_decoder_reads_our_blocks(tmp_path: Path, rng: np.random.Generator) -> None:
     """The schema is a real FileDescriptorSet: mcap-protobuf-support decodes every message the way
     our own wire-level decoder does (what a general viewer such as Foxglove relies on)."""
-    from mcap.reader import make_reader
-    from mcap_protobuf.decoder import DecoderFactory
-
     path = write_mcap(_recording(rng), tmp_path / "r.mcap")
     with open(path, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()], validate_crcs=True)
@@ -120,10 +124,6 @@ def test_files_that_are_not_recordings_are_refused(tmp_path: Path) -> None:
 def test_unindexed_files_are_read_by_streaming(tmp_path: Path, rng: np.random.Generator) -> None:
     """A writer that keeps no index and no summary (a recorder that died before finishing, or a
     streaming one): the reader streams it and gets everything."""
-    from mcap.writer import IndexType
-
-    import monitor.io.mcap.writer as mcap_writer
-
     original = _recording(rng)
     plain = mcap_writer.Writer
 
@@ -167,8 +167,6 @@ def test_real_cart_pole_file_and_its_truncation(tmp_path: Path) -> None:
 )
 def test_real_files_agree_with_their_own_statistics(name: str) -> None:
     """Streaming counts equal the file's own Statistics record (read with the indexed reader)."""
-    from mcap.reader import make_reader
-
     path = shared_path("external", "mcap-real", name)
     listing = list_mcap(path)
     with open(path, "rb") as fh:
@@ -185,11 +183,6 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
 ) -> None:
     """Chunks are per channel (a reader of one topic decompresses only its own), and open_mcap serves
     every sample of every channel by slices, equal to reading the file whole."""
-    from mcap.reader import make_reader
-
-    from monitor.io.mcap.reader import open_mcap
-    from monitor.io.mcap.samples import McapSamples
-
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=8 * 1024)
     with open(path, "rb") as fh:
@@ -212,12 +205,8 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
 def test_damage_met_while_reading_by_slices_names_the_channel(
     tmp_path: Path, rng: np.random.Generator
 ) -> None:
-    from monitor.io.mcap.reader import open_mcap
-
     path = write_mcap(_recording(rng), tmp_path / "r.mcap", compression="none")
     with open(path, "rb") as fh:
-        from mcap.reader import make_reader
-
         summary = make_reader(fh).get_summary()
     assert summary is not None
     topic = {c.id: c.topic for c in summary.channels.values()}
@@ -233,8 +222,6 @@ def test_damage_met_while_reading_by_slices_names_the_channel(
 
 
 def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.random.Generator) -> None:
-    from monitor.io.mcap.reader import open_mcap
-
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=16 * 1024)
     cut = tmp_path / "cut.mcap"
@@ -248,11 +235,6 @@ def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: P
     """recording_pb2 is generated from the shipped .proto (make proto): compiled again here by protoc,
     the .proto gives the very descriptor the product encodes with and embeds as each file's schema."""
     protoc = pytest.importorskip("grpc_tools.protoc", reason="grpcio-tools comes with the test dependencies")
-    from google.protobuf import descriptor_pb2
-
-    from monitor.io.mcap.wire import schema_descriptor_set
-    from monitor.io.proto.engine_monitor import recording_pb2
-
     proto = Path(recording_pb2.__file__).with_suffix("").with_name("recording.proto")
     include = proto.parents[1]  # monitor/io/proto, as make proto compiles it
     out = tmp_path / "set.pb"

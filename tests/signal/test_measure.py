@@ -13,7 +13,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from monitor.cli import main
 from monitor.errors import FormatError, SignalError
-from monitor.io import read_recording
+from monitor.io import open_recording, read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
@@ -242,8 +242,6 @@ def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
     tmp_path: Path, rng: np.random.Generator, suffix: str
 ) -> None:
     """open_recording reads waveforms by slices (bounded memory): the numbers of reading the file whole."""
-    from monitor.io import open_recording
-
     write = write_hdf5 if suffix == "h5" else write_mcap
     path = write(_synthetic(rng), tmp_path / f"r.{suffix}")
     whole = spectra(read_recording(path), cycle_revolutions=1, max_order=12).spectra
@@ -257,8 +255,6 @@ def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
 def test_bad_samples_met_while_reading_by_slices_are_refused_with_their_time(
     tmp_path: Path, rng: np.random.Generator
 ) -> None:
-    from monitor.io import open_recording
-
     recording = _synthetic(rng)
     acc = recording.channels[0].data.copy()
     acc[int(12.5 * FS) : int(12.5 * FS) + 3] = np.nan

@@ -21,14 +21,17 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
+from monitor.cli import main
 from monitor.errors import SignalError
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine, load_engine
 from monitor.model.predicted import inertia_angle_fluctuation
+from monitor.scene import load_scene, simulate
 from monitor.signal.measure import spectra
 from monitor.signal.reference import learn_pitch_errors_over_speed
 from monitor.torsion.shaft_line import engine_side_inertia
+from tests.conftest import ROOT
 from tests.signal.test_real_sensors import FS, _vr_voltage
 
 TEETH, MISSING = 60, 2
@@ -242,10 +245,6 @@ def test_calibrate_learns_the_pitch_errors_on_the_run_given_and_says_so(
 ) -> None:
     """engine-monitor calibrate --pitch-from RUN: the baseline stores the errors learned on the run
     (every order, none left to the engine), and says where they came from and their size."""
-    from monitor.cli import main
-    from monitor.scene import load_scene, simulate
-    from tests.conftest import ROOT
-
     errors = np.radians(rng.uniform(-0.1, 0.1, TEETH))
     run = write_hdf5(_recording(_tooth_events(*run_up, errors, 0.2e-6, rng)), tmp_path / "run-up.h5")
     healthy = simulate(load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml")).recording
