@@ -74,7 +74,7 @@ def to_angle_domain(
         Time of the first sample [s].
     interpolation_order : {1, 3, 5}, optional
         Resample with the FFT filter and B-splines of this order instead of the fused band-limited
-        kernel (the default; see the module docstring).
+        kernel (the default; see :mod:`monitor.signal.kernels`).
     anti_alias : bool, optional
         Low-pass before resampling; without it, cubic B-splines (or ``interpolation_order``).
     cutoff : float, optional
