@@ -45,8 +45,8 @@ def _calibrate(
     path: str, engine_description: dict[str, Any] | None, load: float, name: str
 ) -> dict[str, Any]:
     from monitor.diagnosis import calibrate
+    from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
-    from monitor.signal.measure import open_recording
 
     with open_recording(path) as recording:
         engine = recording_engine(recording, engine_description)

@@ -21,9 +21,10 @@ from scipy.integrate import cumulative_trapezoid
 
 from benchmarks.sections import replace_section
 from monitor.errors import SignalError
-from monitor.signal import angle_domain
-from monitor.signal.angle_domain import order_spectrum, to_angle_domain
+from monitor.signal import kernels as signal_kernels
 from monitor.signal.anglemap import AngleMap
+from monitor.signal.resample import to_angle_domain
+from monitor.signal.spectrum import order_spectrum
 
 FS = 25600.0
 SECONDS = 60.0
@@ -76,8 +77,8 @@ def sections(*, header: str = "") -> list[str]:
             stopband = min(samples / 2 * slowest, FS / 2)
             passband = options.get("max_order", 0.8 * samples / 2 * slowest / fastest) * fastest
             spacing = FS / (samples * angle_map.mean_speed / (2 * math.pi))
-            limit = math.inf if forced else angle_domain._FUSED_TAPS_PER_INPUT
-            with patch.object(angle_domain, "_FUSED_TAPS_PER_INPUT", limit):
+            limit = math.inf if forced else signal_kernels._FUSED_TAPS_PER_INPUT
+            with patch.object(signal_kernels, "_FUSED_TAPS_PER_INPUT", limit):
                 try:
                     elapsed = math.inf
                     for _ in range(3):  # the best of three (a shared machine)
@@ -90,7 +91,7 @@ def sections(*, header: str = "") -> list[str]:
                     continue
             used = resampled.interpolation
             if used == "band-limited":
-                used += f" ({angle_domain._fused_taps(passband, stopband, FS) / spacing:.0f})"
+                used += f" ({signal_kernels._fused_taps(passband, stopband, FS) / spacing:.0f})"
             amp = max(abs(spectrum.magnitude[k] / a - 1) for k, (a, _) in ORDERS.items())
             phase = max(
                 abs(math.degrees(math.remainder(spectrum.phase[k] - ph, 2 * math.pi)))
@@ -107,7 +108,7 @@ def sections(*, header: str = "") -> list[str]:
         *([header, ""] if header else []),
         f"Orders {sorted(ORDERS)} with known amplitudes and phases, speed varying +-20 % around 600 rpm, "
         f"{SECONDS:g} s at {FS / 1000:g} kHz; angle map from the edges of a 60-2 tooth wheel (monotone "
-        "interpolation between teeth). Two kernels (see `monitor/signal/angle_domain.py`): the fused "
+        "interpolation between teeth). Two kernels (see `monitor/signal/kernels.py`): the fused "
         "band-limited one (the default: a Kaiser windowed sinc evaluated at each grid time, ripple and "
         "stopband 1e-5), with its passband edge at the highest order wanted (12 here, at the fastest "
         "speed; what the pipeline passes) or at 0.8 of the angle-domain Nyquist order at the lowest "
@@ -117,7 +118,7 @@ def sections(*, header: str = "") -> list[str]:
         "passband at the fastest speed: filtered out by the kernels given 0.8 of Nyquist (the pipeline "
         "refuses such a grid for these orders), refused by the one given the order. The default "
         "takes the band-limited kernel unless it would need more than "
-        f"{angle_domain._FUSED_TAPS_PER_INPUT:g} taps per input sample between grid points (then the "
+        f"{signal_kernels._FUSED_TAPS_PER_INPUT:g} taps per input sample between grid points (then the "
         "FFT filter and cubic splines); the rows forcing it show what it costs beyond that. Times are "
         "the best of three runs.",
         "",

@@ -1,7 +1,7 @@
 """The cost of encoding and decoding one MCAP block, by the protobuf runtime, against what it replaced.
 
 ``python -m benchmarks.mcap_blocks`` times, in one run, the product's block codec
-(``monitor.io.mcap_io.encode_sample_block`` / ``decode_block``: the protobuf runtime, as
+(``monitor.io.mcap.wire.encode_sample_block`` / ``decode_block``: the protobuf runtime, as
 ``BlockWire``) against the hand-written wire-format codec it replaced (kept below, as it was, as
 the reference) and against the floor (numpy viewing the same bytes). A block is 0.1 s of a 25.6 kHz
 float32 channel (2560 samples), as the writer makes them. It writes its section of
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.sections import replace_section
-from monitor.io.mcap_io import decode_block, encode_sample_block
+from monitor.io.mcap.wire import decode_block, encode_sample_block
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "performance.md"

@@ -359,7 +359,8 @@ def measure_ours(path: Path, minutes_used: float) -> list[dict[str, Any]]:
 
 def _ours_child(spec_path: str) -> None:
     """In a fresh product process: run the pipeline on the file and print time, memory and amplitudes."""
-    from monitor.signal.measure import open_recording, spectra
+    from monitor.io import open_recording
+    from monitor.signal.measure import spectra
 
     spec = json.loads(Path(spec_path).read_text())
     orders = [int(k) for k in spec["orders"]]
@@ -450,7 +451,8 @@ def _speed_reference(path: Path, rpm_file: Path) -> dict[str, Any]:
     Returns the sample count and rate, the map's angle at the first sample
     (``theta0``, rad) and the seconds this took.
     """
-    from monitor.signal.measure import angle_reference, open_recording
+    from monitor.io import open_recording
+    from monitor.signal.reference import angle_reference
 
     start = time.perf_counter()
     with open_recording(path) as recording:

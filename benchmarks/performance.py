@@ -101,14 +101,15 @@ def _child(task: str, path: str) -> None:
             for _ in make_reader(fh).iter_messages():
                 pass
     elif task == "engine-spectra":
-        from monitor.signal.measure import open_recording, spectra
+        from monitor.io import open_recording
+        from monitor.signal.measure import spectra
 
         with open_recording(path) as recording:  # the spectra the diagnosis of this engine starts from
             spectra(recording, cycle_revolutions=ENGINE_CYCLE_REVOLUTIONS, max_order=24)
     elif task == "diagnosis":
         from monitor.diagnosis import Baseline, diagnose
+        from monitor.io import open_recording
         from monitor.model.engine import bundled_engines, load_engine
-        from monitor.signal.measure import open_recording
 
         baseline = Baseline.read(Path(path).with_suffix(".baseline.json"))
         with open_recording(path) as recording:
@@ -123,7 +124,8 @@ def _child(task: str, path: str) -> None:
         start = time.perf_counter()  # the computation alone, every sample already in memory
         spectra(recording, cycle_revolutions=1, max_order=24, samples_per_cycle=SAMPLES_PER_CYCLE)
     elif task == "pipeline-warm":
-        from monitor.signal.measure import open_recording, spectra
+        from monitor.io import open_recording
+        from monitor.signal.measure import spectra
 
         # a process that has already analysed a recording (the nightly batch's): its modules imported,
         # its compiled kernels loaded; the short recording beside the long one warms it up
@@ -140,7 +142,8 @@ def _child(task: str, path: str) -> None:
         extra["cpu_seconds"] = after.ru_utime + after.ru_stime - usage.ru_utime - usage.ru_stime
         extra["amplitude_error"], extra["phase_error_deg"] = _errors(result)
     else:
-        from monitor.signal.measure import open_recording, spectra
+        from monitor.io import open_recording
+        from monitor.signal.measure import spectra
 
         extra["start-up"] = time.perf_counter() - start  # importing the pipeline's modules
         with open_recording(path) as recording:
@@ -171,7 +174,7 @@ def measure(task: str, path: Path) -> dict[str, float]:
 def _to_mcap(source: Path, target: Path) -> None:
     """The same recording in MCAP, written by the product's writer from the HDF5 file read by slices."""
     from monitor.io.hdf5 import open_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     with open_hdf5(source) as recording:
         write_mcap(recording, target)
@@ -180,8 +183,8 @@ def _to_mcap(source: Path, target: Path) -> None:
 def _calibrate(source: Path, target: Path) -> None:
     """Calibrate a baseline on ``source`` and write it to ``target`` (and beside ``source``)."""
     from monitor.diagnosis import calibrate
+    from monitor.io import open_recording
     from monitor.model.engine import bundled_engines, load_engine
-    from monitor.signal.measure import open_recording
 
     with open_recording(source) as recording:
         baseline = calibrate(

@@ -172,8 +172,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         0.
     """
     from monitor.diagnosis import calibrate
+    from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
-    from monitor.signal.measure import open_recording
 
     if Path(args.output).suffix.lower() not in (".json", ".toml"):
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")

@@ -95,9 +95,10 @@ def run_spectrum(args: argparse.Namespace) -> int:
         0.
     """
     from monitor.errors import ModelError
+    from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
     from monitor.report.spectrum_json import spectrum_document
-    from monitor.signal.measure import open_recording, spectra
+    from monitor.signal.measure import spectra
 
     with open_recording(args.recording) as recording:
         if args.cycle:
@@ -238,7 +239,8 @@ def run_import(args: argparse.Namespace) -> int:
     int
         0.
     """
-    from monitor.io.imports import import_file, load_mapping
+    from monitor.io.imports.dispatch import import_file
+    from monitor.io.imports.mapping import load_mapping
 
     mapping = load_mapping(args.map)
     recording = import_file(args.source, mapping, sample_rate_hz=args.rate)
@@ -299,8 +301,9 @@ def run_tdc(args: argparse.Namespace) -> int:
         0.
     """
     from monitor.errors import ModelError
+    from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
-    from monitor.signal.measure import angle_reference, open_recording
+    from monitor.signal.reference import angle_reference
     from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 
     with open_recording(args.recording) as recording:

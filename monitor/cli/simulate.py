@@ -70,7 +70,7 @@ def write_recording(recording: Recording, output: str) -> Path:
     """
     from monitor.errors import FormatError
     from monitor.io.hdf5 import write_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     target = Path(output)
     if target.suffix.lower() in (".h5", ".hdf5"):

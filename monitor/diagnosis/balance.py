@@ -45,7 +45,7 @@ from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts
-from monitor.signal.angle_domain import OrderSpectrum
+from monitor.signal.spectrum import OrderSpectrum
 from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 

@@ -26,7 +26,7 @@ import numpy as np
 from monitor.diagnosis.balance import CrankCalibration
 from monitor.errors import DiagnosisError
 from monitor.model.engine import Engine
-from monitor.signal.angle_domain import HighFrequencyPower
+from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
 from monitor.types import ComplexArray, FloatArray
 

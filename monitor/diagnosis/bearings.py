@@ -15,7 +15,7 @@ largest order, carry no evidence and are left out.
 Impacts.  Wear opens the clearance: where the bearing's load turns
 (:func:`monitor.model.predicted.load_reversals`) the journal crosses it and
 knocks.  The high-frequency power profile of each sensor
-(:class:`monitor.signal.angle_domain.HighFrequencyPower`, 1-10 kHz) is
+(:class:`monitor.signal.impact.HighFrequencyPower`, 1-10 kHz) is
 searched in crank-angle windows from :data:`WINDOW_BEFORE_DEG` before each
 reversal to :data:`WINDOW_AFTER_DEG` after it (the knock rings down after the
 turn) for the knock span that stands out most against the baseline's power in
@@ -35,7 +35,8 @@ from statistics import NormalDist
 
 import numpy as np
 
-from monitor.signal.angle_domain import HighFrequencyPower, OrderSpectrum
+from monitor.signal.impact import HighFrequencyPower
+from monitor.signal.spectrum import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [

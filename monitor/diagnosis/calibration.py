@@ -22,8 +22,9 @@ from monitor.diagnosis.zones import velocity_rms
 from monitor.errors import DiagnosisError, SignalError
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine
-from monitor.signal.measure import learn_pitch_errors, learn_pitch_errors_over_speed
+from monitor.model.predicted import inertia_angle_fluctuation
 from monitor.signal.pitch import PitchCorrection
+from monitor.signal.reference import learn_pitch_errors, learn_pitch_errors_over_speed
 
 __all__ = ["calibrate"]
 
@@ -145,7 +146,8 @@ def _learn_pitch(
 ) -> PitchCorrection | None:
     """The wheel's pitch errors: over a run of changing speed if given, else on the steady recording."""
     if pitch_from is not None:
-        return learn_pitch_errors_over_speed(pitch_from, engine)
+        inertia = inertia_angle_fluctuation(engine) if engine.shaft_line is not None else None
+        return learn_pitch_errors_over_speed(pitch_from, inertia)
     harmonics = engine_orders(engine, recording, firing_only=True)
     return learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
 

@@ -67,7 +67,10 @@ from monitor.fourier import order_coefficients
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia_at
-from monitor.model.predicted import combine_cylinders, load_reversals
+from monitor.model.predicted import (
+    combine_cylinders,
+    load_reversals,
+)
 from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult
 from monitor.signal.pitch import PitchCorrection
 from monitor.torsion.shaft_line import tooth_wheel_receptance

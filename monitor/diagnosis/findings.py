@@ -21,7 +21,7 @@ from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
 from monitor.diagnosis.sensors import SensorFault
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
-from monitor.signal.angle_domain import HighFrequencyPower
+from monitor.signal.impact import HighFrequencyPower
 
 __all__ = [
     "BearingResult",

@@ -16,6 +16,8 @@ from monitor.io.signatures import (
     recording_format,
 )
 
+# the readers are imported where a file of their format is met: h5py and mcap are slow to import, and
+# the quick commands import this package without reading a recording (tests/cli/test_startup.py)
 __all__ = [
     "HDF5_SIGNATURE",
     "MCAP_MAGIC",
@@ -53,7 +55,7 @@ def read_recording(path: str | Path) -> Recording:
         with _reader_failures(source, "HDF5"):
             return read_hdf5(source)
     if kind == "MCAP":
-        from monitor.io.mcap_io import read_mcap
+        from monitor.io.mcap.reader import read_mcap
 
         with _reader_failures(source, "MCAP"):
             return read_mcap(source)
@@ -77,7 +79,7 @@ def open_recording(path: str | Path) -> Iterator[Recording]:
     """Open a recording for analysis in bounded memory: waveform samples are read by slices.
 
     HDF5 channels stay in the file (:func:`monitor.io.hdf5.open_hdf5`), an
-    indexed MCAP file's are read topic by topic (:func:`monitor.io.mcap_io.open_mcap`;
+    indexed MCAP file's are read topic by topic (:func:`monitor.io.mcap.reader.open_mcap`;
     a file without its index, or cut short, is read whole).
 
     Parameters
@@ -98,7 +100,7 @@ def open_recording(path: str | Path) -> Iterator[Recording]:
             with _reader_failures(source, "HDF5"):  # the opening only: the caller's errors are its own
                 recording = stack.enter_context(open_hdf5(source))
         elif kind == "MCAP":
-            from monitor.io.mcap_io import open_mcap
+            from monitor.io.mcap.reader import open_mcap
 
             with _reader_failures(source, "MCAP"):
                 recording = stack.enter_context(open_mcap(source))

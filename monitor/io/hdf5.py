@@ -30,10 +30,10 @@ import h5py
 import numpy as np
 
 from monitor.errors import FormatError
-from monitor.io import recording_format
 from monitor.io.files import in_existing_folder, publish
 from monitor.io.plausible import rate_problem
 from monitor.io.recording import KIND_FIELDS, Channel, Recording, SampleReader, field_value
+from monitor.io.signatures import recording_format
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Hdf5Samples", "open_hdf5", "read_hdf5", "write_hdf5"]
 

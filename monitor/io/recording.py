@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from datetime import datetime
 from typing import Any, Literal
 
 import numpy as np
@@ -572,8 +573,6 @@ class Recording:
     cycle_phase_deg: float | None = None
 
     def __post_init__(self) -> None:
-        from datetime import datetime
-
         if not self.engine_id:
             raise FormatError("recording: engine_id is empty; expected the id of an engine description")
         problem = name_problem(self.engine_id)

@@ -23,8 +23,8 @@ import numpy as np
 
 from monitor.errors import ModelError
 from monitor.report.jsonsafe import json_ready
-from monitor.signal.angle_domain import OrderSpectrum
 from monitor.signal.measure import SpectrumResult
+from monitor.signal.spectrum import OrderSpectrum
 
 __all__ = ["order_mask", "read_spectrum_document", "spectrum_document"]
 

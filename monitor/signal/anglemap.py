@@ -127,90 +127,47 @@ class AngleMap:
         per_cycle = cycle / pitch
         if gaps.size == 0 or per_cycle < 8:
             return self
-        # the places of intervals in a cycle (a gap's pitches share one) sample the shape; the number of
-        # harmonics fitted is the one of a quarter, a third and nearly a half of the places whose fit
-        # predicts each place best from the others (leave-one-out): more follow a sharper shape, fewer
-        # keep a noisy one from swinging where no pulse sees it
-        gaps_per_cycle = np.unique(np.round(np.mod(self.angles[gaps], cycle) / pitch)).size
-        gap_pitches = round(float(np.median(span[gaps])) / pitch)
-        places_per_cycle = round(per_cycle) - gaps_per_cycle * (gap_pitches - 1)
-        candidates = sorted(
-            {
-                min(int(harmonics), c)
-                for c in (places_per_cycle // 4, places_per_cycle // 3, (places_per_cycle - 3) // 2)
-            }
-            - {0}
-        )
+        candidates = _harmonic_candidates(self.angles, span, gaps, pitch, cycle, harmonics)
         if not candidates:
             return self
-        dt = np.diff(self.times)
-        # the slowness's local mean: the time the crank takes over the cycle centred on each interval
+        local = self._local_slowness(cycle)
+        relative = np.diff(self.times) / span / local
+        places = _CyclePlaces.of(self.angles, span, relative, cycle, pitch)
+        fit = _fit_cycle_shape(places, candidates, cycle)
+        if fit is None:
+            return self
+        shape, fitted = fit
+        # the shape that repeats every cycle must be most of the speed's fluctuation: where it is not (a
+        # free vibration at an order that is not whole, a run-up), the spline across the gap is left
+        if np.var(relative - fitted[places.which]) > (1 - REPEATING) * np.var(relative):
+            return self
+        inside, missing = _missing_teeth(self.angles, span, gaps, pitch)
+        # the spline through the pulses (the one speed_at differentiates) reaches each missing angle at
+        crossing = self._spline_crossings(missing, inside)
+        filled = crossing + local[inside] * self._shape_errors(shape, missing, inside, pitch)
+        return self._with_points(filled, missing, inside)
+
+    def _local_slowness(self, cycle: float) -> FloatArray:
+        """The slowness's local mean at each interval: the time the crank takes over the cycle centred
+        on it, over the cycle's angle [s/rad]."""
         middle = 0.5 * (self.angles[1:] + self.angles[:-1])
         low = np.clip(middle - 0.5 * cycle, self.angles[0], self.angles[-1])
         high = np.clip(middle + 0.5 * cycle, self.angles[0], self.angles[-1])
-        local = (np.interp(high, self.angles, self.times) - np.interp(low, self.angles, self.times)) / (
-            high - low
+        return np.asarray(
+            (np.interp(high, self.angles, self.times) - np.interp(low, self.angles, self.times))
+            / (high - low)
         )
-        relative = dt / span / local
-        # the intervals at one place in the cycle are averaged: one row per place
-        place = np.round(np.mod(self.angles[:-1], cycle) / (1e-3 * pitch)).astype(np.int64)
-        # the places are small non-negative codes (at most 1000 per pitch of a cycle): numbered by a
-        # count of each code, in one pass instead of a sort of every interval of the recording
-        present = np.bincount(place) > 0
-        which = (np.cumsum(present) - 1)[place]
-        count = np.bincount(which)
-        mean = np.bincount(which, relative) / count
-        start = np.bincount(which, np.mod(self.angles[:-1], cycle)) / count
-        width = np.bincount(which, span) / count
-        best: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
-        for h_count in candidates:
-            w = np.asarray(2 * math.pi / cycle * np.arange(1, h_count + 1), dtype=np.float64)
-            design = _interval_means(start, start + width, w)
-            root = np.sqrt(count)
-            q, r = np.linalg.qr(design * root[:, None])
-            fitted = np.linalg.solve(r, q.T @ (mean * root)) if np.all(np.abs(np.diag(r)) > 1e-12) else None
-            if fitted is None:
-                continue
-            leverage = np.minimum((q**2).sum(axis=1), 1 - 1e-9)
-            residual = (design @ fitted - mean) * root / (1 - leverage)
-            score = float(residual @ residual)
-            if best is None or score < best[0]:
-                best = (score, np.asarray(fitted, dtype=np.float64), w, design)
-        if best is None:
-            return self
-        _, coefficients, w, design = best
-        # the shape that repeats every cycle must be most of the speed's fluctuation: where it is not (a
-        # free vibration at an order that is not whole, a run-up), the spline across the gap is left
-        if np.var(relative - (design @ coefficients)[which]) > (1 - REPEATING) * np.var(relative):
-            return self
-        h_count = w.size
 
-        def integral(x: FloatArray) -> FloatArray:
-            """The fitted shape's integral from 0 to each cycle angle in ``x``."""
-            x = x[:, None]
-            return np.asarray(
-                coefficients[0] * x[:, 0]
-                + (np.sin(w * x) / w) @ coefficients[1 : h_count + 1]
-                + ((1 - np.cos(w * x)) / w) @ coefficients[h_count + 1 :]
-            )
+    def _shape_errors(
+        self, shape: _CycleShape, missing: FloatArray, inside: npt.NDArray[np.int64], pitch: float
+    ) -> FloatArray:
+        """How far the spline through the pulses misses the cycle's shape at each missing tooth, in the
+        shape's time.
 
-        full = float(integral(np.array([cycle]))[0])
-
-        def elapsed(x: FloatArray) -> FloatArray:
-            """The shape's integral from cycle angle 0 to each (absolute) angle in ``x``."""
-            turns = np.floor(x / cycle)
-            return np.asarray(turns * full + integral(x - turns * cycle))
-
-        # the missing teeth: their angles, and the gap each is in
-        pitches = np.rint(span[gaps] / pitch).astype(np.int64)
-        gaps, pitches = gaps[pitches >= 2], pitches[pitches >= 2]
-        inside = np.repeat(gaps, pitches - 1)
-        step = np.concatenate([np.arange(1, k) for k in pitches]) if gaps.size else np.zeros(0)
-        missing = self.angles[inside] + span[inside] * step / np.repeat(pitches, pitches - 1)
-        # the spline through the pulses (the one speed_at differentiates) reaches each missing angle at
-        crossing = self._spline_crossings(missing, inside)
-        # and it misses the cycle's shape across a gap by as much at every gap in the same place of the
-        # cycle: that error, in the shape's time, from the same spline through the shape's own pulses
+        It misses the cycle's shape across a gap by as much at every gap in the same place of the
+        cycle: that error, from the same spline through the shape's own pulses.
+        """
+        cycle = shape.cycle
         correction = np.zeros(missing.size)
         gap_place = np.round(np.mod(self.angles[inside], cycle) / (1e-3 * pitch)).astype(np.int64)
         for where in np.unique(gap_place):
@@ -218,16 +175,24 @@ class AngleMap:
             g = int(inside[chosen[chosen.size // 2]])  # one amid the pulses, away from the spline's ends
             alike = chosen[inside[chosen] == g]
             lo, hi = max(0, g - _FILL_NEIGHBOURS), min(self.angles.size, g + _FILL_NEIGHBOURS + 2)
-            shape_times = elapsed(self.angles[lo:hi])
+            shape_times = shape.elapsed(self.angles[lo:hi])
             spline = QuinticSpline(shape_times, self.angles[lo:hi])
             target = missing[alike]
             low = np.full(target.size, shape_times[g - lo])
             high = np.full(target.size, shape_times[g + 1 - lo])
-            error = elapsed(target) - _crossing(spline, target, low, high)
+            error = shape.elapsed(target) - _crossing(spline, target, low, high)
             correction[np.flatnonzero(gap_place == where)] = np.resize(error, chosen.size)
-        filled = crossing + local[inside] * correction
-        # each gap's points in order inside it, and not where the spline ends (there it is not the one
-        # the correction was taken on), or the gap left as it is
+        return correction
+
+    def _with_points(
+        self, filled: FloatArray, missing: FloatArray, inside: npt.NDArray[np.int64]
+    ) -> AngleMap:
+        """The map with the missing teeth's points at times ``filled``, angles ``missing``, each in the
+        interval after pulse ``inside``.
+
+        Each gap's points must be in order inside it, and not where the spline ends (there it is not
+        the one the correction was taken on), or the gap is left as it is.
+        """
         bounds = np.concatenate([self.times[inside][:, None], self.times[inside + 1][:, None]], axis=1)
         ok = (filled > bounds[:, 0]) & (filled < bounds[:, 1])
         ok &= (inside >= _FILL_NEIGHBOURS) & (inside < self.times.size - 1 - _FILL_NEIGHBOURS)
@@ -473,6 +438,141 @@ def cycle_phase_from_pressure(
         "cycle phase: the pressure around TDC does not separate the firing revolution from the other "
         "(no firing, or a misfiring cylinder 1); give the phase explicitly or use a cam channel"
     )
+
+
+def _harmonic_candidates(
+    angles: FloatArray,
+    span: FloatArray,
+    gaps: npt.NDArray[np.int64],
+    pitch: float,
+    cycle: float,
+    harmonics: int,
+) -> list[int]:
+    """The numbers of harmonics tried for the cycle's shape.
+
+    The places of intervals in a cycle (a gap's pitches share one) sample the shape; the number of
+    harmonics fitted is the one of a quarter, a third and nearly a half of the places whose fit
+    predicts each place best from the others (leave-one-out): more follow a sharper shape, fewer
+    keep a noisy one from swinging where no pulse sees it.
+    """
+    gaps_per_cycle = np.unique(np.round(np.mod(angles[gaps], cycle) / pitch)).size
+    gap_pitches = round(float(np.median(span[gaps])) / pitch)
+    places_per_cycle = round(cycle / pitch) - gaps_per_cycle * (gap_pitches - 1)
+    return sorted(
+        {
+            min(int(harmonics), c)
+            for c in (places_per_cycle // 4, places_per_cycle // 3, (places_per_cycle - 3) // 2)
+        }
+        - {0}
+    )
+
+
+@dataclass(frozen=True)
+class _CyclePlaces:
+    """The intervals of a map at one place in the cycle, averaged: one row per place.
+
+    Attributes
+    ----------
+    which : ndarray of int
+        Each interval's place.
+    count : ndarray of int
+        Intervals at each place.
+    mean : ndarray
+        Their mean relative slowness [-].
+    start, width : ndarray
+        Their mean cycle angle at the start, and mean angle [rad].
+    """
+
+    which: npt.NDArray[np.int64]
+    count: npt.NDArray[np.int64]
+    mean: FloatArray
+    start: FloatArray
+    width: FloatArray
+
+    @classmethod
+    def of(
+        cls, angles: FloatArray, span: FloatArray, relative: FloatArray, cycle: float, pitch: float
+    ) -> _CyclePlaces:
+        """The places of the intervals between ``angles`` (``span`` wide, ``relative`` slowness)."""
+        place = np.round(np.mod(angles[:-1], cycle) / (1e-3 * pitch)).astype(np.int64)
+        # the places are small non-negative codes (at most 1000 per pitch of a cycle): numbered by a
+        # count of each code, in one pass instead of a sort of every interval of the recording
+        present = np.bincount(place) > 0
+        which = (np.cumsum(present) - 1)[place]
+        count = np.bincount(which)
+        mean = np.bincount(which, relative) / count
+        start = np.bincount(which, np.mod(angles[:-1], cycle)) / count
+        width = np.bincount(which, span) / count
+        return cls(which, count, mean, start, width)
+
+
+@dataclass(frozen=True)
+class _CycleShape:
+    """The relative slowness that repeats every cycle: a mean, then cosine and sine terms at ``w``."""
+
+    coefficients: FloatArray
+    w: FloatArray
+    cycle: float
+
+    def integral(self, x: FloatArray) -> FloatArray:
+        """The shape's integral from 0 to each cycle angle in ``x``."""
+        h_count = self.w.size
+        x = x[:, None]
+        return np.asarray(
+            self.coefficients[0] * x[:, 0]
+            + (np.sin(self.w * x) / self.w) @ self.coefficients[1 : h_count + 1]
+            + ((1 - np.cos(self.w * x)) / self.w) @ self.coefficients[h_count + 1 :]
+        )
+
+    @cached_property
+    def full(self) -> float:
+        """The shape's integral over a whole cycle."""
+        return float(self.integral(np.array([self.cycle]))[0])
+
+    def elapsed(self, x: FloatArray) -> FloatArray:
+        """The shape's integral from cycle angle 0 to each (absolute) angle in ``x``."""
+        turns = np.floor(x / self.cycle)
+        return np.asarray(turns * self.full + self.integral(x - turns * self.cycle))
+
+
+def _fit_cycle_shape(
+    places: _CyclePlaces, candidates: list[int], cycle: float
+) -> tuple[_CycleShape, FloatArray] | None:
+    """The shape fitted by least squares to the places' means, with the number of harmonics whose fit
+    predicts each place best from the others (leave-one-out), and its fit at every place; None where
+    no fit is well posed."""
+    best: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
+    for h_count in candidates:
+        w = np.asarray(2 * math.pi / cycle * np.arange(1, h_count + 1), dtype=np.float64)
+        design = _interval_means(places.start, places.start + places.width, w)
+        root = np.sqrt(places.count)
+        q, r = np.linalg.qr(design * root[:, None])
+        fitted = (
+            np.linalg.solve(r, q.T @ (places.mean * root)) if np.all(np.abs(np.diag(r)) > 1e-12) else None
+        )
+        if fitted is None:
+            continue
+        leverage = np.minimum((q**2).sum(axis=1), 1 - 1e-9)
+        residual = (design @ fitted - places.mean) * root / (1 - leverage)
+        score = float(residual @ residual)
+        if best is None or score < best[0]:
+            best = (score, np.asarray(fitted, dtype=np.float64), w, design)
+    if best is None:
+        return None
+    _, coefficients, w, design = best
+    return _CycleShape(coefficients, w, cycle), np.asarray(design @ coefficients)
+
+
+def _missing_teeth(
+    angles: FloatArray, span: FloatArray, gaps: npt.NDArray[np.int64], pitch: float
+) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """The pulse before each missing tooth (its gap's), and the missing teeth's angles [rad]."""
+    pitches = np.rint(span[gaps] / pitch).astype(np.int64)
+    gaps, pitches = gaps[pitches >= 2], pitches[pitches >= 2]
+    inside = np.repeat(gaps, pitches - 1)
+    step = np.concatenate([np.arange(1, k) for k in pitches]) if gaps.size else np.zeros(0)
+    missing = angles[inside] + span[inside] * step / np.repeat(pitches, pitches - 1)
+    return inside, missing
 
 
 def _interval_means(start: FloatArray, end: FloatArray, w: FloatArray) -> FloatArray:

@@ -19,13 +19,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from monitor.errors import SignalError
-from monitor.signal.angle_domain import (
-    AngleGrid,
-    OrderSpectrum,
-    OrderSpectrumStream,
-    angle_grid,
-)
 from monitor.signal.anglemap import AngleMap
+from monitor.signal.grid import AngleGrid, angle_grid
+from monitor.signal.spectrum import OrderSpectrum, OrderSpectrumStream
 
 __all__ = ["crank_speed_spectra"]
 

@@ -2,15 +2,7 @@
 
 The CLI, the service and the batch call these functions, nothing deeper.
 
-Angle reference.  A tooth-wheel channel is preferred (many pulses per
-revolution: a precise map at varying speed), then an encoder with its
-index, else a keyphasor; a recording with none is refused, not guessed.
-A tooth wheel's or encoder's own pitch errors are estimated from the
-recording (or taken from a baseline) and corrected
-(:func:`monitor.signal.pitch.estimate_pitch_errors`).  Four-stroke
-engines also need the cycle phase: given, else the recording's
-``cycle_phase_deg``, else from a cam channel, else from cylinder 1's pressure
-channel; without these it is refused.
+Angle reference: :mod:`monitor.signal.reference`.
 
 Crank speed.  The angle map's derivative gives the speed-fluctuation orders
 (``crank speed`` in the spectra, [rad/s]); they are what the torque orders
@@ -37,388 +29,28 @@ from __future__ import annotations
 import math
 import os
 import threading
-import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
-import numpy as np
-
 from monitor.errors import SignalError
-from monitor.io import open_recording, read_recording
 from monitor.io.recording import Channel, Recording
-from monitor.model.engine import Engine
-from monitor.runtime.timing import StageClock, stage
-from monitor.signal.angle_domain import (
-    AngleGrid,
-    HighFrequencyPower,
-    OrderSpectrum,
-    OrderSpeedMap,
-    angle_domain_spectrum,
-    angle_grid,
-    order_spectrum,
-    order_speed_map,
-    to_angle_domain,
-)
-from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.runtime.timing import StageClock
+from monitor.signal.anglemap import AngleMap
 from monitor.signal.crank_speed import crank_speed_spectra
-from monitor.signal.pitch import (
-    PitchCorrection,
-    correct_pitch,
-    estimate_pitch_errors,
-    learn_pitch_over_speed,
-)
-from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.grid import AngleGrid, angle_grid
+from monitor.signal.impact import HighFrequencyPower
+from monitor.signal.pitch import PitchCorrection
+from monitor.signal.reference import AngleReference, angle_reference, waveform_rate
+from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
+from monitor.signal.spectrum import OrderSpectrum, OrderSpeedMap, order_spectrum, order_speed_map
 from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
-from monitor.signal.toothwheel import (
-    ToothWheelDecoding,
-    decode_encoder,
-    decode_tooth_signal,
-    decode_tooth_wheel,
-)
 
-__all__ = [
-    "AngleReference",
-    "SpectrumResult",
-    "angle_reference",
-    "learn_pitch_errors",
-    "learn_pitch_errors_over_speed",
-    "open_recording",
-    "read_recording",
-    "spectra",
-]
+__all__ = ["ANGULAR_VIBRATION_CHANNEL", "SPEED_CHANNEL", "SpectrumResult", "spectra"]
 
 SPEED_CHANNEL = "crank speed"
-# a learned pitch error of a tooth away from the gap larger than this share of the pitch is no wheel's
-# machining (hundredths of a degree): it is the engine's own speed fluctuation at orders above those
-# left to it (a single cylinder's sharp firing pulse); correcting it would take that motion away [-]
-PLAUSIBLE_PITCH_ERROR = 0.1
 ANGULAR_VIBRATION_CHANNEL = "crank angular vibration"
-
-
-@dataclass(frozen=True)
-class AngleReference:
-    """The angle map of a recording and how it was found.
-
-    Attributes
-    ----------
-    angle_map : AngleMap
-        Cycle angle against time (0 at firing TDC of cylinder 1).
-    source : str
-        The channel it came from.
-    repairs : int
-        Pulses inserted or removed.
-    cycle_phase : str
-        How the four-stroke phase was found ("cam", "pressure", "given", or "" for two-stroke).
-    pulses_per_revolution : int
-        Pulses the map is built from per revolution (teeth present, or 1): the map
-        resolves speed orders below half of it.
-    pitch_correction : PitchCorrection or None
-        The tooth wheel's or encoder's pitch errors corrected, if any.
-    notes : tuple of str
-        What a user should know about the reference (an inferred sensor kind, reversed polarity,
-        a correction skipped).
-    """
-
-    angle_map: AngleMap
-    source: str
-    repairs: int
-    cycle_phase: str
-    pulses_per_revolution: int
-    pitch_correction: PitchCorrection | None = None
-    notes: tuple[str, ...] = ()
-
-
-def _edges(channel: Channel, *, alike: bool = False) -> np.ndarray:
-    """Edge times of a pulse channel; ``alike``: pulses all of one height, glitches left out."""
-    if channel.is_events:
-        return np.asarray(channel.data, dtype=np.float64)
-    _clean(channel)
-    if alike:
-        return detect_pulses(channel.data, _rate(channel), start_time=channel.start_offset).times
-    return detect_edges(channel.data, _rate(channel), start_time=channel.start_offset).times
-
-
-def _clean(channel: Channel) -> None:
-    if channel.mask is not None:
-        raise SignalError(
-            f"channel {channel.name!r} has {len(channel.quality)} unusable span(s) "
-            "(NaN, Inf or clipping): a pulse channel must be clean"
-        )
-
-
-def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
-    teeth, missing = int(channel.fields["teeth"]), int(channel.fields["missing_teeth"])
-    first = math.radians(float(channel.fields["first_tooth_angle_deg"]))
-    try:
-        if channel.is_events:
-            return decode_tooth_wheel(_edges(channel), teeth=teeth, missing=missing, first_tooth_angle=first)
-        _clean(channel)
-        sensor = channel.fields.get("sensor")
-        polarity = channel.fields.get("polarity")
-        return decode_tooth_signal(
-            channel.data,
-            _rate(channel),
-            teeth=teeth,
-            missing=missing,
-            first_tooth_angle=first,
-            start_time=channel.start_offset,
-            sensor=None if sensor is None else "vr" if sensor == "vr" else "hall",
-            polarity=None if polarity is None else "reversed" if polarity == "reversed" else "normal",
-        )
-    except SignalError as error:
-        raise SignalError(f"tooth wheel {channel.name!r}: {error}") from None
-
-
-def _encoder_decoding(recording: Recording, channel: Channel) -> ToothWheelDecoding:
-    named = channel.fields.get("index_channel")
-    if named is not None:
-        index = recording.channel(str(named))
-    else:
-        candidates = recording.of_kind("keyphasor")
-        if not candidates:
-            raise SignalError(
-                f"encoder {channel.name!r} has no index: add a keyphasor channel with the index pulse, "
-                "or name it in the encoder's 'index_channel'"
-            )
-        index = candidates[0]
-    try:
-        return decode_encoder(
-            _edges(channel, alike=True),
-            _edges(index, alike=True),
-            pulses=int(channel.fields["pulses_per_revolution"]),
-            first_pulse_angle=math.radians(float(channel.fields["first_pulse_angle_deg"])),
-        )
-    except SignalError as error:
-        raise SignalError(f"encoder {channel.name!r} with index {index.name!r}: {error}") from None
-
-
-def _rate(channel: Channel) -> float:
-    if channel.sample_rate is None:
-        raise SignalError(f"channel {channel.name!r} holds events, not a waveform")
-    return float(channel.sample_rate)
-
-
-def angle_reference(
-    recording: Recording,
-    *,
-    cycle_revolutions: int,
-    cycle_phase: float | None = None,
-    pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
-    kept_orders: list[int] | None = None,
-    clock: StageClock | None = None,
-) -> AngleReference:
-    """The crank (cycle) angle map of a recording.
-
-    Parameters
-    ----------
-    recording : Recording
-    cycle_revolutions : int
-        1 two-stroke, 2 four-stroke.
-    cycle_phase : float, optional
-        Four-stroke: the shift (0 or 2 pi) to apply, if known [rad]; otherwise it is found from
-        a cam or a cylinder-1 pressure channel.
-    pitch_correction : PitchCorrection or {"estimate", "none"}, optional
-        A tooth wheel's or encoder's pitch errors: a correction learned earlier (a baseline's),
-        estimated from this recording (the default; skipped with a note on fewer than four
-        revolutions), or none.
-    kept_orders : list of int, optional
-        Integer orders left to the engine by the estimate (see
-        :func:`monitor.signal.pitch.estimate_pitch_errors`).
-    clock : StageClock, optional
-        Adds the time of each stage (pulses and decoding, pitch errors, gap filling, cycle phase).
-
-    Returns
-    -------
-    AngleReference
-
-    Raises
-    ------
-    SignalError
-        Without a usable angle reference (no tooth wheel, encoder or keyphasor channel, or one that
-        does not decode), or a four-stroke cycle phase that cannot be found.
-    """
-    teeth = recording.of_kind("tooth")
-    encoders = recording.of_kind("encoder")
-    keyphasors = recording.of_kind("keyphasor")
-    notes: list[str] = []
-    correction: PitchCorrection | None = None
-    if teeth or encoders:
-        channel = teeth[0] if teeth else encoders[0]
-        with stage(clock, "angle reference: pulses and decoding"):
-            decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
-        notes.extend(f"{channel.name}: {note}" for note in decoding.notes)
-        with stage(clock, "angle reference: pitch errors"):
-            if isinstance(pitch_correction, PitchCorrection):
-                correction = pitch_correction
-            elif pitch_correction == "estimate":
-                try:
-                    estimate = estimate_pitch_errors(decoding, kept_orders=kept_orders)
-                    correction = _plausible(estimate, decoding)
-                except SignalError as why:
-                    notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
-            if correction is not None:
-                try:
-                    decoding = correct_pitch(decoding, correction)
-                except SignalError as error:
-                    raise SignalError(f"{channel.name}: {error}") from None
-        # the wheel's gap: the speed's shape inside it from the cycle's shape elsewhere (orders the
-        # pulses determine, below half the pulses per cycle)
-        with stage(clock, "angle reference: gap filling"):
-            angle_map = AngleMap(decoding.times, decoding.angles).with_gaps_filled(
-                2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
-            )
-        repairs = int(decoding.inserted.size + decoding.removed.size)
-        pulses = decoding.teeth - decoding.missing
-    elif keyphasors:
-        channel = keyphasors[0]
-        try:
-            with stage(clock, "angle reference: pulses and decoding"):
-                repaired = repair_keyphasor(_edges(channel, alike=True))
-        except SignalError as error:
-            raise SignalError(f"keyphasor {channel.name!r}: {error}") from None
-        angle_map = AngleMap.from_keyphasor(
-            repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
-        )
-        repairs = int(repaired.inserted.size + repaired.removed.size)
-        pulses = 1
-    else:
-        raise SignalError(
-            "the recording has no tooth-wheel, encoder or keyphasor channel: no usable angle reference"
-        )
-    how = ""
-    if cycle_revolutions == 2:
-        start = time.perf_counter()
-        firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
-        if cycle_phase is not None:
-            shift, how = float(cycle_phase), "given"
-        elif recording.cycle_phase_deg is not None:
-            shift, how = math.radians(recording.cycle_phase_deg), "recording"
-        elif recording.of_kind("cam"):
-            cam = recording.of_kind("cam")[0]
-            shift = cycle_phase_from_cam(
-                angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
-            )
-            how = "cam"
-        elif firing_pressure:
-            p = firing_pressure[0]
-            shift = cycle_phase_from_pressure(angle_map, p.data, _rate(p), start_time=p.start_offset)
-            how = "pressure"
-        else:
-            raise SignalError(
-                "four-stroke recording without a cam or cylinder-1 pressure channel: the cycle phase "
-                "(which revolution holds cylinder 1's firing TDC) cannot be found; give it with "
-                "--cycle-phase 0 or 360 (the crank angle added to the angle reference's, in degrees), or "
-                "state it as the recording's cycle_phase_deg"
-            )
-        angle_map = angle_map.shifted(shift)
-        if clock is not None:
-            clock.add("angle reference: cycle phase", time.perf_counter() - start)
-    return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
-
-
-def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> PitchCorrection | None:
-    """Every tooth's pitch error, learned on a healthy baseline recording, for later recordings.
-
-    Parameters
-    ----------
-    recording : Recording
-        A healthy recording at steady speed, with a tooth wheel or an encoder.
-    engine_orders : list of int
-        The integer crank-speed orders a healthy engine of this kind excites (its firing harmonics):
-        left to the engine [-].
-
-    Returns
-    -------
-    PitchCorrection or None
-        None without a tooth wheel or encoder, or where the errors it would learn are more than
-        :data:`PLAUSIBLE_PITCH_ERROR` of a tooth pitch (the engine's motion, not the wheel's).
-
-    Raises
-    ------
-    SignalError
-        If the wheel does not decode or the recording is shorter than four revolutions.
-
-    Notes
-    -----
-    A healthy engine's cylinders fire alike, so its gas and inertia torques, and the speed
-    fluctuation they drive, sit at the firing harmonics; everything else that repeats every
-    revolution is taken as the wheel's (:func:`monitor.signal.pitch.estimate_pitch_errors`
-    with every tooth corrected). What the baseline's own cylinders do unevenly at the other
-    integer orders is taken as the wheel's too: later recordings corrected with it measure those
-    orders against the baseline's.
-    """
-    teeth = recording.of_kind("tooth")
-    encoders = recording.of_kind("encoder")
-    if not (teeth or encoders):
-        return None
-    channel = teeth[0] if teeth else encoders[0]
-    decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
-    learned = estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all")
-    try:
-        _plausible(learned, decoding)
-    except SignalError:
-        return None  # the recordings diagnosed later estimate their own, and say why they cannot
-    return replace(learned, source="baseline")
-
-
-def _plausible(correction: PitchCorrection, decoding: ToothWheelDecoding) -> PitchCorrection:
-    """The correction, if its largest error is one a wheel can have (:data:`PLAUSIBLE_PITCH_ERROR`).
-
-    Only a correction of every tooth is judged: the gap's neighbours are timed late or early by the
-    bent field by up to a third of a pitch on a real wheel (the tue-4gb10 wheel,
-    tests/signal/test_real_sensors.py).
-    """
-    if correction.scope == "all" and correction.largest > PLAUSIBLE_PITCH_ERROR * decoding.pitch:
-        raise SignalError(
-            f"the errors it would learn reach {math.degrees(correction.largest):.2g} deg, more than "
-            f"{PLAUSIBLE_PITCH_ERROR:g} of a tooth pitch: that is the engine's own motion, not the wheel's"
-        )
-    return correction
-
-
-def learn_pitch_errors_over_speed(recording: Recording, engine: Engine | None = None) -> PitchCorrection:
-    """Every tooth's pitch error at every order, learned on a run whose speed changes.
-
-    Parameters
-    ----------
-    recording : Recording
-        A motored run-up, a coast-down with the fuel cut, or a run-up at a fixed fuel setting, with
-        a tooth wheel or an encoder; its mean speed must change by a quarter or more.
-    engine : Engine, optional
-        With a ``[shaft_line]``: its reciprocating parts' inertia fluctuation (the same at every speed,
-        like the wheel's errors) is taken out of the estimate by the model
-        (:func:`monitor.model.predicted.inertia_angle_fluctuation`). Without one it stays in.
-
-    Returns
-    -------
-    PitchCorrection
-        ``source="run-up"``.
-
-    Raises
-    ------
-    SignalError
-        Without a tooth wheel or encoder, or a run whose speed changes too little.
-
-    Notes
-    -----
-    See :func:`monitor.signal.pitch.learn_pitch_over_speed`: the gas forces' share of the crank's
-    fluctuation falls with the square of the speed, the wheel's errors do not change; the
-    inertia's share does not change either and comes from the model.
-    """
-    teeth = recording.of_kind("tooth")
-    encoders = recording.of_kind("encoder")
-    if not (teeth or encoders):
-        raise SignalError("the run has no tooth-wheel or encoder channel: no pitch errors to learn")
-    channel = teeth[0] if teeth else encoders[0]
-    decoding = _tooth_decoding(channel) if teeth else _encoder_decoding(recording, channel)
-    fluctuation = None
-    if engine is not None and engine.shaft_line is not None:
-        from monitor.model.predicted import inertia_angle_fluctuation
-
-        fluctuation = inertia_angle_fluctuation(engine)
-    return learn_pitch_over_speed(decoding, speed_independent=fluctuation)
 
 
 @dataclass(frozen=True)
@@ -489,7 +121,7 @@ def spectra(
         Cycles per averaged block.
     interpolation_order : int, optional
         1, 3 or 5: B-spline resampling after an FFT filter instead of the fused band-limited kernel
-        (see :mod:`monitor.signal.angle_domain`).
+        (see :mod:`monitor.signal.kernels`).
     cycle_phase : float, optional
         Four-stroke phase shift if known [rad].
     speed_bins : int, optional
@@ -524,120 +156,36 @@ def spectra(
         kept_orders=kept_orders,
         clock=clock,
     )
-    slowest, fastest = reference.angle_map.speed_range
-    speed_ratio = fastest / slowest
-    # the anti-alias filter passes up to 0.8 of the grid's Nyquist order at the slowest speed: max_order
-    # at the fastest speed must lie below that: N >= R (fastest / slowest) max_order / (0.8 * 0.5)
-    needed = cycle_revolutions * speed_ratio * max_order / 0.4
-    if samples_per_cycle is None:
-        samples_per_cycle = 2 ** math.ceil(math.log2(max(needed, 16)))
-    elif samples_per_cycle < needed:
-        raise SignalError(
-            f"samples_per_cycle = {samples_per_cycle}: with the speed varying {speed_ratio:.2f}:1 the "
-            f"anti-alias filter would attenuate orders up to max_order = {max_order:g}; "
-            f"use at least {math.ceil(needed)} (or a lower max_order)"
-        )
-    wanted = (
-        channels
-        if channels is not None
-        else [
-            c.name
-            for c in recording.channels
-            if c.kind in ("acceleration", "velocity", "pressure", "speed") and not c.is_events
-        ]
-    )
     angle_map = reference.angle_map
-    grids: dict[tuple[float, float], AngleGrid] = {}
-    jobs: dict[str, tuple[Channel, AngleGrid]] = {}
-    for name in wanted:
-        channel = recording.channel(name)
-        if channel.is_events:
-            raise SignalError(f"channel {name!r} holds events, not a waveform: no spectrum")
-        if channel.mask is not None:
-            spans = ", ".join(f"{q.reason} {q.start:.3f}-{q.stop:.3f} s" for q in channel.quality[:3])
-            more = " ..." if len(channel.quality) > 3 else ""
-            raise SignalError(
-                f"channel {name!r} has unusable spans ({spans}{more}): "
-                "cut them out before computing its spectrum"
-            )
-        rate = _rate(channel)
-        span = (channel.start_offset, channel.start_offset + (channel.data.shape[0] - 1) / rate)
-        if span not in grids:  # channels sampled at the same times share the grid's times
-            with clock.stage("grid times"):
-                grids[span] = angle_grid(
-                    angle_map, *span, samples_per_cycle=samples_per_cycle, cycle_revolutions=cycle_revolutions
-                )
-        jobs[name] = (channel, grids[span])
-
-    profiles: dict[str, HighFrequencyPower] = {}
-    done = dict.fromkeys(jobs, 0.0)
-    progress_lock = threading.Lock()
-
-    def report(name: str, fraction: float) -> None:
-        if progress is None:
-            return
-        with progress_lock:
-            done[name] = fraction
-            progress(sum(done.values()) / max(len(done), 1))
-
-    def channel_spectrum(name: str) -> tuple[OrderSpectrum, OrderSpeedMap | None]:
-        channel, grid = jobs[name]
-        options: dict[str, Any] = {
-            "samples_per_cycle": samples_per_cycle,
-            "cycle_revolutions": cycle_revolutions,
-            "start_time": channel.start_offset,
-            "interpolation_order": interpolation_order,
-            "grid": grid,
-            "high_frequency": high_frequency and channel.kind in ("acceleration", "velocity"),
-            "progress": lambda fraction: report(name, fraction),
-            "clock": clock,
-        }
-        if speed_bins is None:  # the spectrum only: each block transformed as it is resampled
-            spectrum, profile = angle_domain_spectrum(
-                channel.data,
-                _rate(channel),
-                angle_map,
-                block_cycles=block_cycles,
-                max_order=max_order,
-                **options,
-            )
-            if profile is not None:
-                profiles[name] = profile
-            return spectrum, None
-        resampled = to_angle_domain(channel.data, _rate(channel), angle_map, max_order=max_order, **options)
-        with clock.stage("order spectra"):
-            spectrum = order_spectrum(resampled, block_cycles=block_cycles, max_order=max_order)
-        if resampled.high_frequency is not None:
-            profiles[name] = resampled.high_frequency
-        with clock.stage("order against speed"):
-            return spectrum, order_speed_map(resampled, angle_map, bins=speed_bins, max_order=max_order)
-
+    how = _Resampling(
+        angle_map,
+        _grid_samples(angle_map, cycle_revolutions, max_order, samples_per_cycle),
+        cycle_revolutions,
+        max_order,
+        block_cycles,
+        interpolation_order,
+        speed_bins,
+        high_frequency,
+        clock,
+    )
+    jobs, grids = _channel_grids(recording, _analysed(recording, channels), how)
+    shared = _SharedProgress(list(jobs), progress)
     # channels in parallel threads: reading, FFTs, splines and the compiled loops release the GIL
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
-
-    def timed_crank_spectra() -> tuple[OrderSpectrum, OrderSpectrum] | None:
-        with clock.stage("crank speed"):
-            return crank_speed_spectra(
-                angle_map,
-                reference.pulses_per_revolution,
-                cycle_revolutions=cycle_revolutions,
-                block_cycles=block_cycles,
-                max_order=max_order,
-                known=list(grids.values()),
-            )
-
     with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
-        crank_job = pool.submit(timed_crank_spectra)
-        channel_jobs = {name: pool.submit(channel_spectrum, name) for name in jobs}
+        crank_job = pool.submit(_crank_spectra, reference, how, list(grids.values()))
+        channel_jobs = {
+            name: pool.submit(_channel_spectrum, *jobs[name], how, shared.told(name)) for name in jobs
+        }
         outcomes = {name: job.result() for name, job in channel_jobs.items()}
         crank = crank_job.result()
-    result = {name: spectrum for name, (spectrum, _) in outcomes.items()}
+    result = {name: outcome[0] for name, outcome in outcomes.items()}
     units = {name: jobs[name][0].unit for name in jobs}
-    maps = {name: m for name, (_, m) in outcomes.items() if m is not None}
+    maps = {name: outcome[1] for name, outcome in outcomes.items() if outcome[1] is not None}
     if crank is not None:
         result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
-    profiled = dict(sorted(profiles.items()))
+    profiled = dict(sorted((name, o[2]) for name, o in outcomes.items() if o[2] is not None))
     reference = replace(reference, notes=reference.notes + tuple(_pressure_peak_notes(recording, reference)))
     return SpectrumResult(
         reference,
@@ -651,6 +199,168 @@ def spectra(
     )
 
 
+def _grid_samples(
+    angle_map: AngleMap, cycle_revolutions: int, max_order: float, samples_per_cycle: int | None
+) -> int:
+    """The angle-domain grid's samples per cycle: the given ones checked, or enough for ``max_order``.
+
+    Raises
+    ------
+    SignalError
+        For a given grid too coarse for ``max_order`` at the recording's speed range.
+    """
+    slowest, fastest = angle_map.speed_range
+    speed_ratio = fastest / slowest
+    # the anti-alias filter passes up to 0.8 of the grid's Nyquist order at the slowest speed: max_order
+    # at the fastest speed must lie below that: N >= R (fastest / slowest) max_order / (0.8 * 0.5)
+    needed = cycle_revolutions * speed_ratio * max_order / 0.4
+    if samples_per_cycle is None:
+        return int(2 ** math.ceil(math.log2(max(needed, 16))))
+    if samples_per_cycle < needed:
+        raise SignalError(
+            f"samples_per_cycle = {samples_per_cycle}: with the speed varying {speed_ratio:.2f}:1 the "
+            f"anti-alias filter would attenuate orders up to max_order = {max_order:g}; "
+            f"use at least {math.ceil(needed)} (or a lower max_order)"
+        )
+    return samples_per_cycle
+
+
+def _analysed(recording: Recording, channels: list[str] | None) -> list[str]:
+    """The channels named, or every accelerometer, velocity, pressure and speed waveform."""
+    if channels is not None:
+        return channels
+    return [
+        c.name
+        for c in recording.channels
+        if c.kind in ("acceleration", "velocity", "pressure", "speed") and not c.is_events
+    ]
+
+
+@dataclass(frozen=True)
+class _Resampling:
+    """What every channel of one :func:`spectra` is resampled and transformed with."""
+
+    angle_map: AngleMap
+    samples_per_cycle: int
+    cycle_revolutions: int
+    max_order: float
+    block_cycles: int
+    interpolation_order: Literal[1, 3, 5] | None
+    speed_bins: int | None
+    high_frequency: bool
+    clock: StageClock
+
+
+def _channel_grids(
+    recording: Recording, wanted: list[str], how: _Resampling
+) -> tuple[dict[str, tuple[Channel, AngleGrid]], dict[tuple[float, float], AngleGrid]]:
+    """Each wanted channel, checked, with its grid's times; and the grids by the span they cover.
+
+    Raises
+    ------
+    SignalError
+        For an event channel or one with unusable spans.
+    """
+    grids: dict[tuple[float, float], AngleGrid] = {}
+    jobs: dict[str, tuple[Channel, AngleGrid]] = {}
+    for name in wanted:
+        channel = recording.channel(name)
+        if channel.is_events:
+            raise SignalError(f"channel {name!r} holds events, not a waveform: no spectrum")
+        if channel.mask is not None:
+            spans = ", ".join(f"{q.reason} {q.start:.3f}-{q.stop:.3f} s" for q in channel.quality[:3])
+            more = " ..." if len(channel.quality) > 3 else ""
+            raise SignalError(
+                f"channel {name!r} has unusable spans ({spans}{more}): "
+                "cut them out before computing its spectrum"
+            )
+        rate = waveform_rate(channel)
+        span = (channel.start_offset, channel.start_offset + (channel.data.shape[0] - 1) / rate)
+        if span not in grids:  # channels sampled at the same times share the grid's times
+            with how.clock.stage("grid times"):
+                grids[span] = angle_grid(
+                    how.angle_map,
+                    *span,
+                    samples_per_cycle=how.samples_per_cycle,
+                    cycle_revolutions=how.cycle_revolutions,
+                )
+        jobs[name] = (channel, grids[span])
+    return jobs, grids
+
+
+class _SharedProgress:
+    """The fraction resampled over all channels, told to ``progress`` whenever one channel's grows."""
+
+    def __init__(self, names: list[str], progress: Callable[[float], None] | None) -> None:
+        self._done = dict.fromkeys(names, 0.0)
+        self._progress = progress
+        self._lock = threading.Lock()
+
+    def told(self, name: str) -> Callable[[float], None]:
+        """What channel ``name`` tells its fraction to."""
+        return lambda fraction: self._report(name, fraction)
+
+    def _report(self, name: str, fraction: float) -> None:
+        if self._progress is None:
+            return
+        with self._lock:
+            self._done[name] = fraction
+            self._progress(sum(self._done.values()) / max(len(self._done), 1))
+
+
+#: A channel's order spectrum, its order-against-speed map and its high-frequency profile (when asked).
+_ChannelOutcome = tuple[OrderSpectrum, OrderSpeedMap | None, HighFrequencyPower | None]
+
+
+def _channel_spectrum(
+    channel: Channel, grid: AngleGrid, how: _Resampling, progress: Callable[[float], None]
+) -> _ChannelOutcome:
+    """One channel resampled on ``grid`` and transformed."""
+    options: dict[str, Any] = {
+        "samples_per_cycle": how.samples_per_cycle,
+        "cycle_revolutions": how.cycle_revolutions,
+        "start_time": channel.start_offset,
+        "interpolation_order": how.interpolation_order,
+        "grid": grid,
+        "high_frequency": how.high_frequency and channel.kind in ("acceleration", "velocity"),
+        "progress": progress,
+        "clock": how.clock,
+    }
+    if how.speed_bins is None:  # the spectrum only: each block transformed as it is resampled
+        spectrum, profile = angle_domain_spectrum(
+            channel.data,
+            waveform_rate(channel),
+            how.angle_map,
+            block_cycles=how.block_cycles,
+            max_order=how.max_order,
+            **options,
+        )
+        return spectrum, None, profile
+    resampled = to_angle_domain(
+        channel.data, waveform_rate(channel), how.angle_map, max_order=how.max_order, **options
+    )
+    with how.clock.stage("order spectra"):
+        spectrum = order_spectrum(resampled, block_cycles=how.block_cycles, max_order=how.max_order)
+    with how.clock.stage("order against speed"):
+        speed_map = order_speed_map(resampled, how.angle_map, bins=how.speed_bins, max_order=how.max_order)
+    return spectrum, speed_map, resampled.high_frequency
+
+
+def _crank_spectra(
+    reference: AngleReference, how: _Resampling, known: list[AngleGrid]
+) -> tuple[OrderSpectrum, OrderSpectrum] | None:
+    """The crank speed's and angular vibration's spectra (:func:`crank_speed_spectra`), timed."""
+    with how.clock.stage("crank speed"):
+        return crank_speed_spectra(
+            reference.angle_map,
+            reference.pulses_per_revolution,
+            cycle_revolutions=how.cycle_revolutions,
+            block_cycles=how.block_cycles,
+            max_order=how.max_order,
+            known=known,
+        )
+
+
 def _pressure_peak_notes(recording: Recording, reference: AngleReference) -> list[str]:
     """A warning when cylinder 1's pressure peaks implausibly far from its firing TDC (first 50 cycles)."""
     notes = []
@@ -662,7 +372,7 @@ def _pressure_peak_notes(recording: Recording, reference: AngleReference) -> lis
             peaks = pressure_peaks(
                 reference.angle_map,
                 channel.data,
-                _rate(channel),
+                waveform_rate(channel),
                 start_time=channel.start_offset,
                 period=cycle,
                 window=math.radians(120.0),

@@ -10,7 +10,7 @@ angle and made of the orders it excites, what is left is the wheel's.  By
 default only the teeth beside the gap are corrected, and only where their
 error stands out of what the engine could put there; a healthy baseline can
 teach every tooth, its firing harmonics left to the engine
-(:func:`monitor.signal.measure.learn_pitch_errors`); a run whose speed changes (a
+(:func:`monitor.signal.reference.learn_pitch_errors`); a run whose speed changes (a
 motored run-up, a coast-down with the fuel cut) teaches every tooth at every
 order (:func:`learn_pitch_over_speed`), because the wheel's errors do not
 change with speed and the gas forces' share does.

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -151,6 +152,37 @@ def detect_edges(
     source: Any = (
         signal if hasattr(signal, "shape") and hasattr(signal, "__getitem__") else np.asarray(signal)
     )
+    _check_edge_options(source, sample_rate, level, min_prominence, timing, arm)
+    n = int(source.shape[0])
+    rising = direction == "rising"
+    crossing = timing == "zero-crossing"
+
+    def block_edges(x: npt.ArrayLike) -> _BlockEdges:
+        if crossing:
+            return _block_crossings(x, min_prominence, arm, rising)
+        return _block_edges(x, min_prominence, level, rising)
+
+    if n <= _EDGE_BLOCK:
+        times, levels, swings, prominence = block_edges(source[:])
+    else:
+        times, levels, swings, prominence = _edges_by_blocks(source, n, block_edges)
+    if prominence == 0.0 and times.size == 0:
+        raise SignalError("signal is flat: no pulses to detect")
+    if times.size < 2:
+        raise SignalError(
+            f"fewer than two whole pulses with prominence {prominence:.4g} found: check the channel"
+        )
+    return EdgeDetection(start_time + times / sample_rate, levels, swings)
+
+
+#: A block's edge times [samples of the block], levels and swings, and the prominence it used.
+_BlockEdges = tuple[FloatArray, FloatArray, FloatArray, float]
+
+
+def _check_edge_options(
+    source: Any, sample_rate: float, level: float, min_prominence: float | None, timing: str, arm: float
+) -> None:
+    """Refuse what :func:`detect_edges` cannot time edges with."""
     if len(source.shape) != 1 or source.shape[0] < 8:
         raise SignalError(
             f"signal has shape {tuple(source.shape)}: expected a 1-D waveform of at least 8 samples"
@@ -165,51 +197,39 @@ def detect_edges(
         raise SignalError(f"timing = {timing!r}: expected 'mid-level' or 'zero-crossing'")
     if not 0 < arm < 1:
         raise SignalError(f"arm = {arm!r}: expected a fraction between 0 and 1")
-    n = int(source.shape[0])
-    rising = direction == "rising"
-    crossing = timing == "zero-crossing"
 
-    def block_edges(x: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray, float]:
-        if crossing:
-            return _block_crossings(x, min_prominence, arm, rising)
-        return _block_edges(x, min_prominence, level, rising)
 
-    if n <= _EDGE_BLOCK:
-        times, levels, swings, prominence = block_edges(source[:])
-    else:
-        # blocks with context on both sides; each keeps the edges inside its own span. The hysteresis
-        # state is the whole record's again after a pulse or two of context: take several spacings
-        first, _, _, prominence = block_edges(source[:_EDGE_BLOCK])
-        spacing = float(np.median(np.diff(first))) if first.size > 2 else _EDGE_BLOCK / 8
-        context = int(min(_EDGE_BLOCK // 4, max(1024, 8 * spacing)))
+def _edges_by_blocks(source: Any, n: int, block_edges: Callable[[npt.ArrayLike], _BlockEdges]) -> _BlockEdges:
+    """The edges of a long waveform, found block by block; the prominence is the first block's.
 
-        def keep(a: int, lo: int, part: tuple[FloatArray, FloatArray, FloatArray, float]) -> None:
-            inside = (part[0] + lo >= a) & (part[0] + lo < a + _EDGE_BLOCK)
-            parts.append((part[0][inside] + lo, part[1][inside], part[2][inside]))
+    Blocks with context on both sides; each keeps the edges inside its own span. The hysteresis state
+    is the whole record's again after a pulse or two of context: take several spacings.
+    """
+    first, _, _, prominence = block_edges(source[:_EDGE_BLOCK])
+    spacing = float(np.median(np.diff(first))) if first.size > 2 else _EDGE_BLOCK / 8
+    context = int(min(_EDGE_BLOCK // 4, max(1024, 8 * spacing)))
 
-        # read in order here (a reader by slices moves forward), find the edges in parallel threads (the
-        # compiled pass releases the GIL), a few blocks in flight
-        workers = os.cpu_count() or 1
-        parts: list[tuple[FloatArray, FloatArray, FloatArray]] = []
-        pending: deque[tuple[int, int, Future[tuple[FloatArray, FloatArray, FloatArray, float]]]] = deque()
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            for a in range(0, n, _EDGE_BLOCK):
-                lo = max(0, a - context)
-                x = np.asarray(source[lo : min(n, a + _EDGE_BLOCK + context)])
-                pending.append((a, lo, pool.submit(block_edges, x)))
-                if len(pending) > workers:
-                    done = pending.popleft()
-                    keep(done[0], done[1], done[2].result())
-            for a, lo, job in pending:
-                keep(a, lo, job.result())
-        times, levels, swings = (np.concatenate([p[i] for p in parts]) for i in range(3))
-    if prominence == 0.0 and times.size == 0:
-        raise SignalError("signal is flat: no pulses to detect")
-    if times.size < 2:
-        raise SignalError(
-            f"fewer than two whole pulses with prominence {prominence:.4g} found: check the channel"
-        )
-    return EdgeDetection(start_time + times / sample_rate, levels, swings)
+    def keep(a: int, lo: int, part: _BlockEdges) -> None:
+        inside = (part[0] + lo >= a) & (part[0] + lo < a + _EDGE_BLOCK)
+        parts.append((part[0][inside] + lo, part[1][inside], part[2][inside]))
+
+    # read in order here (a reader by slices moves forward), find the edges in parallel threads (the
+    # compiled pass releases the GIL), a few blocks in flight
+    workers = os.cpu_count() or 1
+    parts: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    pending: deque[tuple[int, int, Future[_BlockEdges]]] = deque()
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for a in range(0, n, _EDGE_BLOCK):
+            lo = max(0, a - context)
+            x = np.asarray(source[lo : min(n, a + _EDGE_BLOCK + context)])
+            pending.append((a, lo, pool.submit(block_edges, x)))
+            if len(pending) > workers:
+                done = pending.popleft()
+                keep(done[0], done[1], done[2].result())
+        for a, lo, job in pending:
+            keep(a, lo, job.result())
+    times, levels, swings = (np.concatenate([p[i] for p in parts]) for i in range(3))
+    return times, levels, swings, prominence
 
 
 NOISE_MARGIN = 8.0  # default hysteresis over the noise's rms [-]

@@ -37,6 +37,7 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
+from scipy.ndimage import median_filter
 
 from monitor.errors import SignalError
 from monitor.signal.pulses import detect_edges
@@ -156,59 +157,7 @@ def decode_tooth_wheel(
         )
     threshold = missing + 0.5 if gap_ratio is None else gap_ratio
     per_rev = teeth - missing
-    arr = t
-    inserted: list[float] = []
-    removed: list[float] = []
-    while True:
-        gaps = _find_gaps(arr, threshold)
-        if gaps.size < 2:
-            raise SignalError(
-                f"found {gaps.size} tooth-wheel gap(s): expected one per revolution of a "
-                f"{teeth}-{missing} wheel; "
-                "check the wheel description and the edge direction"
-            )
-        counts = np.diff(gaps)
-        bad = np.flatnonzero(counts != per_rev)
-        if bad.size == 0:
-            break
-        k = int(bad[0])
-        start, stop = int(gaps[k]), int(gaps[k + 1])  # edge indices: first tooth after gap k .. after gap k+1
-        if counts[k] == per_rev - 1:  # a lost tooth: inside the revolution, or next to one of its gaps
-            segment = arr[start : stop + 1]
-            ordinary = np.diff(segment)[:-1]  # the last interval is the next gap
-            pitch = float(np.median(ordinary))
-            after = (arr[stop] - arr[stop - 1]) / pitch
-            before = (arr[start] - arr[start - 1]) / pitch
-            if ordinary.max() / pitch > 1.5:  # a double interval inside: split it
-                i = start + int(np.argmax(ordinary))
-                new = 0.5 * (arr[i] + arr[i + 1])
-                position = i + 1
-            elif after > missing + 1.5:  # the last tooth before the next gap is lost
-                new = arr[stop - 1] + pitch
-                position = stop
-            elif before > missing + 1.5:  # the first tooth after this revolution's gap is lost
-                new = arr[start] - pitch
-                position = start
-            else:
-                raise SignalError(
-                    f"revolution starting at t = {arr[start]:.6g} s is one tooth short, but neither an "
-                    "interval inside it nor its gaps is long enough to show where"
-                )
-            arr = np.insert(arr, position, new)  # rare: a copy per repair
-            inserted.append(float(new))
-        elif counts[k] == per_rev + 1:  # a spurious edge: drop the one that leaves the most even spacing
-            segment = arr[start - 1 : stop + 1]
-            best = min(
-                range(1, segment.size - 1),
-                key=lambda j: float(np.std(np.diff(np.delete(segment, j))[1:-1])),
-            )
-            removed.append(float(segment[best]))
-            arr = np.delete(arr, start - 1 + best)
-        else:
-            raise SignalError(
-                f"revolution starting at t = {arr[start]:.6g} s has {counts[k]} edges: expected {per_rev} "
-                f"for a {teeth}-{missing} wheel (one lost or one extra tooth can be repaired, not more)"
-            )
+    arr, gaps, inserted, removed = _repaired(t, threshold, teeth, missing)
     arr, gaps, trimmed = _trim_ends(arr, gaps, per_rev)
     index = np.empty(arr.size, dtype=np.int64)
     revolution = np.empty(arr.size, dtype=np.int64)
@@ -238,6 +187,79 @@ def decode_tooth_wheel(
             if trimmed
             else ()
         ),
+    )
+
+
+def _repaired(
+    t: FloatArray, threshold: float, teeth: int, missing: int
+) -> tuple[FloatArray, npt.NDArray[np.int64], list[float], list[float]]:
+    """The edges with every revolution between two gaps made whole: a lost tooth put back, a spurious
+    edge dropped, one revolution at a time; the gaps; the times inserted and removed.
+
+    Raises
+    ------
+    SignalError
+        Without two gaps, or for a revolution more than one edge off.
+    """
+    per_rev = teeth - missing
+    arr = t
+    inserted: list[float] = []
+    removed: list[float] = []
+    while True:
+        gaps = _find_gaps(arr, threshold)
+        if gaps.size < 2:
+            raise SignalError(
+                f"found {gaps.size} tooth-wheel gap(s): expected one per revolution of a "
+                f"{teeth}-{missing} wheel; "
+                "check the wheel description and the edge direction"
+            )
+        counts = np.diff(gaps)
+        bad = np.flatnonzero(counts != per_rev)
+        if bad.size == 0:
+            return arr, gaps, inserted, removed
+        k = int(bad[0])
+        start, stop = int(gaps[k]), int(gaps[k + 1])  # edge indices: first tooth after gap k .. after gap k+1
+        if counts[k] == per_rev - 1:  # a lost tooth: inside the revolution, or next to one of its gaps
+            new, position = _lost_tooth(arr, start, stop, missing)
+            arr = np.insert(arr, position, new)  # rare: a copy per repair
+            inserted.append(float(new))
+        elif counts[k] == per_rev + 1:  # a spurious edge: drop the one that leaves the most even spacing
+            segment = arr[start - 1 : stop + 1]
+            best = min(
+                range(1, segment.size - 1),
+                key=lambda j: float(np.std(np.diff(np.delete(segment, j))[1:-1])),
+            )
+            removed.append(float(segment[best]))
+            arr = np.delete(arr, start - 1 + best)
+        else:
+            raise SignalError(
+                f"revolution starting at t = {arr[start]:.6g} s has {counts[k]} edges: expected {per_rev} "
+                f"for a {teeth}-{missing} wheel (one lost or one extra tooth can be repaired, not more)"
+            )
+
+
+def _lost_tooth(arr: FloatArray, start: int, stop: int, missing: int) -> tuple[float, int]:
+    """Where the tooth lost from the revolution of edges ``start`` to ``stop`` was: its time and the
+    index it goes in at.
+
+    Inside the revolution where an interval is double, else just before the next gap or just after
+    this one, where that gap is a tooth too long.
+    """
+    segment = arr[start : stop + 1]
+    ordinary = np.diff(segment)[:-1]  # the last interval is the next gap
+    pitch = float(np.median(ordinary))
+    after = (arr[stop] - arr[stop - 1]) / pitch
+    before = (arr[start] - arr[start - 1]) / pitch
+    if ordinary.max() / pitch > 1.5:  # a double interval inside: split it
+        i = start + int(np.argmax(ordinary))
+        return 0.5 * (arr[i] + arr[i + 1]), i + 1
+    if after > missing + 1.5:  # the last tooth before the next gap is lost
+        return arr[stop - 1] + pitch, stop
+    if before > missing + 1.5:  # the first tooth after this revolution's gap is lost
+        return arr[start] - pitch, start
+    raise SignalError(
+        f"revolution starting at t = {arr[start]:.6g} s is one tooth short, but neither an "
+        "interval inside it nor its gaps is long enough to show where"
     )
 
 
@@ -393,8 +415,6 @@ def _find_gaps(times: FloatArray, threshold: float) -> npt.NDArray[np.int64]:
     The median mirrors the intervals at the record's ends, so a gap in the first or last interval
     is measured against its neighbours, not against copies of itself.
     """
-    from scipy.ndimage import median_filter
-
     dt = np.diff(times)
     reference = median_filter(dt, size=min(9, dt.size), mode="mirror")
     return (np.flatnonzero(dt / reference > threshold) + 1).astype(np.int64)

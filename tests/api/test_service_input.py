@@ -25,7 +25,7 @@ from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import FormatError
 from monitor.io import read_recording
 from monitor.io.hdf5 import read_hdf5
-from monitor.io.mcap_io import write_mcap
+from monitor.io.mcap.writer import write_mcap
 from monitor.store import open_store
 from tests.api.test_api import SAMPLES, Server
 

@@ -244,7 +244,7 @@ def test_the_declared_size_check_passes_real_recordings(tmp_path: Path) -> None:
     """The bundled samples (HDF5) and their MCAP copies (zstd) are far inside the limit."""
     from api.validate import MAX_EXPANSION, _check
     from monitor.io.hdf5 import read_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     for sample in sorted(SAMPLES.glob("*.h5")):
         mcap = write_mcap(read_hdf5(sample), tmp_path / f"{sample.stem}.mcap")

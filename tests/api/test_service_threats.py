@@ -17,7 +17,8 @@ import httpx
 import numpy as np
 
 from monitor.io.hdf5 import read_hdf5, write_hdf5
-from monitor.io.mcap_io import read_mcap, write_mcap
+from monitor.io.mcap.reader import read_mcap
+from monitor.io.mcap.writer import write_mcap
 from tests.api.test_api import SAMPLES, Server, _upload
 
 from . import test_api

@@ -194,7 +194,7 @@ def _hostile_copies(folder: Path) -> dict[str, Path]:
     cut.write_bytes(SAMPLE.read_bytes()[: SAMPLE.stat().st_size // 2])
     out["an HDF5 file cut in half"] = cut
     from monitor.io.hdf5 import read_hdf5
-    from monitor.io.mcap_io import write_mcap
+    from monitor.io.mcap.writer import write_mcap
 
     damaged = write_mcap(read_hdf5(SAMPLE), folder / "damaged.mcap", compression="none")
     data = damaged.read_bytes()  # the engine id is in the 'recording' metadata record only

@@ -27,15 +27,11 @@ from monitor.model.predicted import (
     load_reversals,
     predict_orders,
 )
-from monitor.signal.angle_domain import (
-    HIGH_FREQUENCY_BINS_PER_REVOLUTION,
-    AngleDomainSignal,
-    OrderSpectrum,
-    impact_band,
-    order_spectrum,
-    to_angle_domain,
-)
 from monitor.signal.anglemap import AngleMap
+from monitor.signal.grid import AngleDomainSignal
+from monitor.signal.impact import HIGH_FREQUENCY_BINS_PER_REVOLUTION, impact_band
+from monitor.signal.resample import to_angle_domain
+from monitor.signal.spectrum import OrderSpectrum, order_spectrum
 
 TWO_STROKE, FOUR_STROKE = "man-b-w-7k98mc", "medium-speed-6l32"
 # operating points: the 7K98MC at 104 rpm, the 6L32 at 750 rpm (their rated speeds), part load

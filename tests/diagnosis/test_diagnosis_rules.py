@@ -29,8 +29,8 @@ from monitor.errors import ModelError
 from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts, combine_cylinders, cylinder_parts
-from monitor.signal.angle_domain import HighFrequencyPower, OrderSpectrum
-from monitor.signal.measure import PLAUSIBLE_PITCH_ERROR, learn_pitch_errors
+from monitor.signal.impact import HighFrequencyPower
+from monitor.signal.spectrum import OrderSpectrum
 from tests.diagnosis.test_diagnosis_physics import _model, _parts
 from validation.simulator import healthy_twin, random_case
 
@@ -251,10 +251,12 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     learn reach degrees, where a wheel's machining is hundredths. They were applied and failed the
     half-pitch check; now they are not learned (what the baseline keeps is within a tenth of a pitch),
     and the recording is diagnosed (the spectra's own estimate says in a note when it leaves one out)."""
+    from monitor.signal.reference import PLAUSIBLE_PITCH_ERROR
 
     case = random_case(525, duration_s=10.0)
     engine = _validation_engine(case.engine_toml)
     twin = healthy_twin(case, seed=525 + 1_000_000)
+    from monitor.signal.reference import learn_pitch_errors
 
     harmonics = engine_orders(engine, twin.recording, firing_only=True)
     assert harmonics is not None

@@ -21,7 +21,6 @@ from monitor.io.hdf5 import open_hdf5, write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import load_engine
 from monitor.scene import load_scene, simulate
-from monitor.signal.measure import angle_reference
 from tests.conftest import ROOT
 
 SAMPLES = ROOT / "recordings" / "samples"
@@ -201,6 +200,7 @@ def _with_knocks(
 ) -> Recording:
     """Decaying 2 kHz rings (``peak`` m/s^2, 2 ms) on the named channels at the given cycle angles of
     every revolution, placed in time by the recording's own angle reference."""
+    from monitor.signal.reference import angle_reference
 
     angle_map = angle_reference(recording, cycle_revolutions=1).angle_map
     first, last = angle_map.angles[0], angle_map.angles[-1]

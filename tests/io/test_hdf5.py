@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
-from monitor.errors import FormatError
+from monitor.errors import FormatError, OutputFolderError
 from monitor.io.hdf5 import FORMAT_NAME, open_hdf5, read_hdf5, write_hdf5
+from monitor.io.mcap.reader import open_mcap
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording, quality_spans
 
 
@@ -305,11 +309,6 @@ def test_bad_channels_are_refused(kwargs: dict, message: str) -> None:  # type: 
 def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Generator, umask: int) -> None:
     """A recording is written through a temporary file (made 0600) and renamed: the file that appears
     has the mode a newly created file gets, 0666 less the umask, in HDF5 and in MCAP alike."""
-    import os
-    import stat
-
-    from monitor.io.mcap_io import write_mcap
-
     recording = _recording(rng)
     before = os.umask(umask)
     try:
@@ -322,9 +321,6 @@ def test_written_files_take_the_users_umask(tmp_path: Path, rng: np.random.Gener
 
 def test_writers_make_no_folder_they_were_not_asked_for(tmp_path: Path, rng: np.random.Generator) -> None:
     """A recording written into a folder that does not exist is refused naming it; none is created."""
-    from monitor.errors import OutputFolderError
-    from monitor.io.mcap_io import write_mcap
-
     for write, name in ((write_hdf5, "r.h5"), (write_mcap, "r.mcap")):
         with pytest.raises(OutputFolderError, match=r"missing/deeper.*does not exist"):
             write(_recording(rng), tmp_path / "missing" / "deeper" / name)
@@ -367,8 +363,6 @@ def test_read_into_a_reused_buffer_gives_the_slices_samples_and_their_checks(
 ) -> None:
     """The resampler's reads: straight into a buffer it keeps (HDF5: read_direct; MCAP: the slice
     copied in), the same samples as slicing, unusable samples refused as a slice refuses them."""
-    from monitor.io.mcap_io import open_mcap, write_mcap
-
     recording = _recording(rng)
     expected = np.asarray(recording.channel("mb3-vertical").data)
     for path, opener in (

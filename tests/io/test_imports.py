@@ -8,8 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from monitor.cli import main
 from monitor.errors import FormatError
-from monitor.io.imports import import_file, import_mdf, import_tdms, import_text, load_mapping
+from monitor.io import read_recording
+from monitor.io.imports.dispatch import import_file
+from monitor.io.imports.mapping import load_mapping
+from monitor.io.imports.mdf import import_mdf
+from monitor.io.imports.tdms import import_tdms
+from monitor.io.imports.text import import_text
 from tests.conftest import shared_path
 
 MAPPING = """
@@ -117,7 +123,7 @@ def test_cli_import_to_hdf5_and_mcap(
     import nptdms
 
     from monitor.cli import main
-    from monitor.signal.measure import read_recording
+    from monitor.io import read_recording
 
     props = {"wf_increment": 1 / 1000.0, "wf_start_offset": 0.0, "unit_string": "V"}
     path = tmp_path / "b.tdms"
@@ -283,9 +289,6 @@ def test_real_text_export_of_a_bench(tmp_path: Path, capsys: pytest.CaptureFixtu
     """../shared/external/tue-4gb10/E0NOLOAD1.txt: a test rig's own export, tab-separated without a
     header (time [s], 60-2 tooth-wheel sensor [V], cylinder pressure sensor [V], times printed to 7
     significant digits): 100 kHz derived from its times, the samples as the text has them."""
-    from monitor.cli import main
-    from monitor.signal.measure import read_recording
-
     path = shared_path("external", "tue-4gb10", "E0NOLOAD1.txt")
     mapping = tmp_path / "tue.toml"
     mapping.write_text(
@@ -319,7 +322,7 @@ def test_mdf_times_rounded_to_1us_and_the_rate_override(tmp_path: Path, rng: np.
     import asammdf
 
     from monitor.cli import main
-    from monitor.signal.measure import read_recording
+    from monitor.io import read_recording
 
     t = np.round(np.arange(25600) / 25600.0, 6)
     assert set(np.round(np.diff(t) * 1e6).tolist()) == {39.0, 40.0}

@@ -15,10 +15,14 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
+import monitor.io.mcap.writer
 from monitor.errors import FormatError
 from monitor.io.hdf5 import read_hdf5, write_hdf5
-from monitor.io.mcap_io import METADATA_CRC, open_mcap, read_mcap, write_mcap
+from monitor.io.mcap.metadata import METADATA_CRC
+from monitor.io.mcap.reader import open_mcap, read_mcap
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
 from tests.io.test_hdf5 import _recording
 
@@ -69,8 +73,6 @@ def _positions(outside: np.ndarray) -> np.ndarray:
 
 
 def _mcap_outside_chunks(path: Path) -> np.ndarray:
-    from mcap.reader import make_reader
-
     with open(path, "rb") as fh:
         summary = make_reader(fh).get_summary()
     assert summary is not None
@@ -149,10 +151,8 @@ def test_an_mcap_file_without_the_metadata_crc_is_refused_saying_so(
 ) -> None:
     """A file whose channels state no metadata CRC (as written before the format required one)
     cannot have its metadata checked: refused, with what to do."""
-    import monitor.io.mcap_io
-
     with monkeypatch.context() as patch:
-        patch.setattr(monitor.io.mcap_io, "METADATA_CRC", "written_before")
+        patch.setattr(monitor.io.mcap.writer, "METADATA_CRC", "written_before")
         path = write_mcap(_small(rng), tmp_path / "old.mcap")
     for read in (_read_whole, _opened):
         with pytest.raises(FormatError, match=f"no '{METADATA_CRC}'.*write it again"):

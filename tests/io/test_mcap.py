@@ -7,10 +7,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from google.protobuf import descriptor_pb2
+from grpc_tools import protoc
+from mcap.reader import make_reader
+from mcap.writer import IndexType
+from mcap_protobuf.decoder import DecoderFactory
 
+import monitor.io.mcap.writer as mcap_writer
 from monitor.errors import FormatError
 from monitor.io.hdf5 import read_hdf5, write_hdf5
-from monitor.io.mcap_io import decode_block, encode_sample_block, list_mcap, read_mcap, write_mcap
+from monitor.io.mcap.listing import list_mcap
+from monitor.io.mcap.reader import open_mcap, read_mcap
+from monitor.io.mcap.samples import McapSamples
+from monitor.io.mcap.wire import decode_block, encode_sample_block, schema_descriptor_set
+from monitor.io.mcap.writer import write_mcap
+from monitor.io.proto.engine_monitor import recording_pb2
 from tests.conftest import shared_path
 from tests.io.test_hdf5 import _recording
 
@@ -53,9 +64,6 @@ def test_compressions(tmp_path: Path, rng: np.random.Generator, compression: str
 def test_the_official_protobuf_decoder_reads_our_blocks(tmp_path: Path, rng: np.random.Generator) -> None:
     """The schema is a real FileDescriptorSet: mcap-protobuf-support decodes every message the way
     our own wire-level decoder does (what a general viewer such as Foxglove relies on)."""
-    from mcap.reader import make_reader
-    from mcap_protobuf.decoder import DecoderFactory
-
     path = write_mcap(_recording(rng), tmp_path / "r.mcap")
     with open(path, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()], validate_crcs=True)
@@ -117,12 +125,8 @@ def test_files_that_are_not_recordings_are_refused(tmp_path: Path) -> None:
 def test_unindexed_files_are_read_by_streaming(tmp_path: Path, rng: np.random.Generator) -> None:
     """A writer that keeps no index and no summary (a recorder that died before finishing, or a
     streaming one): the reader streams it and gets everything."""
-    from mcap.writer import IndexType
-
-    import monitor.io.mcap_io as mcap_io
-
     original = _recording(rng)
-    plain = mcap_io.Writer
+    plain = mcap_writer.Writer
 
     class Unindexed(plain):  # type: ignore[misc, valid-type]
         def __init__(self, output, **kwargs):  # type: ignore[no-untyped-def]
@@ -138,11 +142,11 @@ def test_unindexed_files_are_read_by_streaming(tmp_path: Path, rng: np.random.Ge
                 },
             )
 
-    mcap_io.Writer = Unindexed
+    mcap_writer.Writer = Unindexed
     try:
         path = write_mcap(original, tmp_path / "r.mcap")
     finally:
-        mcap_io.Writer = plain
+        mcap_writer.Writer = plain
     _same(original, read_mcap(path))
 
 
@@ -164,8 +168,6 @@ def test_real_cart_pole_file_and_its_truncation(tmp_path: Path) -> None:
 )
 def test_real_files_agree_with_their_own_statistics(name: str) -> None:
     """Streaming counts equal the file's own Statistics record (read with the indexed reader)."""
-    from mcap.reader import make_reader
-
     path = shared_path("external", "mcap-real", name)
     listing = list_mcap(path)
     with open(path, "rb") as fh:
@@ -182,10 +184,6 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
 ) -> None:
     """Chunks are per channel (a reader of one topic decompresses only its own), and open_mcap serves
     every sample of every channel by slices, equal to reading the file whole."""
-    from mcap.reader import make_reader
-
-    from monitor.io.mcap_io import McapSamples, open_mcap
-
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=8 * 1024)
     with open(path, "rb") as fh:
@@ -208,12 +206,8 @@ def test_each_chunk_holds_one_channel_and_opened_files_read_by_topic(
 def test_damage_met_while_reading_by_slices_names_the_channel(
     tmp_path: Path, rng: np.random.Generator
 ) -> None:
-    from monitor.io.mcap_io import open_mcap
-
     path = write_mcap(_recording(rng), tmp_path / "r.mcap", compression="none")
     with open(path, "rb") as fh:
-        from mcap.reader import make_reader
-
         summary = make_reader(fh).get_summary()
     assert summary is not None
     topic = {c.id: c.topic for c in summary.channels.values()}
@@ -229,8 +223,6 @@ def test_damage_met_while_reading_by_slices_names_the_channel(
 
 
 def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.random.Generator) -> None:
-    from monitor.io.mcap_io import open_mcap
-
     original = _recording(rng)
     path = write_mcap(original, tmp_path / "r.mcap", chunk_size=16 * 1024)
     cut = tmp_path / "cut.mcap"
@@ -243,12 +235,6 @@ def test_an_opened_file_without_its_index_is_read_whole(tmp_path: Path, rng: np.
 def test_the_shipped_proto_compiles_to_the_messages_the_product_uses(tmp_path: Path) -> None:
     """recording_pb2 is generated from the shipped .proto (make proto): compiled again here by protoc,
     the .proto gives the very descriptor the product encodes with and embeds as each file's schema."""
-    from google.protobuf import descriptor_pb2
-    from grpc_tools import protoc
-
-    from monitor.io.mcap_io import schema_descriptor_set
-    from monitor.io.proto.engine_monitor import recording_pb2
-
     proto = Path(recording_pb2.__file__).with_suffix("").with_name("recording.proto")
     include = proto.parents[1]
     out = tmp_path / "set.pb"

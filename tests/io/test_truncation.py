@@ -16,18 +16,27 @@ import contextlib
 import io
 import json
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from monitor.cli import main
+from monitor.diagnosis import diagnose
 from monitor.errors import FormatError, MonitorError
 from monitor.io import open_recording, read_recording
-from monitor.io.hdf5 import write_hdf5
-from monitor.io.mcap_io import MIN_SAMPLES_LEFT, McapListing, list_mcap, write_mcap
+from monitor.io.hdf5 import read_hdf5, write_hdf5
+from monitor.io.mcap.listing import McapListing, list_mcap
+from monitor.io.mcap.reader import MIN_SAMPLES_LEFT
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
+from monitor.jobs.batch import run_batch
+from monitor.model.engine import load_engine
+from monitor.scene import load_scene, simulate
+from monitor.store import open_store
 from tests.conftest import ROOT, shared_path
 
 SAMPLES = ROOT / "recordings" / "samples"
@@ -145,8 +154,6 @@ def test_every_cut_of_a_small_product_mcap_file_reads_truncated_or_is_refused(tm
 def test_a_cut_after_one_channels_chunk_names_the_channel_left_without_samples(tmp_path: Path) -> None:
     """The windows of the channels follow each other, so a cut after the first chunk leaves the
     second channel without a sample: refused naming it, instead of failing later in the analysis."""
-    from mcap.reader import make_reader
-
     path = write_mcap(_small_recording(), tmp_path / "r.mcap", block_seconds=0.04, chunk_size=320)
     with open(path, "rb") as fh:
         summary = make_reader(fh).get_summary()
@@ -242,8 +249,6 @@ def test_the_commands_that_read_a_recording_answer_every_kind_of_cut_in_one_line
     its closing magic, through ``spectrum``, ``compare``, ``calibrate`` and ``simulate --truth``:
     only the documented exit statuses (errors 2, ``compare`` 0-3), an error on one line of
     standard error, and a read cut says ``(truncated)``."""
-    from monitor.scene import load_scene, simulate
-
     scene = load_scene(SCENES / "6l32-baseline.toml").model_copy(update={"duration_s": 1.5})
     path = write_mcap(simulate(scene, seed=5).recording, tmp_path / "r.mcap", chunk_size=64 * 1024)
     data = path.read_bytes()
@@ -287,10 +292,6 @@ def test_a_batch_lists_cut_files_as_unreadable_and_diagnoses_the_others(tmp_path
     (which used to abort the whole batch with struct.error), an MCAP file cut before its first
     whole chunk and an HDF5 file cut in half: the cut ones are listed with their one-line reason,
     the readable one is diagnosed and said to be cut short."""
-    from monitor.io.hdf5 import read_hdf5
-    from monitor.jobs.batch import run_batch
-    from monitor.store import open_store
-
     folder = tmp_path / "recordings"
     folder.mkdir()
     mcap = write_mcap(read_hdf5(SAMPLES / "6l32-misfire-cyl3.h5"), tmp_path / "whole.mcap").read_bytes()
@@ -319,11 +320,6 @@ def test_a_batch_lists_cut_files_as_unreadable_and_diagnoses_the_others(tmp_path
 
 def test_a_diagnosis_of_a_file_cut_short_says_so() -> None:
     """compare's notes say a recording was cut short (it was only spectrum's output that said it)."""
-    from dataclasses import replace
-
-    from monitor.diagnosis import diagnose
-    from monitor.model.engine import load_engine
-
     recording = read_recording(ROOT / "recordings" / "samples" / "7k98mc-misfire-cyl4.h5")
     cut = diagnose(replace(recording, truncated=True), load_engine("man-b-w-7k98mc"))
     assert any("cut short" in note for note in cut.notes)

@@ -13,12 +13,13 @@ import monitor.scene.crank
 import monitor.scene.sources
 from monitor.cli import main
 from monitor.errors import SceneError
+from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import bundled_engines, load_engine
 from monitor.scene import EFFECTS, Scene, load_scene, parse_scene, simulate
 from monitor.scene.synthesis import CycleTable, synthesise
-from monitor.signal.measure import read_recording, spectra
+from monitor.signal.measure import spectra
 from monitor.signal.pitch import tooth_spacing_errors
 from monitor.signal.pulses import detect_edges
 from monitor.signal.toothwheel import decode_tooth_wheel

@@ -1,7 +1,7 @@
 """Scenes with angle sensors as real ones deliver them: Hall and VR tooth wheels, encoders with an index.
 
 Each recording is simulated from a scene, written to HDF5 and read back, and its angle reference is
-built by the product's pipeline (:func:`monitor.signal.measure.angle_reference`); what it finds is compared
+built by the product's pipeline (:func:`monitor.signal.reference.angle_reference`); what it finds is compared
 with what the scene put in: the crank angle of the scene's speed (without ``crank_speed`` the crank
 turns at the trend's speed, so its angle is the trend's integral) and the truth the simulation
 records (each tooth's spacing error, and where a VR sensor's zero crossing sits against its tooth).
@@ -21,8 +21,8 @@ from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Recording
 from monitor.scene import Scene, load_scene, parse_scene, simulate
-from monitor.signal.measure import angle_reference
 from monitor.signal.pulses import detect_edges
+from monitor.signal.reference import angle_reference
 
 SCENES = Path(__file__).resolve().parents[2] / "recordings" / "scenes"
 PITCH = 2 * math.pi / 60

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -12,9 +13,10 @@ from monitor.diagnosis import diagnose
 from monitor.errors import FormatError, SignalError
 from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Recording
 from monitor.model.engine import load_engine
-from monitor.signal.measure import angle_reference
+from monitor.signal.reference import angle_reference
 from tests.conftest import ROOT
 
 SAMPLE = ROOT / "recordings" / "samples" / "6l32-misfire-cyl3.h5"
@@ -65,10 +67,6 @@ def test_the_phase_stated_in_the_recording_is_used_and_kept_by_both_formats(
 ) -> None:
     """cycle_phase_deg written with the recording (HDF5 attribute, MCAP metadata) is read back and
     gives the same diagnosis as the cam did; a value other than 0 or 360 is refused."""
-    from dataclasses import replace
-
-    from monitor.io.mcap_io import write_mcap
-
     recording, shift = _without_cam()
     stated = replace(recording, cycle_phase_deg=math.degrees(shift))
     path = (write_hdf5 if suffix == ".h5" else write_mcap)(stated, tmp_path / f"phase{suffix}")

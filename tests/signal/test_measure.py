@@ -13,10 +13,11 @@ from scipy.integrate import cumulative_trapezoid
 
 from monitor.cli import main
 from monitor.errors import FormatError, SignalError
+from monitor.io import open_recording, read_recording
 from monitor.io.hdf5 import write_hdf5
-from monitor.io.mcap_io import write_mcap
+from monitor.io.mcap.writer import write_mcap
 from monitor.io.recording import Channel, Recording
-from monitor.signal.measure import read_recording, spectra
+from monitor.signal.measure import spectra
 
 FS = 10240.0
 ORDERS = {1: (0.8, 0.5), 2: (0.3, -1.2), 7: (0.05, 2.0)}
@@ -241,8 +242,6 @@ def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
     tmp_path: Path, rng: np.random.Generator, suffix: str
 ) -> None:
     """open_recording reads waveforms by slices (bounded memory): the numbers of reading the file whole."""
-    from monitor.signal.measure import open_recording
-
     write = write_hdf5 if suffix == "h5" else write_mcap
     path = write(_synthetic(rng), tmp_path / f"r.{suffix}")
     whole = spectra(read_recording(path), cycle_revolutions=1, max_order=12).spectra
@@ -256,8 +255,6 @@ def test_a_file_opened_for_slices_gives_the_spectra_of_the_file_read_whole(
 def test_bad_samples_met_while_reading_by_slices_are_refused_with_their_time(
     tmp_path: Path, rng: np.random.Generator
 ) -> None:
-    from monitor.signal.measure import open_recording
-
     recording = _synthetic(rng)
     acc = recording.channels[0].data.copy()
     acc[int(12.5 * FS) : int(12.5 * FS) + 3] = np.nan

@@ -21,12 +21,17 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid
 
+from monitor.cli import main
 from monitor.errors import SignalError
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine, load_engine
 from monitor.model.inertia import engine_side_inertia
-from monitor.signal.measure import learn_pitch_errors_over_speed, spectra
+from monitor.model.predicted import inertia_angle_fluctuation
+from monitor.scene import load_scene, simulate
+from monitor.signal.measure import spectra
+from monitor.signal.reference import learn_pitch_errors_over_speed
+from tests.conftest import ROOT
 from tests.signal.test_real_sensors import FS, _vr_voltage
 
 TEETH, MISSING = 60, 2
@@ -189,7 +194,7 @@ def test_a_motored_run_up_teaches_every_tooths_error_firing_harmonics_included(
     reciprocating parts' fluctuation (0.06 deg at order 3) and order 3 comes out 126 % off."""
     errors = np.radians(rng.uniform(-0.1, 0.1, TEETH))
     learning = _recording(_tooth_events(*run_up, errors, 0.2e-6, rng))
-    learned = learn_pitch_errors_over_speed(learning, engine)
+    learned = learn_pitch_errors_over_speed(learning, inertia_angle_fluctuation(engine))
     assert learned.source == "run-up" and learned.scope == "all" and learned.kept_orders == ()
     truth = errors[: TEETH - MISSING] - errors[: TEETH - MISSING].mean()
     assert np.max(np.abs(np.degrees(learned.errors - truth))) < 0.002
@@ -215,7 +220,9 @@ def test_a_vr_wheel_over_the_run_up_teaches_the_errors_its_zero_crossings_carry(
     beside the gap, where the field is flat, move by up to 0.025 deg between 200 and 750 rpm, which no
     fixed error describes); uncorrected, orders 2, 3 and 6 are 76, 45 and 35 % off."""
     errors = np.radians(rng.uniform(-0.1, 0.1, TEETH))
-    learned = learn_pitch_errors_over_speed(_recording(_tooth_voltage(*run_up, errors, rng)), engine)
+    learned = learn_pitch_errors_over_speed(
+        _recording(_tooth_voltage(*run_up, errors, rng)), inertia_angle_fluctuation(engine)
+    )
     later = _recording(_tooth_voltage(*_steady(750.0, MISFIRE, 200), errors, rng))
     corrected = _orders_off(later, learned)
     assert max(corrected.values()) < 0.02, corrected
@@ -238,10 +245,6 @@ def test_calibrate_learns_the_pitch_errors_on_the_run_given_and_says_so(
 ) -> None:
     """engine-monitor calibrate --pitch-from RUN: the baseline stores the errors learned on the run
     (every order, none left to the engine), and says where they came from and their size."""
-    from monitor.cli import main
-    from monitor.scene import load_scene, simulate
-    from tests.conftest import ROOT
-
     errors = np.radians(rng.uniform(-0.1, 0.1, TEETH))
     run = write_hdf5(_recording(_tooth_events(*run_up, errors, 0.2e-6, rng)), tmp_path / "run-up.h5")
     healthy = simulate(load_scene(ROOT / "recordings" / "scenes" / "6l32-baseline.toml")).recording
@@ -262,8 +265,6 @@ def test_the_models_inertia_fluctuation_matches_the_energy_balance(engine: Engin
     revolution over its time) is what :func:`inertia_angle_fluctuation` predicts from the model's
     inertia torque to first order: within 0.2 % of its peak to peak of 0.12 deg (measured: 0.02 %;
     the first-order theory leaves terms of the order of the inertia ratio's square, about 1e-3)."""
-    from monitor.model.predicted import inertia_angle_fluctuation
-
     theta = np.linspace(0.0, 2 * math.pi, 4097)
     slowness = np.sqrt(crank.rest + crank.mechanism_inertia(theta))  # 1 / omega, to a constant
     time = cumulative_trapezoid(slowness, theta, initial=0.0)

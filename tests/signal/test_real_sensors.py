@@ -17,19 +17,23 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from monitor.cli import main
+from monitor.diagnosis import Baseline, calibrate, diagnose
 from monitor.errors import SignalError
+from monitor.io import read_recording
 from monitor.io.hdf5 import write_hdf5
 from monitor.io.recording import Channel, Recording
-from monitor.signal.measure import angle_reference, learn_pitch_errors, spectra
+from monitor.model.engine import load_engine
+from monitor.signal.measure import spectra
 from monitor.signal.pitch import estimate_pitch_errors
 from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.reference import angle_reference, learn_pitch_errors
 from monitor.signal.toothwheel import (
     decode_encoder,
     decode_tooth_signal,
     decode_tooth_wheel,
     infer_tooth_sensor,
 )
-from tests.conftest import shared_path
+from tests.conftest import ROOT, shared_path
 
 FS = 25600.0
 
@@ -417,11 +421,6 @@ def test_tdc_from_the_real_coast_down_and_a_warning_for_a_wrong_wheel_angle(
 def test_the_baseline_keeps_the_wheels_pitch_errors_and_later_recordings_use_them(tmp_path: Path) -> None:
     """calibrate stores the tooth wheel's pitch errors learned on the healthy recording; compare with
     that baseline corrects a later recording of the same wheel with them, through the JSON file."""
-    from monitor.diagnosis import Baseline, calibrate, diagnose
-    from monitor.io import read_recording
-    from monitor.model.engine import load_engine
-    from tests.conftest import ROOT
-
     samples = ROOT / "recordings" / "samples"
     engine = load_engine("man-b-w-7k98mc")
     learned = calibrate(read_recording(samples / "7k98mc-baseline.h5"), engine)

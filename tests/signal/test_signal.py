@@ -10,12 +10,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import make_interp_spline
+from scipy.ndimage import map_coordinates
+from scipy.signal import find_peaks
 
 from monitor.errors import SignalError
-from monitor.signal.angle_domain import order_spectrum, to_angle_domain
+from monitor.fourier import scaled_rfft
+from monitor.signal import pulses
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.grid import AngleDomainSignal, angle_grid
+from monitor.signal.kernels import _band_limited, _interpolate, _resample, _spline_coefficients
 from monitor.signal.pitch import tooth_spacing_errors
 from monitor.signal.pulses import detect_edges, repair_keyphasor
+from monitor.signal.quintic import QuinticSpline
+from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
+from monitor.signal.spectrum import OrderSpectrumStream, order_spectrum, order_speed_map
 from monitor.signal.toothwheel import decode_tooth_wheel
 from tests.conftest import shared_path
 
@@ -262,8 +271,6 @@ def test_real_four_stroke_cycle_phase_from_the_pressure_channel() -> None:
     angle_map = AngleMap(decoding.times, decoding.angles)
     shift = cycle_phase_from_pressure(angle_map, fired_p, 1e5)
     cycle_map = angle_map.shifted(shift)
-    from scipy.signal import find_peaks
-
     period = 1e5 * 4 * math.pi / cycle_map.mean_speed  # samples per cycle
     peaks, _ = find_peaks(fired_p, distance=0.6 * period, prominence=0.2)
     cycle_angle = cycle_map.angle_at(fired_t[peaks])
@@ -278,8 +285,6 @@ def test_real_four_stroke_cycle_phase_from_the_pressure_channel() -> None:
 def test_order_speed_map_of_a_run_up() -> None:
     """A run-up from 300 to 900 rpm with an order-4 component whose amplitude grows with speed squared
     (an inertia force) and a fixed order 2: the map shows both laws bin by bin."""
-    from monitor.signal.angle_domain import order_speed_map
-
     t = np.arange(int(20.0 * FS)) / FS
     w = (300 + 600 * t / t[-1]) * math.pi / 30
     alpha = cumulative_trapezoid(w, t, initial=0.0)
@@ -318,8 +323,6 @@ def test_a_lost_tooth_anywhere_is_repaired_with_the_right_angles(revolution: int
 
 def test_run_up_map_leaves_out_what_the_filter_attenuated() -> None:
     """Review finding: a high order was silently attenuated at the fast end of a run-up."""
-    from monitor.signal.angle_domain import order_speed_map
-
     t = np.arange(int(20.0 * FS)) / FS
     w = (300 + 600 * t / t[-1]) * math.pi / 30
     alpha = cumulative_trapezoid(w, t, initial=0.0)
@@ -347,8 +350,6 @@ def test_a_notched_top_stays_one_pulse_and_a_deep_split_makes_two() -> None:
 def test_speed_spline_by_windows_equals_the_global_spline() -> None:
     """An hour of tooth pulses is splined in overlapping windows; the result is the one global quintic
     spline's derivative (to round-off), in sorted and in shuffled order."""
-    from scipy.interpolate import make_interp_spline
-
     rng = np.random.default_rng(3)
     n = 40_000  # more than two windows
     angles = np.arange(n) * (2 * math.pi / 60)
@@ -365,8 +366,6 @@ def test_a_long_pulse_waveform_read_in_blocks_gives_the_edges_of_one_pass(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Blocks with context on both sides: every edge once, timed as in one pass over the whole record."""
-    from monitor.signal import pulses
-
     fs = 20000.0
     t = np.arange(400_000) / fs
     angle = 2 * np.pi * 15 * (t + 0.02 * np.sin(2 * np.pi * 0.5 * t))  # teeth passing at about 15 Hz x 60
@@ -381,10 +380,6 @@ def test_a_long_pulse_waveform_read_in_blocks_gives_the_edges_of_one_pass(
 def test_compiled_splines_are_scipys_splines(order: int) -> None:
     """The compiled B-spline prefilter and evaluation against scipy.ndimage.map_coordinates (an
     independent implementation) away from the ends, where the boundary rule no longer matters."""
-    from scipy.ndimage import map_coordinates
-
-    from monitor.signal.angle_domain import _interpolate, _spline_coefficients
-
     rng = np.random.default_rng(order)
     y = rng.standard_normal(5000)
     q = np.sort(rng.uniform(40, 4960, 3000))
@@ -395,9 +390,6 @@ def test_compiled_splines_are_scipys_splines(order: int) -> None:
 
 def test_order_spectrum_in_chunks_equals_the_direct_statistics() -> None:
     """More blocks than one chunk: the mean, the magnitudes' mean and spread equal numpy's on all."""
-    from monitor.fourier import scaled_rfft
-    from monitor.signal.angle_domain import AngleDomainSignal
-
     rng = np.random.default_rng(11)
     values = rng.standard_normal((10_001, 32)) + 3 * np.cos(2 * np.pi * 2 * np.arange(32) / 32)
     spectrum = order_spectrum(AngleDomainSignal(values, 0, 32, 1, None, "given"), max_order=8)
@@ -440,8 +432,6 @@ def _gapped_wheel(gap_deg: float, revolutions: int = 40) -> tuple[AngleMap, floa
 
 def _order_leak(angle_map: AngleMap) -> tuple[float, float]:
     """Order 12's relative amplitude, and the largest of orders 8 to 11 over order 12's."""
-    from monitor.signal.angle_domain import AngleDomainSignal, angle_grid
-
     grid = angle_grid(angle_map, angle_map.times[0], angle_map.times[-1], samples_per_cycle=128)
     speed = angle_map.speed_at(grid.times).reshape(grid.cycles, 128)
     signal = AngleDomainSignal(speed, grid.first_cycle, 128, 1, None, "given")
@@ -476,8 +466,6 @@ def _tone_through_kernel(
     frequency: float, passband: float, stopband: float, fs: float, dtype: type = np.float64
 ) -> float:
     """Largest error of the fused kernel's output against the ideal tone's value at 4000 random times."""
-    from monitor.signal.angle_domain import _band_limited, _resample
-
     kernel = _band_limited(passband, stopband, fs)
     n = 4 * kernel.half + 8000
     x = np.cos(2 * math.pi * frequency * np.arange(n) / fs + 0.3).astype(dtype)
@@ -503,8 +491,6 @@ def test_fused_kernel_passes_the_passband_within_its_ripple(fraction: float) -> 
 def test_fused_kernel_stops_the_stopband(frequency: float) -> None:
     """A tone in the stopband comes out below 1e-5: the ideal output is zero, so the error is the
     output itself."""
-    from monitor.signal.angle_domain import _band_limited, _resample
-
     fs = 25600.0
     kernel = _band_limited(570.0, 1440.0, fs)
     n = 4 * kernel.half + 8000
@@ -524,8 +510,6 @@ def test_fused_kernel_stops_the_stopband(frequency: float) -> None:
 def test_fused_kernel_keeps_a_constant_and_a_slow_tone(fs: float, passband: float, transition: float) -> None:
     """Property: any design passes a constant exactly (rows sum to one, up to round-off) and a tone at
     half its passband edge within the ripple and the position rounding."""
-    from monitor.signal.angle_domain import _band_limited, _resample
-
     kernel = _band_limited(passband * fs, min((passband + transition) * fs, 0.5 * fs), fs)
     n = 2 * kernel.half + 500
     positions = np.linspace(kernel.half + 1, n - kernel.half - 2, 300)
@@ -572,8 +556,6 @@ def test_max_order_beyond_the_grid_is_refused() -> None:
 
 def test_a_coarser_grid_of_the_same_cycles_is_every_kth_time_of_a_finer_one() -> None:
     """The crank speed's grid reuses the channels' grid times: the same as computing them anew."""
-    from monitor.signal.angle_domain import angle_grid
-
     t, alpha = _trajectory(3.0, 600.0, 0.1)
     teeth = np.arange(1, math.floor(alpha[-1] / (math.pi / 30))) * math.pi / 30
     angle_map = AngleMap(np.interp(teeth, alpha, t), teeth)
@@ -599,7 +581,6 @@ def test_an_order_spectrum_fed_in_parts_equals_the_one_of_all_cycles(
     the cycles gathered before a transform) give the spectrum of all the cycles given at once: the same
     blocks, their statistics combined by Chan's rule (round-off only: a relative 1e-12 on sums of some
     60 terms of order one)."""
-    from monitor.signal.angle_domain import AngleDomainSignal, OrderSpectrumStream
 
     class Gathering(OrderSpectrumStream):
         _GATHER_CYCLES = gather
@@ -625,8 +606,6 @@ def test_an_order_spectrum_fed_in_parts_equals_the_one_of_all_cycles(
 
 
 def test_an_order_spectrum_stream_refuses_a_wrong_shape_and_an_empty_result() -> None:
-    from monitor.signal.angle_domain import OrderSpectrumStream
-
     stream = OrderSpectrumStream(16, 1, block_cycles=3)
     with pytest.raises(SignalError, match=r"expected \(k, 16\)"):
         stream.add(np.zeros((2, 8)))
@@ -644,8 +623,6 @@ def test_the_streamed_spectrum_is_the_spectrum_of_the_resampled_channel(
     """angle_domain_spectrum (each block transformed as it is resampled, nothing held) against
     to_angle_domain then order_spectrum, the same samples through the same kernel: equal to round-off,
     the high-frequency profile too; a block longer than the signal is refused as order_spectrum does."""
-    from monitor.signal.angle_domain import angle_domain_spectrum
-
     t, alpha = _trajectory(24.0, 720.0, 0.15)
     rng = np.random.default_rng(5)
     x = sum(a * np.cos(k * alpha + ph) for k, (a, ph) in ORDERS.items()) + 0.1 * rng.standard_normal(t.size)
@@ -685,10 +662,6 @@ def test_the_compiled_quintic_spline_is_scipys_interpolating_spline(steps: list[
     """Same knots (not-a-knot), same coefficients: values and slopes equal make_interp_spline(k=5)'s at
     any point inside, to round-off grown by the collocation matrix's condition (sites up to 25 times
     closer than their neighbours: a relative 1e-9 bounds it with margin), and the data passed through."""
-    from scipy.interpolate import make_interp_spline
-
-    from monitor.signal.quintic import QuinticSpline
-
     rng = np.random.default_rng(seed)
     x = 10.0 + np.concatenate([[0.0], np.cumsum(steps)])
     y = rng.standard_normal(x.size)
@@ -704,8 +677,6 @@ def test_the_compiled_quintic_spline_is_scipys_interpolating_spline(steps: list[
 def test_the_quintic_spline_reproduces_a_quintic_and_refuses_bad_sites() -> None:
     """A spline of degree 5 through a polynomial of degree 5 is that polynomial: its values and slopes at
     any point, whatever the spacing (checked without scipy)."""
-    from monitor.signal.quintic import QuinticSpline
-
     rng = np.random.default_rng(3)
     x = np.cumsum(rng.uniform(0.5, 1.5, 40))
     poly = np.polynomial.Polynomial([0.3, -1.0, 0.5, 0.2, -0.01, 2e-4])

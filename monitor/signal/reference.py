@@ -1,0 +1,397 @@
+"""The angle reference of a recording: its crank (cycle) angle against time, and how it was found.
+
+A tooth-wheel channel is preferred (many pulses per revolution: a precise map
+at varying speed), then an encoder with its index, else a keyphasor; a
+recording with none is refused, not guessed.  A tooth wheel's or encoder's
+own pitch errors are estimated from the recording (or taken from a baseline,
+:func:`learn_pitch_errors`, or a run-up, :func:`learn_pitch_errors_over_speed`)
+and corrected (:func:`monitor.signal.pitch.estimate_pitch_errors`).
+Four-stroke engines also need the cycle phase: given, else the recording's
+``cycle_phase_deg``, else from a cam channel, else from cylinder 1's pressure
+channel; without these it is refused.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from monitor.errors import SignalError
+from monitor.io.recording import Channel, Recording
+from monitor.runtime.timing import StageClock, stage
+from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.pitch import (
+    PitchCorrection,
+    correct_pitch,
+    estimate_pitch_errors,
+    learn_pitch_over_speed,
+)
+from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
+from monitor.signal.toothwheel import (
+    ToothWheelDecoding,
+    decode_encoder,
+    decode_tooth_signal,
+    decode_tooth_wheel,
+)
+from monitor.types import FloatArray
+
+__all__ = [
+    "PLAUSIBLE_PITCH_ERROR",
+    "AngleReference",
+    "angle_reference",
+    "learn_pitch_errors",
+    "learn_pitch_errors_over_speed",
+    "waveform_rate",
+]
+
+# a learned pitch error of a tooth away from the gap larger than this share of the pitch is no wheel's
+# machining (hundredths of a degree): it is the engine's own speed fluctuation at orders above those
+# left to it (a single cylinder's sharp firing pulse); correcting it would take that motion away [-]
+PLAUSIBLE_PITCH_ERROR = 0.1
+
+
+@dataclass(frozen=True)
+class AngleReference:
+    """The angle map of a recording and how it was found.
+
+    Attributes
+    ----------
+    angle_map : AngleMap
+        Cycle angle against time (0 at firing TDC of cylinder 1).
+    source : str
+        The channel it came from.
+    repairs : int
+        Pulses inserted or removed.
+    cycle_phase : str
+        How the four-stroke phase was found ("cam", "pressure", "given", or "" for two-stroke).
+    pulses_per_revolution : int
+        Pulses the map is built from per revolution (teeth present, or 1): the map
+        resolves speed orders below half of it.
+    pitch_correction : PitchCorrection or None
+        The tooth wheel's or encoder's pitch errors corrected, if any.
+    notes : tuple of str
+        What a user should know about the reference (an inferred sensor kind, reversed polarity,
+        a correction skipped).
+    """
+
+    angle_map: AngleMap
+    source: str
+    repairs: int
+    cycle_phase: str
+    pulses_per_revolution: int
+    pitch_correction: PitchCorrection | None = None
+    notes: tuple[str, ...] = ()
+
+
+def _edges(channel: Channel, *, alike: bool = False) -> np.ndarray:
+    """Edge times of a pulse channel; ``alike``: pulses all of one height, glitches left out."""
+    if channel.is_events:
+        return np.asarray(channel.data, dtype=np.float64)
+    _refuse_unusable_spans(channel)
+    if alike:
+        return detect_pulses(channel.data, waveform_rate(channel), start_time=channel.start_offset).times
+    return detect_edges(channel.data, waveform_rate(channel), start_time=channel.start_offset).times
+
+
+def _refuse_unusable_spans(channel: Channel) -> None:
+    """Refuse a pulse channel with NaN, Inf or clipped spans: its edges cannot be trusted around them."""
+    if channel.mask is not None:
+        raise SignalError(
+            f"channel {channel.name!r} has {len(channel.quality)} unusable span(s) "
+            "(NaN, Inf or clipping): a pulse channel must be clean"
+        )
+
+
+def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
+    teeth, missing = int(channel.fields["teeth"]), int(channel.fields["missing_teeth"])
+    first = math.radians(float(channel.fields["first_tooth_angle_deg"]))
+    try:
+        if channel.is_events:
+            return decode_tooth_wheel(_edges(channel), teeth=teeth, missing=missing, first_tooth_angle=first)
+        _refuse_unusable_spans(channel)
+        sensor = channel.fields.get("sensor")
+        polarity = channel.fields.get("polarity")
+        return decode_tooth_signal(
+            channel.data,
+            waveform_rate(channel),
+            teeth=teeth,
+            missing=missing,
+            first_tooth_angle=first,
+            start_time=channel.start_offset,
+            sensor=None if sensor is None else "vr" if sensor == "vr" else "hall",
+            polarity=None if polarity is None else "reversed" if polarity == "reversed" else "normal",
+        )
+    except SignalError as error:
+        raise SignalError(f"tooth wheel {channel.name!r}: {error}") from None
+
+
+def _encoder_decoding(recording: Recording, channel: Channel) -> ToothWheelDecoding:
+    named = channel.fields.get("index_channel")
+    if named is not None:
+        index = recording.channel(str(named))
+    else:
+        candidates = recording.of_kind("keyphasor")
+        if not candidates:
+            raise SignalError(
+                f"encoder {channel.name!r} has no index: add a keyphasor channel with the index pulse, "
+                "or name it in the encoder's 'index_channel'"
+            )
+        index = candidates[0]
+    try:
+        return decode_encoder(
+            _edges(channel, alike=True),
+            _edges(index, alike=True),
+            pulses=int(channel.fields["pulses_per_revolution"]),
+            first_pulse_angle=math.radians(float(channel.fields["first_pulse_angle_deg"])),
+        )
+    except SignalError as error:
+        raise SignalError(f"encoder {channel.name!r} with index {index.name!r}: {error}") from None
+
+
+def _wheel_channel(recording: Recording) -> Channel | None:
+    """The recording's (first) tooth wheel, else its encoder; None without either."""
+    wheels = recording.of_kind("tooth") or recording.of_kind("encoder")
+    return wheels[0] if wheels else None
+
+
+def _wheel_decoding(recording: Recording, channel: Channel) -> ToothWheelDecoding:
+    """The pulses of a tooth wheel or an encoder (with its index), decoded."""
+    return _tooth_decoding(channel) if channel.kind == "tooth" else _encoder_decoding(recording, channel)
+
+
+def waveform_rate(channel: Channel) -> float:
+    """A waveform channel's sample rate [Hz]; an event channel is refused."""
+    if channel.sample_rate is None:
+        raise SignalError(f"channel {channel.name!r} holds events, not a waveform")
+    return float(channel.sample_rate)
+
+
+def angle_reference(
+    recording: Recording,
+    *,
+    cycle_revolutions: int,
+    cycle_phase: float | None = None,
+    pitch_correction: PitchCorrection | Literal["estimate", "none"] = "estimate",
+    kept_orders: list[int] | None = None,
+    clock: StageClock | None = None,
+) -> AngleReference:
+    """The crank (cycle) angle map of a recording.
+
+    Parameters
+    ----------
+    recording : Recording
+    cycle_revolutions : int
+        1 two-stroke, 2 four-stroke.
+    cycle_phase : float, optional
+        Four-stroke: the shift (0 or 2 pi) to apply, if known [rad]; otherwise it is found from
+        a cam or a cylinder-1 pressure channel.
+    pitch_correction : PitchCorrection or {"estimate", "none"}, optional
+        A tooth wheel's or encoder's pitch errors: a correction learned earlier (a baseline's),
+        estimated from this recording (the default; skipped with a note on fewer than four
+        revolutions), or none.
+    kept_orders : list of int, optional
+        Integer orders left to the engine by the estimate (see
+        :func:`monitor.signal.pitch.estimate_pitch_errors`).
+    clock : StageClock, optional
+        Adds the time of each stage (pulses and decoding, pitch errors, gap filling, cycle phase).
+
+    Returns
+    -------
+    AngleReference
+
+    Raises
+    ------
+    SignalError
+        Without a usable angle reference (no tooth wheel, encoder or keyphasor channel, or one that
+        does not decode), or a four-stroke cycle phase that cannot be found.
+    """
+    wheel = _wheel_channel(recording)
+    keyphasors = recording.of_kind("keyphasor")
+    notes: list[str] = []
+    correction: PitchCorrection | None = None
+    if wheel is not None:
+        channel = wheel
+        with stage(clock, "angle reference: pulses and decoding"):
+            decoding = _wheel_decoding(recording, channel)
+        notes.extend(f"{channel.name}: {note}" for note in decoding.notes)
+        with stage(clock, "angle reference: pitch errors"):
+            if isinstance(pitch_correction, PitchCorrection):
+                correction = pitch_correction
+            elif pitch_correction == "estimate":
+                try:
+                    estimate = estimate_pitch_errors(decoding, kept_orders=kept_orders)
+                    correction = _plausible(estimate, decoding)
+                except SignalError as why:
+                    notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
+            if correction is not None:
+                try:
+                    decoding = correct_pitch(decoding, correction)
+                except SignalError as error:
+                    raise SignalError(f"{channel.name}: {error}") from None
+        # the wheel's gap: the speed's shape inside it from the cycle's shape elsewhere (orders the
+        # pulses determine, below half the pulses per cycle)
+        with stage(clock, "angle reference: gap filling"):
+            angle_map = AngleMap(decoding.times, decoding.angles).with_gaps_filled(
+                2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
+            )
+        repairs = int(decoding.inserted.size + decoding.removed.size)
+        pulses = decoding.teeth - decoding.missing
+    elif keyphasors:
+        channel = keyphasors[0]
+        try:
+            with stage(clock, "angle reference: pulses and decoding"):
+                repaired = repair_keyphasor(_edges(channel, alike=True))
+        except SignalError as error:
+            raise SignalError(f"keyphasor {channel.name!r}: {error}") from None
+        angle_map = AngleMap.from_keyphasor(
+            repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
+        )
+        repairs = int(repaired.inserted.size + repaired.removed.size)
+        pulses = 1
+    else:
+        raise SignalError(
+            "the recording has no tooth-wheel, encoder or keyphasor channel: no usable angle reference"
+        )
+    how = ""
+    if cycle_revolutions == 2:
+        start = time.perf_counter()
+        shift, how = _cycle_phase(recording, angle_map, cycle_phase)
+        angle_map = angle_map.shifted(shift)
+        if clock is not None:
+            clock.add("angle reference: cycle phase", time.perf_counter() - start)
+    return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
+
+
+def _cycle_phase(recording: Recording, angle_map: AngleMap, cycle_phase: float | None) -> tuple[float, str]:
+    """A four-stroke map's shift (0 or 2 pi) [rad] and how it was found: given, the recording's, from
+    a cam channel or from cylinder 1's pressure.
+
+    Raises
+    ------
+    SignalError
+        Without any of these.
+    """
+    firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
+    if cycle_phase is not None:
+        return float(cycle_phase), "given"
+    if recording.cycle_phase_deg is not None:
+        return math.radians(recording.cycle_phase_deg), "recording"
+    if recording.of_kind("cam"):
+        cam = recording.of_kind("cam")[0]
+        shift = cycle_phase_from_cam(
+            angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
+        )
+        return shift, "cam"
+    if firing_pressure:
+        p = firing_pressure[0]
+        return cycle_phase_from_pressure(
+            angle_map, p.data, waveform_rate(p), start_time=p.start_offset
+        ), "pressure"
+    raise SignalError(
+        "four-stroke recording without a cam or cylinder-1 pressure channel: the cycle phase "
+        "(which revolution holds cylinder 1's firing TDC) cannot be found; give it with "
+        "--cycle-phase 0 or 360 (the crank angle added to the angle reference's, in degrees), or "
+        "state it as the recording's cycle_phase_deg"
+    )
+
+
+def learn_pitch_errors(recording: Recording, *, engine_orders: list[int]) -> PitchCorrection | None:
+    """Every tooth's pitch error, learned on a healthy baseline recording, for later recordings.
+
+    Parameters
+    ----------
+    recording : Recording
+        A healthy recording at steady speed, with a tooth wheel or an encoder.
+    engine_orders : list of int
+        The integer crank-speed orders a healthy engine of this kind excites (its firing harmonics):
+        left to the engine [-].
+
+    Returns
+    -------
+    PitchCorrection or None
+        None without a tooth wheel or encoder, or where the errors it would learn are more than
+        :data:`PLAUSIBLE_PITCH_ERROR` of a tooth pitch (the engine's motion, not the wheel's).
+
+    Raises
+    ------
+    SignalError
+        If the wheel does not decode or the recording is shorter than four revolutions.
+
+    Notes
+    -----
+    A healthy engine's cylinders fire alike, so its gas and inertia torques, and the speed
+    fluctuation they drive, sit at the firing harmonics; everything else that repeats every
+    revolution is taken as the wheel's (:func:`monitor.signal.pitch.estimate_pitch_errors`
+    with every tooth corrected). What the baseline's own cylinders do unevenly at the other
+    integer orders is taken as the wheel's too: later recordings corrected with it measure those
+    orders against the baseline's.
+    """
+    channel = _wheel_channel(recording)
+    if channel is None:
+        return None
+    decoding = _wheel_decoding(recording, channel)
+    learned = estimate_pitch_errors(decoding, kept_orders=engine_orders, scope="all")
+    try:
+        _plausible(learned, decoding)
+    except SignalError:
+        return None  # the recordings diagnosed later estimate their own, and say why they cannot
+    return replace(learned, source="baseline")
+
+
+def _plausible(correction: PitchCorrection, decoding: ToothWheelDecoding) -> PitchCorrection:
+    """The correction, if its largest error is one a wheel can have (:data:`PLAUSIBLE_PITCH_ERROR`).
+
+    Only a correction of every tooth is judged: the gap's neighbours are timed late or early by the
+    bent field by up to a third of a pitch on a real wheel (the tue-4gb10 wheel,
+    tests/signal/test_real_sensors.py).
+    """
+    if correction.scope == "all" and correction.largest > PLAUSIBLE_PITCH_ERROR * decoding.pitch:
+        raise SignalError(
+            f"the errors it would learn reach {math.degrees(correction.largest):.2g} deg, more than "
+            f"{PLAUSIBLE_PITCH_ERROR:g} of a tooth pitch: that is the engine's own motion, not the wheel's"
+        )
+    return correction
+
+
+def learn_pitch_errors_over_speed(
+    recording: Recording, speed_independent: Callable[[npt.ArrayLike], FloatArray] | None = None
+) -> PitchCorrection:
+    """Every tooth's pitch error at every order, learned on a run whose speed changes.
+
+    Parameters
+    ----------
+    recording : Recording
+        A motored run-up, a coast-down with the fuel cut, or a run-up at a fixed fuel setting, with
+        a tooth wheel or an encoder; its mean speed must change by a quarter or more.
+    speed_independent : callable, optional
+        The engine's reciprocating parts' inertia fluctuation (the same at every speed, like the
+        wheel's errors) at crank angles [rad] -> [rad], taken out of the estimate: the model's
+        (:func:`monitor.model.predicted.inertia_angle_fluctuation`, for an engine with a
+        ``[shaft_line]``). Without it the inertia's orders stay in.
+
+    Returns
+    -------
+    PitchCorrection
+        ``source="run-up"``.
+
+    Raises
+    ------
+    SignalError
+        Without a tooth wheel or encoder, or a run whose speed changes too little.
+
+    Notes
+    -----
+    See :func:`monitor.signal.pitch.learn_pitch_over_speed`: the gas forces' share of the crank's
+    fluctuation falls with the square of the speed, the wheel's errors do not change; the
+    inertia's share does not change either and comes from the model.
+    """
+    channel = _wheel_channel(recording)
+    if channel is None:
+        raise SignalError("the run has no tooth-wheel or encoder channel: no pitch errors to learn")
+    return learn_pitch_over_speed(_wheel_decoding(recording, channel), speed_independent=speed_independent)
