@@ -37,6 +37,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import unavailable
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: fences that would hold shell commands under another name, so escape this test: refused
@@ -211,12 +213,12 @@ def _output(log: Path, n: int | str, limit: int = 4000) -> str:
 
 def _netns_runner() -> list[str]:
     if os.geteuid() != 0 or shutil.which("unshare") is None or shutil.which("ip") is None:
-        pytest.skip("a network namespace of its own needs root, unshare and ip (util-linux, iproute2)")
+        unavailable("a network namespace of its own needs root, unshare and ip (util-linux, iproute2)")
     probe = subprocess.run(
         ["unshare", "--net", "ip", "link", "set", "lo", "up"], capture_output=True, text=True
     )
     if probe.returncode != 0:
-        pytest.skip(f"this machine allows no network namespace: {probe.stderr.strip()}")
+        unavailable(f"this machine allows no network namespace: {probe.stderr.strip()}")
     return ["unshare", "--net", "sh", "-c", 'ip link set lo up && exec bash "$0"']
 
 

@@ -25,6 +25,7 @@ import pytest
 
 from monitor.cli import main
 from tests.api.test_api import ROOT, _free_port
+from tests.conftest import unavailable
 
 #: Scheduling delay tolerated on a timer (a shared 2-core machine under a test suite): a timeout
 #: fires on the server's event loop within milliseconds, its close reaches the client as fast.
@@ -241,7 +242,7 @@ def test_a_flood_of_idle_connections_beyond_the_open_file_limit_leaves_health_an
     flood, sources = 1500, [f"127.0.0.{10 + i}" for i in range(30)]
     limit = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
     if limit < flood + 100:
-        pytest.skip(f"the test process's open-file limit ({limit}) holds no flood of {flood}")
+        unavailable(f"the test process's open-file limit ({limit}) holds no flood of {flood}")
     server = flooded
     sockets: list[socket.socket] = []
     try:
@@ -277,7 +278,7 @@ def test_a_cap_the_open_file_limit_cannot_hold_is_refused_at_start_up(
     serve before it listens, with the numbers and how to raise the limit."""
     hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
     if hard == resource.RLIM_INFINITY:
-        pytest.skip("no hard open-file limit: any cap fits")
+        unavailable("no hard open-file limit: any cap fits")
     too_many = str(hard)  # half of the limit is the most that could fit
     argv = ["serve", "--port", str(_free_port()), "--data", str(tmp_path), "--workers", "0"]
     assert main([*argv, "--max-connections", too_many]) == 2

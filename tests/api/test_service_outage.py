@@ -23,7 +23,7 @@ from benchmarks.store_proxy import StoreProxy, proxied
 from monitor.io.hdf5 import read_hdf5, write_hdf5
 from monitor.store import open_store
 from tests.api.test_api import SAMPLES, Server
-from tests.conftest import postgres_database
+from tests.conftest import postgres_database, unavailable
 
 SAMPLE = SAMPLES / "6l32-misfire-cyl3.h5"  # 1.3 MB, a bundled engine
 OUTAGE_S = 3.0  # the store stopped this long: every kind of request meets it a few times
@@ -171,7 +171,7 @@ def _mount_tmpfs(folder: Path, size: str) -> None:
         ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True, text=True
     )
     if mounted.returncode != 0:
-        pytest.skip(f"a small tmpfs cannot be mounted here as the data folder: {mounted.stderr.strip()}")
+        unavailable(f"a small tmpfs cannot be mounted here as the data folder: {mounted.stderr.strip()}")
 
 
 @pytest.fixture
