@@ -68,7 +68,39 @@ def channel(
     seed: int,
     expected: dict[str, Any],
 ) -> Channel:
-    """The channel of sensor ``index``: its event times, or its waveform with the sensor effects named."""
+    """The channel of sensor ``index``: its event times, or its waveform with the sensor effects named.
+
+    Parameters
+    ----------
+    sensor : Sensor
+        The sensor: its kind, representation, sample rate [Hz], unit, location and fields.
+    index : int
+        Its position in ``scene.sensors`` [-]; with ``seed`` it seeds its noise and faults.
+    scene : Scene
+        The scene: duration [s] and the named effects (gain_error, noise, clipping, faults).
+    engine : Engine
+        The simulated engine (cycle, cylinders, firing angles, bearings).
+    crank : Crank
+        The crank's angle-time table (:func:`~monitor.scene.crank.crank_motion`).
+    sources : Sources or None
+        The named sources' orders (:func:`~monitor.scene.sources.sources_of`); None if none is named.
+    seed : int
+        The simulation's noise seed [-].
+    expected : dict
+        The truth's expected orders and faults, by channel; this sensor's entries are added to it.
+
+    Returns
+    -------
+    Channel
+        Event times [s], or float32 samples [the sensor's unit] at its sample rate [Hz] over the
+        scene's duration.
+
+    Raises
+    ------
+    SceneError
+        If the sensor needs a source that is not named (a pressure sensor without 'gas') or names
+        a cylinder the engine does not have.
+    """
     R = engine.cycle_revolutions
     fields, pitch_deg = _fields(sensor)
     if sensor.representation == "events":

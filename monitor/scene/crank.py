@@ -70,7 +70,35 @@ class Crank:
 def crank_motion(
     scene: Scene, engine: Engine, sources: Sources | None, evaluated: list[str], expected: dict[str, Any]
 ) -> Crank:
-    """The crank's angle-time table over the scene (and a second beyond), by the named speed model."""
+    """The crank's angle-time table over the scene (and a second beyond), by the named speed model.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene: its duration [s], operating point (mean speed and its trend) and ``crank_speed``
+        effect, if named (rigid, shaft_line or variable_inertia).
+    engine : Engine
+        The simulated engine (its inertias and shaft line, for the speed models).
+    sources : Sources or None
+        The named sources' torque orders (:func:`~monitor.scene.sources.sources_of`); needed by the
+        rigid and shaft-line models, None if no source is named.
+    evaluated : list of str
+        The effects evaluated so far; ``"crank_speed"`` is appended when it is.
+    expected : dict
+        The truth's expected orders; the crank speed's (``"crank speed"``) or the free angular
+        vibration's (``"crank angular vibration"``) are added when ``crank_speed`` is named.
+
+    Returns
+    -------
+    Crank
+        Crank angles [rad] on a fine grid (:data:`FINE` points per revolution), the times they are
+        reached [s], and the mean speed against time [rad/s].
+
+    Raises
+    ------
+    SceneError
+        If the speed model cannot be evaluated for the scene or engine (the message says what to change).
+    """
     mean = _mean_speed(scene)
     span = scene.duration_s + 1.0  # a second beyond the end, so the last samples have angles
     coarse_t = np.linspace(0.0, span, max(2, int(span * 200)) + 1)

@@ -70,7 +70,31 @@ class Sources:
 
 
 def sources_of(scene: Scene, engine: Engine, evaluated: list[str]) -> Sources | None:
-    """Order coefficients of every named source (None if none is named: nothing is computed)."""
+    """Order coefficients of every named source (None if none is named: nothing is computed).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene: its load and the named sources (inertia, gas, unbalance, external_torque) and
+        cylinder faults (misfire, weak_cylinder, leaking_cylinder).
+    engine : Engine
+        The simulated engine (cylinders, firing angles, cycle, bearings).
+    evaluated : list of str
+        The effects evaluated so far; each source and fault evaluated here is appended.
+
+    Returns
+    -------
+    Sources or None
+        Engine torque [N m] and main-bearing forces [N] as orders of the crank angle
+        (``A + Omega^2 B``), and the cylinders' pressures [Pa] over their cycle, as far as the named
+        sources give them.
+
+    Raises
+    ------
+    SceneError
+        For a gas scale of another length than the cylinders, a cylinder or throw the engine does
+        not have, or cylinder faults with the measured gas model.
+    """
     inertia = named(scene, "inertia")
     gas = named(scene, "gas")
     unbalance = named(scene, "unbalance")
@@ -251,7 +275,25 @@ def _cylinder_forces(
 
 
 def external_torque_orders(params: BaseModel, orders: FloatArray) -> ComplexArray:
-    """The external torque's coefficients on the grid of orders (speed-independent) [N m]."""
+    """The external torque's coefficients on the grid of orders (speed-independent) [N m].
+
+    Parameters
+    ----------
+    params : ExternalTorqueParams
+        The ``external_torque`` effect: its orders, each with an amplitude [N m] and a phase [deg].
+    orders : ndarray
+        The grid of orders, shape (n_orders,) [-]: multiples of one over the cycle's revolutions.
+
+    Returns
+    -------
+    ndarray of complex
+        Complex peak amplitude at each order of the grid, shape (n_orders,) [N m]; 0 where none is given.
+
+    Raises
+    ------
+    SceneError
+        If an order is not on the grid (not a multiple of its step, or above its highest).
+    """
     assert isinstance(params, ExternalTorqueParams)
     out = np.zeros(orders.size, dtype=np.complex128)
     for item in params.orders:

@@ -19,7 +19,22 @@ MAX_ORDER = 36.0  # highest order synthesised [-]
 
 
 def synthesise(coefficients: ComplexArray, orders: FloatArray, angle: FloatArray) -> FloatArray:
-    """``Re sum_k c_k exp(i k angle)`` for coefficients per sample (n, n_orders) or shared (n_orders,)."""
+    """``Re sum_k c_k exp(i k angle)`` for coefficients per sample (n, n_orders) or shared (n_orders,).
+
+    Parameters
+    ----------
+    coefficients : ndarray of complex
+        Complex peak amplitudes ``c_k`` [the quantity's unit], shape (n, n_orders) or (n_orders,).
+    orders : ndarray
+        The orders ``k`` of the crank angle, shape (n_orders,) [-].
+    angle : ndarray
+        Crank angles, shape (n,) [rad].
+
+    Returns
+    -------
+    ndarray
+        The sum at each angle, shape (n,) [the quantity's unit].
+    """
     phasor = np.exp(1j * np.multiply.outer(angle, orders))
     return np.asarray(np.real((phasor * coefficients).sum(axis=-1)))
 

@@ -366,11 +366,18 @@ def choose_resampler(
         The FFT filter's passband edge as a fraction of ``stopband_hz`` [-]: the splines lose up to 4e-4
         of a sine at the passband's edge, so the wanted orders are kept well inside it.
     spacing : float
-        Input samples per grid point at the mean speed.
+        Input samples per grid point at the mean speed [-]: the fused kernel is chosen only where
+        its length is at most ``_FUSED_TAPS_PER_INPUT`` (48) taps times this.
     anti_alias : bool
         Filter; without it, B-splines of ``interpolation_order`` (or cubic).
     interpolation_order : {1, 3, 5} or None
         B-splines of this order; None for the fused kernel where it fits.
+
+    Returns
+    -------
+    Resampler
+        The fused band-limited kernel, or the FFT filter (with ``anti_alias``) followed by
+        B-splines of ``interpolation_order`` (cubic if None).
     """
     kernel: _BandLimited | None = None
     fir: CentredFir | None = None

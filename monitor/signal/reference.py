@@ -166,7 +166,23 @@ def _wheel_decoding(recording: Recording, channel: Channel) -> ToothWheelDecodin
 
 
 def waveform_rate(channel: Channel) -> float:
-    """A waveform channel's sample rate [Hz]; an event channel is refused."""
+    """A waveform channel's sample rate [Hz]; an event channel is refused.
+
+    Parameters
+    ----------
+    channel : Channel
+        The channel of a recording.
+
+    Returns
+    -------
+    float
+        Its sample rate [Hz].
+
+    Raises
+    ------
+    SignalError
+        If it holds events (no sample rate).
+    """
     if channel.sample_rate is None:
         raise SignalError(f"channel {channel.name!r} holds events, not a waveform")
     return float(channel.sample_rate)

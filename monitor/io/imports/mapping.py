@@ -111,7 +111,23 @@ def load_mapping(path: str | Path) -> ImportMapping:
 
 
 def optional_module(module: str) -> Any:
-    """The optional reader ``module`` (asammdf, npTDMS), imported when a file of its format is met."""
+    """The optional reader ``module`` (asammdf, npTDMS), imported when a file of its format is met.
+
+    Parameters
+    ----------
+    module : str
+        The reader's import name, e.g. ``"asammdf"`` or ``"nptdms"``.
+
+    Returns
+    -------
+    module
+        The imported module.
+
+    Raises
+    ------
+    FormatError
+        If it is not installed, saying how to install the ``import`` extra.
+    """
     try:
         return importlib.import_module(module)
     except ImportError:
@@ -121,6 +137,33 @@ def optional_module(module: str) -> Any:
 def mapped_channel(
     mapping: ChannelMapping, data: np.ndarray, rate: float, offset: float, unit: str
 ) -> Channel:
+    """The recording channel a mapped source channel becomes: renamed, scaled, its data quality found.
+
+    Parameters
+    ----------
+    mapping : ChannelMapping
+        The mapping's entry for this channel: its name, kind, unit, location,
+        direction, fields and the ``scale`` the samples are multiplied by.
+    data : ndarray
+        The source channel's samples, shape (n,) [the source's unit].
+    rate : float
+        Sample rate [Hz]: given, or derived from the source's times.
+    offset : float
+        Time of the first sample after the recording's start [s].
+    unit : str
+        The unit the source states ("" if none); the mapping's ``unit``, if
+        given, replaces it.
+
+    Returns
+    -------
+    Channel
+        With its data-quality spans found (:meth:`Channel.checked`).
+
+    Raises
+    ------
+    FormatError
+        If the channel is not a valid recording channel (kind, unit, rate, start offset).
+    """
     values = data if mapping.scale == 1.0 else data * mapping.scale
     fields: dict[str, float | int | str] = dict(mapping.fields)
     return Channel(
@@ -137,6 +180,27 @@ def mapped_channel(
 
 
 def mapped_start_time(mapping: ImportMapping, fallback: datetime | None) -> str:
+    """The recording's start time: the mapping's ``start_time``, else the one the source states.
+
+    Parameters
+    ----------
+    mapping : ImportMapping
+        Its ``start_time``, if given, is used as written.
+    fallback : datetime or None
+        The start time the source file states (taken as UTC if naive); None if
+        it states none (text files).
+
+    Returns
+    -------
+    str
+        ISO 8601 UTC time with microseconds, e.g. ``2026-01-01T00:00:00.000000Z``
+        (or the mapping's ``start_time`` as written).
+
+    Raises
+    ------
+    FormatError
+        If neither the mapping nor the source gives a start time.
+    """
     if mapping.start_time:
         return mapping.start_time
     if fallback is None:
@@ -146,7 +210,24 @@ def mapped_start_time(mapping: ImportMapping, fallback: datetime | None) -> str:
 
 
 def refuse_text_options(mapping: ImportMapping, source: Path, kind: str) -> None:
-    """Refuse what a mapping says that this kind of file cannot use."""
+    """Refuse what a mapping says that this kind of file cannot use.
+
+    Parameters
+    ----------
+    mapping : ImportMapping
+        Its text-file options (``time_column``, ``delimiter``, ``header_rows``,
+        ``time_unit``; ``time_tolerance_s`` for TDMS) must be unset, and its
+        channels' sources must be channel names, not column numbers.
+    source : Path
+        The file being imported, named in the refusal.
+    kind : str
+        The file's format as the refusal names it: ``"MDF"`` or ``"TDMS"``.
+
+    Raises
+    ------
+    FormatError
+        Naming the options, or the channel, that do not apply.
+    """
     keys = [k for k in ("time_column", "delimiter", "header_rows") if getattr(mapping, k) is not None]
     if mapping.time_unit != "s":
         keys.append("time_unit")

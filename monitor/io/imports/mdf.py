@@ -84,7 +84,18 @@ def import_mdf(path: str | Path, mapping: ImportMapping, *, sample_rate_hz: floa
 
 
 def is_mdf(source: Path) -> bool:
-    """Whether the file starts as an MDF file does (MDF 3 files often end in ``.dat``)."""
+    """Whether the file starts as an MDF file does (MDF 3 files often end in ``.dat``).
+
+    Parameters
+    ----------
+    source : Path
+        The file; one that cannot be read is not an MDF file.
+
+    Returns
+    -------
+    bool
+        True if its first bytes are ``MDF`` or ``UnFinMF`` (an MDF 4 file not finalised).
+    """
     try:
         with open(source, "rb") as fh:
             return fh.read(8).startswith((b"MDF", b"UnFinMF"))

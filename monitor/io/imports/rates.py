@@ -81,13 +81,37 @@ _NUMBER = re.compile(r"[+-]?(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?")
 
 
 def significant_digits(text: str) -> int:
-    """Significant digits of a written number (0 if it is not one)."""
+    """Significant digits of a written number (0 if it is not one).
+
+    Parameters
+    ----------
+    text : str
+        A number as written in a file, e.g. ``"0.00125"`` or ``"1.25e-3"`` (surrounding blanks ignored).
+
+    Returns
+    -------
+    int
+        Its digits without leading zeros, the exponent left out: 3 for both examples.
+    """
     match = _NUMBER.fullmatch(text.strip())
     return len((match.group(1) + (match.group(2) or "")).lstrip("0")) if match else 0
 
 
 def printed_rounding(texts: Iterable[str]) -> Rounding:
-    """The rounding of times written as text: the most decimals and the most significant digits seen."""
+    """The rounding of times written as text: the most decimals and the most significant digits seen.
+
+    Parameters
+    ----------
+    texts : iterable of str
+        Times as written in the file [the time column's unit], e.g. a sample of its rows; entries that
+        are not numbers are skipped.
+
+    Returns
+    -------
+    Rounding
+        ``step`` the finest decimal step seen [the time column's unit] (0 if no number), ``significant``
+        the most significant digits seen.
+    """
     decimals: int | None = None
     significant = 0
     for text in texts:
@@ -102,7 +126,19 @@ def printed_rounding(texts: Iterable[str]) -> Rounding:
 
 
 def grid_rounding(t: np.ndarray) -> Rounding:
-    """Binary time stamps: the coarsest decimal grid, at most a tenth of the sample interval, they lie on."""
+    """Binary time stamps: the coarsest decimal grid, at most a tenth of the sample interval, they lie on.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time stamps, shape (n,), increasing [s].
+
+    Returns
+    -------
+    Rounding
+        ``step`` the grid [s], but no finer than 2e-6 of the mean sample interval (that alone for
+        stamps on no decimal grid); ``Rounding()`` for fewer than two times or times that do not increase.
+    """
     interval = float(t[-1] - t[0]) / (t.size - 1) if t.size > 1 else 0.0
     if not (math.isfinite(interval) and interval > 0):
         return Rounding()
@@ -155,7 +191,31 @@ def _off_line(
 
 
 def fixed_rate(t: np.ndarray, rounding: Rounding, where: str, row: Callable[[int], str]) -> float:
-    """The sample rate [Hz] of times t [s] written with a rounding; refuses gaps and jitter beyond it."""
+    """The sample rate [Hz] of times t [s] written with a rounding; refuses gaps and jitter beyond it.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time of each sample, shape (n,) [s].
+    rounding : Rounding
+        How coarsely the times were written (:func:`printed_rounding`, :func:`grid_rounding`, or the
+        mapping's ``time_tolerance_s``), which bounds their deviation from a fixed rate.
+    where : str
+        The file and channel or time column, named in a refusal.
+    row : callable
+        Sample index -> where it is in the file (``"line 12"``, ``"sample 10"``), named in a refusal.
+
+    Returns
+    -------
+    float
+        The least-squares rate [Hz]; the nearest whole number of Hz where the times fit that as well.
+
+    Raises
+    ------
+    FormatError
+        For fewer than two samples, a time that is not finite, times that do not increase, or a gap or
+        jitter beyond the rounding (naming the row).
+    """
     n = t.size
     if n < 2:
         raise FormatError(f"{where}: fewer than two samples, so no rate can be derived; {RATE_HINT}")

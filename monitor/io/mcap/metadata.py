@@ -69,7 +69,22 @@ def metadata_crc32(metadata: dict[str, dict[str, str]]) -> int:
 def check_metadata_crc(
     source: Path, channels: list[McapChannel], metadata: dict[str, dict[str, str]]
 ) -> None:
-    """Refuse a file whose metadata records do not match the CRC its (checksummed) channels state."""
+    """Refuse a file whose metadata records do not match the CRC its (checksummed) channels state.
+
+    Parameters
+    ----------
+    source : Path
+        The file, named in a refusal.
+    channels : list of mcap.records.Channel
+        The file's channel records, each stating :data:`METADATA_CRC` in its metadata.
+    metadata : dict of str to dict of str to str
+        The file's metadata records by name, as read (see :func:`metadata_crc32`).
+
+    Raises
+    ------
+    FormatError
+        If a channel states no CRC, or one that does not match the metadata records.
+    """
     actual = metadata_crc32(metadata)
     for channel in channels:
         where = f"{source}: channel {channel.topic.lstrip('/')!r}"
@@ -87,6 +102,22 @@ def check_metadata_crc(
 
 
 def check_recording_metadata(source: Path, recording_meta: dict[str, str] | None) -> None:
+    """Refuse a file whose ``recording`` metadata record is missing, of another format or version,
+    or without its engine or start time.
+
+    Parameters
+    ----------
+    source : Path
+        The file, named in a refusal.
+    recording_meta : dict of str to str or None
+        The entries of the file's ``recording`` metadata record; None if it has none.
+
+    Raises
+    ------
+    FormatError
+        If the record is missing or does not name :data:`FORMAT_NAME`, its ``format_version`` is not
+        :data:`FORMAT_VERSION`, or ``engine_id`` or ``start_time`` is missing or empty.
+    """
     if recording_meta is None or recording_meta.get("format") != FORMAT_NAME:
         raise FormatError(
             f"{source}: not an {FORMAT_NAME} (no 'recording' metadata record naming the format)"
@@ -101,7 +132,25 @@ def check_recording_metadata(source: Path, recording_meta: dict[str, str] | None
 
 
 def cycle_phase(source: Path, recording_meta: dict[str, str]) -> float | None:
-    """The recording metadata's ``cycle_phase_deg``, if stated [deg]."""
+    """The recording metadata's ``cycle_phase_deg``, if stated [deg].
+
+    Parameters
+    ----------
+    source : Path
+        The file, named in a refusal.
+    recording_meta : dict of str to str
+        The entries of the file's ``recording`` metadata record.
+
+    Returns
+    -------
+    float or None
+        The four-stroke cycle phase [deg] (0 or 360); None if not stated.
+
+    Raises
+    ------
+    FormatError
+        If the entry is not a number.
+    """
     text = recording_meta.get("cycle_phase_deg")
     if text is None:
         return None
@@ -112,6 +161,21 @@ def cycle_phase(source: Path, recording_meta: dict[str, str]) -> float | None:
 
 
 def channel_metadata(c: Channel) -> dict[str, str]:
+    """A channel's attributes as the MCAP channel metadata it is written with (strings).
+
+    Parameters
+    ----------
+    c : Channel
+        The recording channel to write.
+
+    Returns
+    -------
+    dict of str to str
+        ``kind``, ``unit``, ``representation`` ("waveform" or "events"), ``start_offset_s`` [s],
+        ``location``, ``direction``, ``dtype``, ``samples``; ``sample_rate_hz`` [Hz] for a waveform;
+        the channel's fields; ``range_min`` and ``range_max`` [the channel's unit] if it has a range.
+        Floats are written with ``repr``, so they read back exactly.
+    """
     meta = {
         "kind": c.kind,
         "unit": c.unit,
@@ -135,6 +199,25 @@ def channel_metadata(c: Channel) -> dict[str, str]:
 
 
 def checked_channel_metadata(source: Path, channel: McapChannel) -> dict[str, str]:
+    """An MCAP channel record's metadata, refused if it lacks an entry every channel has.
+
+    Parameters
+    ----------
+    source : Path
+        The file, named in a refusal.
+    channel : mcap.records.Channel
+        The channel record as read; its topic is ``/`` and the channel's name.
+
+    Returns
+    -------
+    dict of str to str
+        A copy of its metadata, with ``kind``, ``unit``, ``representation`` and ``dtype``.
+
+    Raises
+    ------
+    FormatError
+        If one of those is missing, or ``representation`` is neither "waveform" nor "events".
+    """
     meta = dict(channel.metadata)
     for key in ("kind", "unit", "representation", "dtype"):
         if key not in meta:
@@ -153,6 +236,24 @@ def metadata_number(
     where: str, meta: dict[str, str], key: str, kind: type[_N], default: _N | None = None
 ) -> _N:
     """A number of a channel's metadata (stored as a string), or the default where it is absent.
+
+    Parameters
+    ----------
+    where : str
+        The file and channel, named in a refusal.
+    meta : dict of str to str
+        The channel's metadata.
+    key : str
+        The entry, e.g. ``"sample_rate_hz"`` [Hz], ``"start_offset_s"`` [s] or ``"samples"``.
+    kind : type
+        ``int`` or ``float``: the type the entry is read as.
+    default : int or float, optional
+        Returned where the entry is absent; without it, an absent entry is refused.
+
+    Returns
+    -------
+    int or float
+        Of ``kind``, in the entry's unit.
 
     Raises
     ------
@@ -173,7 +274,25 @@ def metadata_number(
 
 
 def metadata_dtype(where: str, meta: dict[str, str]) -> np.dtype[Any]:
-    """The sample type a channel's metadata states (a numpy float or integer type)."""
+    """The sample type a channel's metadata states (a numpy float or integer type).
+
+    Parameters
+    ----------
+    where : str
+        The file and channel, named in a refusal.
+    meta : dict of str to str
+        The channel's metadata, with its ``dtype`` entry (see :func:`checked_channel_metadata`).
+
+    Returns
+    -------
+    numpy.dtype
+        float32 or float64: the only sample types the format admits.
+
+    Raises
+    ------
+    FormatError
+        If ``dtype`` names no numpy type, or one that is not a float.
+    """
     try:
         dtype = np.dtype(meta["dtype"])
     except TypeError:
@@ -186,6 +305,30 @@ def metadata_dtype(where: str, meta: dict[str, str]) -> np.dtype[Any]:
 
 
 def channel_from_metadata(source: Path, channel: McapChannel, meta: dict[str, str], data: Any) -> Channel:
+    """The recording channel an MCAP channel record and its samples make.
+
+    Parameters
+    ----------
+    source : Path
+        The file, named in a refusal.
+    channel : mcap.records.Channel
+        The channel record; its topic less the leading ``/`` is the channel's name.
+    meta : dict of str to str
+        Its metadata, checked by :func:`checked_channel_metadata`.
+    data : ndarray or McapSamples
+        The samples [the channel's unit] or event times [s], shape (n,): in memory, or read by
+        slices from the file (:class:`~monitor.io.mcap.samples.McapSamples`).
+
+    Returns
+    -------
+    Channel
+        Not yet checked for data quality (:meth:`Channel.checked`).
+
+    Raises
+    ------
+    FormatError
+        If an entry (rate, start offset, range, a field of its kind) is not valid, naming the file.
+    """
     name = channel.topic.lstrip("/")
     where = f"{source}: channel {name!r}"
     rate = (

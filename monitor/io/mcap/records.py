@@ -36,6 +36,22 @@ def summary_checked(fh: IO[bytes], source: Path) -> bool:
 
     False for a file without a summary or whose writer left the summary CRC at
     zero: its metadata cannot be trusted from the summary, and it is read by streaming.
+
+    Parameters
+    ----------
+    fh : binary file
+        The MCAP file, open for reading; left at its start.
+    source : Path
+        The file, named in a refusal.
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    FormatError
+        If the footer puts the summary outside the file, or the summary's CRC does not match.
     """
     size = os.fstat(fh.fileno()).st_size
     end = size - len(MCAP_MAGIC)
@@ -124,7 +140,19 @@ class _WholeReads:
 
 
 def bounded(fh: IO[bytes]) -> IO[bytes]:
-    """An open MCAP file for the official readers, read through :class:`_WholeReads`."""
+    """An open MCAP file for the official readers, read through :class:`_WholeReads`.
+
+    Parameters
+    ----------
+    fh : binary file
+        The MCAP file, open for reading, at its start.
+
+    Returns
+    -------
+    binary file
+        Every read returns all the bytes asked for or raises :class:`_CutShort`; a seek outside
+        the file is refused.
+    """
     return cast(IO[bytes], _WholeReads(fh, os.fstat(fh.fileno()).st_size))
 
 
@@ -138,7 +166,28 @@ class Chunked:
 def checked_records(path: Path, *, mark_chunked: bool = False) -> Iterator[Any]:
     """Records of an MCAP file, CRCs checked; a file cut short stops at its last whole record (that is,
     after its last whole chunk) and then yields None. With ``mark_chunked``, a channel record from
-    inside a chunk comes as a :class:`Chunked`."""
+    inside a chunk comes as a :class:`Chunked`.
+
+    Parameters
+    ----------
+    path : Path
+        The MCAP file.
+    mark_chunked : bool, optional
+        Yield a channel record from inside a chunk (covered by its CRC) as a :class:`Chunked`, to
+        tell it from the summary's copy (default False).
+
+    Yields
+    ------
+    mcap record, Chunked or None
+        The file's records in order, a chunk's schemas, channels and messages in place of the
+        chunk; None once, last, if the file was cut short.
+
+    Raises
+    ------
+    FormatError
+        If it is not an MCAP file, cannot be read, or is damaged (a CRC, record or decompression
+        failure, or a record running past the end of a file that ends with the MCAP magic).
+    """
     if file_signature(path) != MCAP_MAGIC:
         raise FormatError(f"{path}: not an MCAP file (no MCAP magic at its start)")
     try:
@@ -189,7 +238,24 @@ def _chunk_records(chunk: Chunk) -> Iterator[Schema | McapChannel | Message]:
 
 @contextlib.contextmanager
 def damage_named(where: str) -> Iterator[None]:
-    """A CRC, record or decompression failure while reading, as a FormatError naming ``where``."""
+    """A CRC, record or decompression failure while reading, as a FormatError naming ``where``.
+
+    Parameters
+    ----------
+    where : str
+        The file (and channel), named in the FormatError.
+
+    Yields
+    ------
+    None
+        The body runs inside; a FormatError it raises passes unchanged.
+
+    Raises
+    ------
+    FormatError
+        "checksum failure" for a CRC or decompression failure, "damaged MCAP file" for a record
+        that does not parse.
+    """
     try:
         yield
     except FormatError:

@@ -137,7 +137,26 @@ def decode_block(data: bytes) -> tuple[float, float, np.ndarray]:
 
 
 def decode_channel_block(where: str, data: bytes) -> tuple[float, float, np.ndarray]:
-    """:func:`decode_block`, its refusal naming the file and channel (``where``)."""
+    """:func:`decode_block`, its refusal naming the file and channel (``where``).
+
+    Parameters
+    ----------
+    where : str
+        The file and channel, named in a refusal.
+    data : bytes
+        The message.
+
+    Returns
+    -------
+    start_offset, sample_rate, values : float, float, ndarray
+        As :func:`decode_block`: start offset [s], sample rate [Hz] (0 for an EventBlock), and the
+        samples or event times [s].
+
+    Raises
+    ------
+    FormatError
+        As :func:`decode_block`, prefixed with ``where``.
+    """
     try:
         return decode_block(data)
     except FormatError as error:
