@@ -274,7 +274,7 @@ def metadata_number(
 
 
 def metadata_dtype(where: str, meta: dict[str, str]) -> np.dtype[Any]:
-    """The sample type a channel's metadata states (a numpy float or integer type).
+    """The sample type a channel's metadata states: float32 or float64, anything else refused.
 
     Parameters
     ----------
