@@ -56,6 +56,7 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.jobs.analyse import DIAGNOSIS, diagnose_file
 from monitor.jobs.delivery import DeliveryPolicy, deliver_due
@@ -111,8 +112,6 @@ def run_batch(
     -------
     BatchSummary
     """
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     summary = BatchSummary()
     given: list[tuple[int, str, str]] = []  # each file in scope: its recording's id, its name, its path
     cut_short: set[int] = set()
@@ -169,8 +168,6 @@ def _run_jobs(
     context: _Run, scheduler: str | None, workers: int | None, pending: list[Job], held: list[int], total: int
 ) -> None:
     """Run this run's jobs, then wait for those another run holds (see the module docstring)."""
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     store, summary, lease = context.store, context.summary, context.lease
     with _executor(scheduler, workers, total) as (pool, count):
         held += context.run(pool, count, pending, total)
@@ -197,8 +194,6 @@ def _run_jobs(
 def _outcome(store: Store, recording_id: int, context: _Run, *, truncated: bool) -> RecordingOutcome:
     """Where a recording of the scope stands: its diagnosis (stored), else its job's state; its plot
     where the store says its diagnosis kept it, if that file is in this run's data folder."""
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     row = store.recording(context.fleet_id, recording_id)
     assert row is not None  # in the scope: registered in this fleet
     kept = store.plot(context.fleet_id, recording_id, ANALYSIS_VERSION)

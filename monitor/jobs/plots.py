@@ -13,6 +13,7 @@ import re
 from collections.abc import Iterable
 from pathlib import PurePath
 
+from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError
 from monitor.store import Store
 
@@ -50,8 +51,6 @@ def plot_names(recordings: Iterable[tuple[int, str]]) -> dict[int, str]:
     dict of int to str
         The plot's file name, by recording id.
     """
-    from monitor.diagnosis import ANALYSIS_VERSION
-
     listed = sorted(recordings)
     first: dict[str, int] = {}
     for recording_id, filename in listed:

@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.jobs.analyse import EXIT_STATUS
 
 __all__ = ["NOT_DIAGNOSED", "BatchSummary", "RecordingOutcome", "joined", "one_line"]
@@ -210,8 +211,6 @@ class BatchSummary:
 
     def document(self) -> dict[str, Any]:
         """The summary for programs (``batch --json``, described in docs/service.md)."""
-        from monitor.diagnosis import ANALYSIS_VERSION
-
         return {
             "analysis_version": ANALYSIS_VERSION,
             "exit_status": self.exit_status,

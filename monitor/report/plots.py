@@ -6,6 +6,7 @@ physics puts where. Each function writes one PNG and returns its path.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ import numpy as np
 from monitor.errors import MonitorError, PlotError
 from monitor.io.files import in_existing_folder
 from monitor.model.crankshaft import EngineModel
+from monitor.model.engine import bundled_engines, load_engine
 from monitor.model.predicted import ModelOrders
 
 __all__ = [
@@ -324,12 +326,11 @@ def plot_diagnosis(
     -------
     Path
     """
-    import math
-
     out = Path(path)
     if out.suffix.lower() not in (".png", ".html", ".htm"):
         raise MonitorError(f"--plot {out}: expected a .png or .html file")
     if out.suffix.lower() != ".png":
+        # the HTML page's documents need the diagnosis package (scipy): not for `orders --plot`
         from monitor.report.diagnosis import diagnosis_document
         from monitor.report.spectrum_json import spectrum_document
         from monitor.report.web import recording_page
@@ -363,8 +364,6 @@ def plot_diagnosis(
         ax.legend(loc="upper right", fontsize=8)
     axes[-1, 0].set_xlabel("order")
     if balance is not None:
-        from monitor.model.engine import bundled_engines, load_engine
-
         angles = None
         if diagnosis.engine_id in bundled_engines():
             angles = load_engine(bundled_engines()[diagnosis.engine_id]).firing_angles
