@@ -63,7 +63,7 @@ def calibrate(
     pitch_from : Recording, optional
         A run of the same wheel whose speed changes (motored run-up, coast-down with the fuel
         cut): the wheel's pitch errors are learned on it at every order, firing harmonics included
-        (:func:`monitor.signal.measure.learn_pitch_errors_over_speed`), instead of on ``recording`` with
+        (:func:`monitor.signal.reference.learn_pitch_errors_over_speed`), instead of on ``recording`` with
         the firing harmonics left to the engine.
     exclude : sequence of str, optional
         Channels left out (not calibrated).
