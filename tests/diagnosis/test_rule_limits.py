@@ -1,0 +1,335 @@
+"""Each finding rule just inside and just outside each of its limits: the exact severity and label.
+
+The limits are those of docs/diagnosis.md, "Findings", written here as literal numbers (the inputs
+are built from them, not from :mod:`monitor.diagnosis.findings`' constants), so that a changed
+constant fails a test instead of moving the test with it.  The rules are called directly on
+constructed estimates (:class:`CylinderBalance`, :class:`ImpactScore`, :class:`OrderDeviation`,
+:class:`SensorFault`, :class:`VelocityRms`).
+
+Mutations of findings.py each of which fails this module (and which the acceptance set in
+test_diagnosis.py does not all notice), with a test that catches it:
+
+- ``MISFIRE_BELOW`` 0.3 -> -1: test_a_cylinder_against_the_others[misfiring below 30 %],
+  test_a_single_cylinder[no baseline: misfiring below 30 %], ...[a baseline reference at or below
+  30 % is no reference];
+- ``CYLINDER_ALARM`` low 0.5 -> 0.3: test_a_cylinder_against_the_others[alarm below 50 %];
+- ``CYLINDER_WARNING`` low 0.85 -> 0.75: test_a_cylinder_against_the_others[warning below 85 %];
+- ``SIGNIFICANCE`` 4 -> 3: test_a_cylinder_against_the_others[beyond the band, 3.9 contrast errors
+  from 100 %], test_impacts[significance below 4], test_bearing_orders[3.99 errors];
+- ``IMPACT_WITHOUT_BASELINE`` 10 -> 8: test_impacts[no baseline: below 10 x];
+- the labels "misfiring" and "weak, leaking or misfiring" swapped: every misfiring and weak row of
+  test_a_cylinder_against_the_others and test_a_single_cylinder;
+- and each constant against its documented value: test_the_limits_are_those_documented.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from monitor.diagnosis import findings
+from monitor.diagnosis.balance import CylinderBalance
+from monitor.diagnosis.bearings import ImpactScore, OrderDeviation
+from monitor.diagnosis.diagnose import _zones
+from monitor.diagnosis.findings import (
+    BearingResult,
+    Finding,
+    bearing_findings,
+    cylinder_findings,
+    sensor_finding,
+    single_cylinder_findings,
+)
+from monitor.diagnosis.sensors import SensorFault
+from monitor.diagnosis.zones import DEFAULT_BOUNDARIES_MM_S, VelocityRms
+from monitor.io.recording import Channel, Recording
+
+MISFIRING = "misfiring"
+WEAK = "weak, leaking or misfiring"
+NEARLY = "misfiring, or nearly: no firing is within its 95 % interval"
+STRONGER = "stronger than the others"
+STRONGER_THAN_MODEL = "stronger than the model"
+
+
+def test_the_limits_are_those_documented() -> None:
+    """docs/diagnosis.md, "Findings": 4 standard errors; a cylinder against the others a warning below
+    85 % or above 115 %, an alarm below 50 % or above 130 %, misfiring below 30 %; a single cylinder's
+    error at least 15 % against the model (10 % against its baseline); bearing orders 50 % and 100 %;
+    impacts 1.25 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
+    alarm, localised by a factor of 2; zones C and D from 11 and 18 mm/s."""
+    assert findings.SIGNIFICANCE == 4.0
+    assert findings.CYLINDER_WARNING == (0.85, 1.15)
+    assert findings.CYLINDER_ALARM == (0.5, 1.3)
+    assert findings.MISFIRE_BELOW == 0.3
+    assert findings.ABSOLUTE_UNCERTAINTY == 0.15
+    assert findings.BASELINE_UNCERTAINTY == 0.10
+    assert (findings.BEARING_WARNING, findings.BEARING_ALARM) == (0.5, 1.0)
+    assert (findings.IMPACT_WARNING, findings.IMPACT_ALARM) == (1.25, 10.0)
+    assert findings.IMPACT_WITH_CYLINDER_FINDING == 2.0
+    assert findings.IMPACT_WITHOUT_BASELINE == 10.0
+    assert findings.LOCALISED == 2.0
+    assert DEFAULT_BOUNDARIES_MM_S == (7.1, 11.0, 18.0)
+
+
+def _label(summary: str) -> str:
+    """What a cylinder finding calls the cylinder: the text between its summary's "(" and ";"."""
+    match = re.search(r"\(([^;(]*);", summary)
+    assert match is not None, summary
+    return match.group(1)
+
+
+def _balance(strength: list[float], relative: list[float], error: float, contrast: float) -> CylinderBalance:
+    """A balance with the given strengths and shares, every cylinder with the same errors."""
+    n = len(strength)
+    empty = np.zeros(0)
+    none = np.zeros(0, dtype=np.complex128)
+    return CylinderBalance(
+        strength=np.asarray(strength, dtype=np.float64),
+        strength_covariance=np.diag(np.full(n, error**2)),
+        relative=np.asarray(relative, dtype=np.float64),
+        relative_error=np.full(n, error),
+        contrast_error=np.full(n, contrast),
+        model_uncertainty=0.1,
+        orders=empty,
+        measured=none,
+        predicted=none,
+        standard_error=empty,
+        unit="N m",
+        condition=1.0,
+        chi2_reduced=1.0,
+        separable=True,
+        strength_meaning="heat release",
+        transfer="rigid",
+        inertia=1.0,
+    )
+
+
+def _only(found: list[Finding]) -> tuple[str, str, float] | None:
+    """The one finding's severity, label and threshold, or None without a finding."""
+    assert len(found) <= 1, [f.summary for f in found]
+    if not found:
+        return None
+    finding = found[0]
+    assert finding.kind == "cylinder"
+    return finding.severity, _label(finding.summary), finding.evidence[0]["threshold"]
+
+
+# (id, share of the others, its standard error, its contrast error, expected severity, label, threshold)
+AGAINST_THE_OTHERS: list[tuple[str, float, float, float, tuple[str, str, float] | None]] = [
+    ("healthy above 85 %", 0.86, 0.01, 0.01, None),
+    ("warning below 85 %", 0.84, 0.01, 0.01, ("warning", WEAK, 0.85)),
+    ("warning above 50 %", 0.51, 0.01, 0.01, ("warning", WEAK, 0.85)),
+    ("alarm below 50 %", 0.49, 0.01, 0.01, ("alarm", WEAK, 0.5)),
+    ("weak above 30 %", 0.31, 0.01, 0.01, ("alarm", WEAK, 0.5)),
+    ("misfiring below 30 %", 0.29, 0.01, 0.01, ("alarm", MISFIRING, 0.5)),
+    ("healthy below 115 %", 1.14, 0.01, 0.01, None),
+    ("warning above 115 %", 1.16, 0.01, 0.01, ("warning", STRONGER, 1.15)),
+    ("warning below 130 %", 1.29, 0.01, 0.01, ("warning", STRONGER, 1.15)),
+    ("alarm above 130 %", 1.31, 0.01, 0.01, ("alarm", STRONGER, 1.3)),
+    # 0.80 is beyond the warning limit: a finding only 4 contrast errors (0.05) from 100 %
+    ("beyond the band, 3.9 contrast errors from 100 %", 0.80, 0.01, 0.2 / 3.9, None),
+    ("beyond the band, 4.1 contrast errors from 100 %", 0.80, 0.01, 0.2 / 4.1, ("warning", WEAK, 0.85)),
+    ("beyond the band, 4.1 errors but 3.9 contrast errors", 0.80, 0.2 / 4.1, 0.2 / 3.9, None),
+    # an alarm whose 95 % interval (1.96 errors) reaches no firing is called misfiring, or nearly
+    ("alarm, no firing outside 1.96 errors", 0.40, 0.40 / 1.97, 0.01, ("alarm", WEAK, 0.5)),
+    ("alarm, no firing within 1.96 errors", 0.40, 0.40 / 1.95, 0.01, ("alarm", NEARLY, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "error", "contrast", "expected"),
+    [row[1:] for row in AGAINST_THE_OTHERS],
+    ids=[row[0] for row in AGAINST_THE_OTHERS],
+)
+def test_a_cylinder_against_the_others(
+    share: float, error: float, contrast: float, expected: tuple[str, str, float] | None
+) -> None:
+    """Cylinder 2 of three at a share of the others; the two others at 100 % name nothing."""
+    balance = _balance([1.0, share, 1.0], [1.0, share, 1.0], error, contrast)
+    found = cylinder_findings(balance)
+    assert _only(found) == expected
+    if found:
+        assert found[0].subject == "cylinder 2"
+        assert f"({expected[1] if expected else ''}; heat release from the crank-speed orders)" in (
+            found[0].summary
+        )
+
+
+# (id, strength, its standard error, the baseline's strength (None: none), expected)
+SINGLE: list[tuple[str, float, float, float | None, tuple[str, str, float] | None]] = [
+    # against the model: an error of at least 15 %, so 4 of them from 100 % is below 40 % or above 160 %
+    ("no baseline: 15 % error, above 40 %", 0.41, 0.01, None, None),
+    ("no baseline: 15 % error, below 40 %", 0.39, 0.01, None, ("alarm", WEAK, 0.5)),
+    ("no baseline: weak above 30 %", 0.31, 0.01, None, ("alarm", WEAK, 0.5)),
+    ("no baseline: misfiring below 30 %", 0.29, 0.01, None, ("alarm", MISFIRING, 0.5)),
+    ("no baseline: 15 % error, below 160 %", 1.59, 0.01, None, None),
+    ("no baseline: 15 % error, above 160 %", 1.61, 0.01, None, ("warning", STRONGER_THAN_MODEL, 1.3)),
+    ("no baseline: a 20 % error is more than the floor", 0.21, 0.2, None, None),
+    ("no baseline: 4 errors of 20 % from 100 %", 0.19, 0.2, None, ("alarm", MISFIRING, 0.5)),
+    # against a baseline of 100 %: at least 10 %, so below 60 % or above 140 %
+    ("baseline: 10 % error, above 60 %", 0.61, 0.01, 1.0, None),
+    ("baseline: 10 % error, below 60 %", 0.59, 0.01, 1.0, ("warning", WEAK, 0.85)),
+    ("baseline: warning above 50 %", 0.51, 0.01, 1.0, ("warning", WEAK, 0.85)),
+    ("baseline: alarm below 50 %", 0.49, 0.01, 1.0, ("alarm", WEAK, 0.5)),
+    ("baseline: weak above 30 %", 0.31, 0.01, 1.0, ("alarm", WEAK, 0.5)),
+    ("baseline: misfiring below 30 %", 0.29, 0.01, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("baseline: 10 % error, below 140 %", 1.39, 0.01, 1.0, None),
+    ("baseline: 10 % error, above 140 %", 1.41, 0.01, 1.0, ("warning", STRONGER_THAN_MODEL, 1.3)),
+    # the baseline's own strength is the reference: 80 % of it below 60 % of 80 %
+    ("baseline of 80 %: above 60 % of it", 0.8 * 0.61, 0.01, 0.8, None),
+    ("baseline of 80 %: below 60 % of it", 0.8 * 0.59, 0.01, 0.8, ("warning", WEAK, 0.85)),
+    # a baseline that misfired itself is no reference: the model's (with the baseline's error floor)
+    ("a baseline reference above 30 % serves", 0.28, 0.01, 0.31, None),
+    ("a baseline reference at or below 30 % is no reference", 0.28, 0.01, 0.29, ("alarm", MISFIRING, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("strength", "error", "calibrated", "expected"),
+    [row[1:] for row in SINGLE],
+    ids=[row[0] for row in SINGLE],
+)
+def test_a_single_cylinder(
+    strength: float, error: float, calibrated: float | None, expected: tuple[str, str, float] | None
+) -> None:
+    """A single cylinder against its baseline's strength, or without one against the model's."""
+    found = single_cylinder_findings(_balance([strength], [math.nan], error, error), 1.0, calibrated)
+    assert _only(found) == expected
+    if found:
+        assert found[0].subject == "cylinder 1"
+        judged = "its baseline" if calibrated is not None else "the model"
+        assert found[0].summary.endswith(f"a single cylinder is judged against {judged}, not against others)")
+
+
+def _impact(
+    score: float, significance: float = 20.0, needed: float = 3.0, elsewhere: float = 1.0, bearing: int = 5
+) -> ImpactScore:
+    return ImpactScore(
+        bearing=bearing,
+        score=score,
+        score_error=0.1,
+        reference="baseline",
+        reversal_angles_deg=[100.0],
+        significance=significance,
+        significance_needed=needed,
+        angle_deg=100.0,
+        elsewhere=elsewhere,
+    )
+
+
+# (id, impact, with a baseline, a cylinder finding, expected severity and threshold)
+IMPACTS: list[tuple[str, ImpactScore, bool, bool, tuple[str, float] | None]] = [
+    ("baseline: below 1.25 x", _impact(1.24), True, False, None),
+    ("baseline: above 1.25 x", _impact(1.26), True, False, ("warning", 1.25)),
+    ("baseline: below 10 x", _impact(9.99), True, False, ("warning", 1.25)),
+    ("baseline: at 10 x", _impact(10.0), True, False, ("alarm", 10.0)),
+    ("baseline: above 10 x", _impact(10.01), True, False, ("alarm", 10.0)),
+    ("baseline, a cylinder finding: below 2 x", _impact(1.99), True, True, None),
+    ("baseline, a cylinder finding: above 2 x", _impact(2.01), True, True, ("warning", 1.25)),
+    ("no baseline: below 10 x", _impact(9.99), False, False, None),
+    ("no baseline: above 10 x", _impact(10.01), False, False, ("warning", 10.0)),
+    ("no baseline: a warning at most", _impact(50.0), False, False, ("warning", 10.0)),
+    ("no baseline, a cylinder finding: below 10 x", _impact(9.99), False, True, None),
+    ("no baseline, a cylinder finding: above 10 x", _impact(10.01), False, True, ("warning", 10.0)),
+    ("no baseline, no other sensor", _impact(50.0, elsewhere=math.nan), False, False, None),
+    ("significance below 4", _impact(3.0, significance=3.99, needed=1.0), True, False, None),
+    ("significance above 4", _impact(3.0, significance=4.01, needed=1.0), True, False, ("warning", 1.25)),
+    ("significance below the family's", _impact(3.0, significance=5.99, needed=6.0), True, False, None),
+    ("significance above the family's", _impact(3.0, 6.01, 6.0), True, False, ("warning", 1.25)),
+    # an excess of 2 on its own sensor: localised while another sensor's excess is at most half of it
+    ("localised: excess elsewhere below half", _impact(3.0, elsewhere=1.99), True, False, ("warning", 1.25)),
+    ("not localised: excess elsewhere above half", _impact(3.0, elsewhere=2.01), True, False, None),
+    ("localised: quieter elsewhere", _impact(3.0, elsewhere=0.5), True, False, ("warning", 1.25)),
+]
+
+
+@pytest.mark.parametrize(
+    ("impact", "with_baseline", "cylinders_changed", "expected"),
+    [row[1:] for row in IMPACTS],
+    ids=[row[0] for row in IMPACTS],
+)
+def test_impacts(
+    impact: ImpactScore, with_baseline: bool, cylinders_changed: bool, expected: tuple[str, float] | None
+) -> None:
+    """The sensor on main bearing 5 scores a knock span in bearing 5's load-reversal windows."""
+    result = BearingResult("mb5-vertical", 5, None, [impact], elsewhere=impact.elsewhere)
+    found = bearing_findings([result], with_baseline=with_baseline, cylinders_changed=cylinders_changed)
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == ([expected] if expected else [])
+    if found:
+        assert (found[0].kind, found[0].subject) == ("main bearing", "main bearing 5")
+        assert "impacts where its load reverses" in found[0].summary
+
+
+@pytest.mark.parametrize(
+    ("neighbour", "sensed", "expected"),
+    [(1.49, False, None), (1.51, False, "main bearing 6"), (3.0, True, None)],
+    ids=["below 1.5 x its own", "above 1.5 x its own", "a sensor sits on the neighbour"],
+)
+def test_a_neighbour_is_named_only_when_clearly_louder_and_unsensed(
+    neighbour: float, sensed: bool, expected: str | None
+) -> None:
+    """Bearing 5's own windows quiet (1 x): its neighbour 6 is named from this sensor only if it hears it
+    at least 1.5 times as loud and no sensor sits on bearing 6."""
+    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.0), _impact(neighbour, bearing=6)])]
+    if sensed:
+        results.append(BearingResult("mb6-vertical", 6, None, []))
+    found = bearing_findings(results, with_baseline=True)
+    assert [f.subject for f in found] == ([expected] if expected else [])
+
+
+# (id, deviation, its standard error, expected severity)
+ORDERS: list[tuple[str, float, float, str | None]] = [
+    ("below 50 %", 0.49, 0.01, None),
+    ("above 50 %", 0.51, 0.01, "warning"),
+    ("below 100 %", 0.99, 0.01, "warning"),
+    ("at 100 %", 1.0, 0.01, "alarm"),
+    ("3.99 errors", 0.8, 0.8 / 3.99, None),
+    ("4.01 errors", 0.8, 0.8 / 4.01, "warning"),
+]
+
+
+@pytest.mark.parametrize(
+    ("deviation", "error", "expected"), [row[1:] for row in ORDERS], ids=[row[0] for row in ORDERS]
+)
+def test_bearing_orders(deviation: float, error: float, expected: str | None) -> None:
+    """One order's deviation from the calibrated prediction."""
+    orders = OrderDeviation(
+        orders=np.array([2.0]),
+        measured=np.array([1.0 + deviation], dtype=np.complex128),
+        predicted=np.array([1.0], dtype=np.complex128),
+        deviation=np.array([deviation]),
+        deviation_error=np.array([error]),
+    )
+    found = bearing_findings([BearingResult("mb5-vertical", 5, orders, [])], with_baseline=True)
+    assert [f.severity for f in found] == ([expected] if expected else [])
+    if found:
+        assert (found[0].kind, found[0].subject) == ("main bearing", "main bearing 5")
+        assert found[0].evidence[0]["threshold"] == 0.5
+
+
+def _recording() -> Recording:
+    channel = Channel(
+        "mb5-vertical", "acceleration", "m/s^2", np.zeros(64), 1000.0, location="main bearing 5"
+    )
+    return Recording("man-b-w-7k98mc", "2026-11-27T00:00:00Z", (channel,))
+
+
+@pytest.mark.parametrize("fault", ["unusable samples", "dead", "implausible level"])
+def test_a_faulty_sensor_is_a_warning_never_an_alarm(fault: str) -> None:
+    finding = sensor_finding(SensorFault("mb5-vertical", fault, "as measured"), _recording())
+    assert (finding.kind, finding.subject, finding.severity) == ("sensor", "sensor mb5-vertical", "warning")
+    assert finding.summary.startswith(f"sensor mb5-vertical (main bearing 5): {fault}: as measured;")
+
+
+@pytest.mark.parametrize(
+    ("velocity", "expected"),
+    [(10.99, None), (11.0, ("warning", 11.0)), (17.99, ("warning", 11.0)), (18.0, ("alarm", 18.0))],
+    ids=["zone B", "zone C from its boundary", "zone C", "zone D from its boundary"],
+)
+def test_vibration_zones(velocity: float, expected: tuple[str, float] | None) -> None:
+    """The default zone boundaries: zone C a warning, zone D an alarm, a value on a boundary above it."""
+    rms = {"mb5-vertical": VelocityRms(velocity, 0.1, (2.0, 450.0), 16)}
+    _, found = _zones(_recording(), rms, DEFAULT_BOUNDARIES_MM_S)
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == ([expected] if expected else [])
