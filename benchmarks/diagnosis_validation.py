@@ -43,6 +43,11 @@ CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
 
 
+def case_length(index: int) -> float:
+    """The recording's length [s] of the run's ``index``-th case (its seed less ``--first-seed``)."""
+    return DURATIONS[index % len(DURATIONS)]
+
+
 @dataclass(frozen=True)
 class Outcome:
     """One case: what was put in and what the product said."""
@@ -441,7 +446,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.rules_doc is None and args.out == DOCS / "diagnosis-validation.md":
         args.rules_doc = DOCS / "diagnosis.md"
-    jobs = [(args.first_seed + i, DURATIONS[i % len(DURATIONS)]) for i in range(args.cases)]
+    jobs = [(args.first_seed + i, case_length(i)) for i in range(args.cases)]
     outcomes: list[Outcome] = []
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
