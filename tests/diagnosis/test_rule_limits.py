@@ -19,11 +19,15 @@ test_diagnosis.py does not all notice), with a test that catches it:
 - ``IMPACT_WITHOUT_BASELINE`` 10 -> 8: test_impacts[no baseline: below 10 x];
 - the labels "misfiring" and "weak, leaking or misfiring" swapped: every misfiring and weak row of
   test_a_cylinder_against_the_others and test_a_single_cylinder;
-- and each constant against its documented value: test_the_limits_are_those_documented.
+- and each constant against its documented value: test_the_limits_are_those_documented;
+- every number of findings.py and every comparison moved across its limit, by ``make mutation``
+  (docs/mutation-testing.md, which lists the equivalent mutants left): the tests from
+  test_confidence_is_the_normal_probability_beyond_the_threshold on, each limit exactly among them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -430,6 +434,7 @@ def test_an_impact_confidence_counts_score_errors_beyond_its_threshold() -> None
     result = BearingResult("mb5-vertical", 5, None, [_impact(1.35)], elsewhere=1.0)
     found = bearing_findings([result], with_baseline=True)
     assert found[0].confidence == pytest.approx(0.8413, abs=1e-4)
+    assert (found[0].evidence[0]["predicted"], found[0].evidence[0]["threshold"]) == (1.0, 1.25)
 
 
 def test_an_impact_quieter_elsewhere_is_localised_at_any_excess() -> None:
@@ -442,3 +447,87 @@ def test_an_impact_quieter_elsewhere_is_localised_at_any_excess() -> None:
 def test_a_faulty_sensor_finding_is_certain() -> None:
     finding = sensor_finding(SensorFault("mb5-vertical", "dead", "as measured"), _recording())
     assert finding.confidence == 1.0
+
+
+def test_a_cylinder_with_no_error_stated_is_judged_with_its_floor() -> None:
+    """A zero standard error: the finding stands, certain."""
+    found = cylinder_findings(_balance([1.0, 0.84, 1.0], [1.0, 0.84, 1.0], 0.0, 0.01))
+    assert [(f.severity, f.confidence) for f in found] == [("warning", 1.0)]
+
+
+def test_an_impact_with_no_error_stated_is_judged_with_its_floor() -> None:
+    """A zero score error: the finding stands, certain."""
+    impact = dataclasses.replace(_impact(3.0), score_error=0.0)
+    found = bearing_findings(
+        [BearingResult("mb5-vertical", 5, None, [impact], elsewhere=1.0)], with_baseline=True
+    )
+    assert [(f.severity, f.confidence) for f in found] == [("warning", 1.0)]
+
+
+# Each limit exactly: "below" and "above" a limit leave the limit itself out; "at least" takes it in.
+ON_THE_LIMITS: list[tuple[str, float, float, float, tuple[str, str, float] | None]] = [
+    ("at 85 %: healthy", 0.85, 0.01, 0.01, None),
+    ("at 50 %: a warning", 0.5, 0.01, 0.01, ("warning", WEAK, 0.85)),
+    ("at 115 %: healthy", 1.15, 0.01, 0.01, None),
+    ("at 130 %: a warning", 1.3, 0.01, 0.01, ("warning", STRONGER, 1.15)),
+    ("at 30 %: weak", 0.3, 0.01, 0.01, ("alarm", WEAK, 0.5)),
+    ("at exactly 4 contrast errors from 100 %", 0.75, 0.01, 0.0625, ("warning", WEAK, 0.85)),
+    ("no firing at exactly 1.96 errors: weak", 0.49, 0.25, 0.01, ("alarm", WEAK, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "error", "contrast", "expected"),
+    [row[1:] for row in ON_THE_LIMITS],
+    ids=[row[0] for row in ON_THE_LIMITS],
+)
+def test_a_cylinder_on_its_limits(
+    share: float, error: float, contrast: float, expected: tuple[str, str, float] | None
+) -> None:
+    found = cylinder_findings(_balance([1.0, share, 1.0], [1.0, share, 1.0], error, contrast))
+    assert _only(found) == expected
+
+
+@pytest.mark.parametrize(
+    ("strength", "error", "calibrated", "expected"),
+    [
+        (0.28, 0.01, 0.3, ("alarm", MISFIRING, 0.5)),
+        (0.5, 0.125, 1.0, ("warning", WEAK, 0.85)),
+        (0.3, 0.01, None, ("alarm", WEAK, 0.5)),
+    ],
+    ids=[
+        "a baseline reference of 30 % is no reference",
+        "at 50 % of the baseline and exactly 4 errors: a warning",
+        "no baseline: at 30 %, weak",
+    ],
+)
+def test_a_single_cylinder_on_its_limits(
+    strength: float, error: float, calibrated: float | None, expected: tuple[str, str, float]
+) -> None:
+    found = single_cylinder_findings(_balance([strength], [math.nan], error, error), 1.0, calibrated)
+    assert _only(found) == expected
+
+
+@pytest.mark.parametrize(
+    ("impact", "expected"),
+    [
+        (_impact(1.25), ("warning", 1.25)),
+        (_impact(3.0, significance=4.0, needed=1.0), ("warning", 1.25)),
+        (_impact(3.0, elsewhere=2.0), ("warning", 1.25)),
+    ],
+    ids=["at 1.25 x", "at a significance of 4", "localised: excess elsewhere exactly half"],
+)
+def test_an_impact_on_its_limits(impact: ImpactScore, expected: tuple[str, float]) -> None:
+    result = BearingResult("mb5-vertical", 5, None, [impact], elsewhere=impact.elsewhere)
+    found = bearing_findings([result], with_baseline=True)
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [expected]
+
+
+def test_a_neighbour_exactly_1_5_times_as_loud_is_named() -> None:
+    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.0), _impact(1.5, bearing=6)])]
+    assert [f.subject for f in bearing_findings(results, with_baseline=True)] == ["main bearing 6"]
+
+
+def test_bearing_orders_at_50_percent() -> None:
+    found = bearing_findings([BearingResult("mb5-vertical", 5, _orders(0.5, 0.01), [])], with_baseline=True)
+    assert [f.severity for f in found] == ["warning"]
