@@ -34,13 +34,59 @@ from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
+import toml  # cosmic-ray's own dependency (the test extra): writes its table as cosmic-ray reads it
+
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "mutation-testing.md"
 SESSION = ROOT / "out" / "mutation-session.sqlite"  # out/ is ignored by git
 COPIED = ("monitor", "tests", "pyproject.toml")
 
-# Surviving mutants that may stay, by the mutated line (stripped) and the operator: the reason in one line.
-ACCEPTED: dict[tuple[str, str], str] = {}
+# Surviving mutants that may stay, by the line before and after the mutation (stripped): why, in one line.
+_SINGLE_FLOORS = (
+    "equivalent: a single cylinder's error floors (10 %, 15 %) make it significant only below 60 % or above "
+    "140 %, where the 85 % and 130 % decide alike (docs/diagnosis.md, Findings)"
+)
+_ONE_CYLINDER = "equivalent: a single cylinder's arrays hold one value, index 0 and -1 alike"
+_STRONG = "elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding"
+_WORST = "worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))"
+ACCEPTED: dict[tuple[str, str], str] = {
+    (
+        "low = r < 1.0",
+        "low = r <= 1.0",
+    ): "equivalent: a share of exactly 100 % crosses no limit, so has no finding",
+    ("low = s < 1.0", "low = s <= 1.0"): "equivalent: a strength of exactly 100 % crosses no limit",
+    ("if s < CYLINDER_WARNING[0]:", "if s <= CYLINDER_WARNING[0]:"): _SINGLE_FLOORS,
+    ("if s < CYLINDER_WARNING[0]:", "if s < CYLINDER_WARNING[ 1]:"): _SINGLE_FLOORS,
+    ("if s < CYLINDER_WARNING[0]:", "if s < CYLINDER_WARNING[ -1]:"): _SINGLE_FLOORS,
+    (_STRONG, _STRONG.replace("s > ", "s >= ")): _SINGLE_FLOORS,
+    (_STRONG, _STRONG.replace("[1]", "[ 0]")): _SINGLE_FLOORS,
+    (
+        "return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b",
+        "return a if SEVERITIES.index(a) > SEVERITIES.index(b) else b",
+    ): "equivalent: of two equal severities either is the same string",
+    (
+        'findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker + 1]',
+        'findings = [f for f in findings if f.evidence[ -1]["cylinder"] == weaker + 1]',
+    ): "equivalent: a cylinder finding holds one piece of evidence, index 0 and -1 alike",
+    (
+        "contrast = max(float(balance.contrast_error[c]), 1e-12)",
+        "contrast = max(float(balance.contrast_error[c]), -0.999999999999)",
+    ): "equivalent: the floor only keeps a zero contrast error positive; a zero one fails no share beyond "
+    "a limit either way (4 x 0 and 4 x 1e-12 are both below any distance from 100 % to a limit)",
+    (
+        "s = float(balance.strength[0]) / reference",
+        "s = float(balance.strength[ -1]) / reference",
+    ): _ONE_CYLINDER,
+    (
+        "e = max(float(balance.strength_error[0]) / reference, floor)",
+        "e = max(float(balance.strength_error[ -1]) / reference, floor)",
+    ): _ONE_CYLINDER,
+    (_WORST, _WORST.replace("-1", "- 2")): "equivalent: the fill of the orders within their limits; any "
+    "value below 50 % (the least deviation beyond) picks the same worst order",
+    (_WORST, _WORST.replace("-1", "- 0")): "equivalent: as above, 0 is below 50 % too",
+    ("score.elsewhere - 1.0, 0.0", "score.elsewhere - 1.0, -1.0"): "equivalent: a heard score is at least "
+    "1.25 x, so its excess is positive and beats 2 x any excess elsewhere at or below zero",
+}
 
 
 def _config() -> dict[str, Any]:
@@ -78,8 +124,6 @@ def run(workdir: Path, session: Path, *, resume: bool) -> list[tuple[dict[str, A
     _copy_tree(workdir)
     config = workdir / "cosmic-ray.toml"
     # cosmic-ray reads its own file with a top-level [cosmic-ray] table; pyproject.toml keeps it under tool.
-    import toml  # cosmic-ray's own dependency, to write the table as it reads it
-
     settings = _config()
     # the tests run by this interpreter, whatever python the PATH finds first
     settings["test-command"] = settings["test-command"].replace("python", sys.executable, 1)
@@ -111,15 +155,11 @@ def outcome(result: dict[str, Any] | None) -> str:
     return str(result.get("test_outcome") or result.get("worker_outcome"))
 
 
-def _mutated_line(diff: str) -> str:
-    return next(
-        (
-            line[1:].strip()
-            for line in diff.splitlines()
-            if line.startswith("-") and not line.startswith("---")
-        ),
-        "",
-    )
+def _change(diff: str) -> tuple[str, str]:
+    """The line a mutant changes, before and after, stripped: what :data:`ACCEPTED` is keyed by."""
+    removed = [line[1:].strip() for line in diff.splitlines() if line.startswith("-") and line[:3] != "---"]
+    added = [line[1:].strip() for line in diff.splitlines() if line.startswith("+") and line[:3] != "+++"]
+    return (removed[0] if removed else "", added[0] if added else "")
 
 
 def report(
@@ -170,7 +210,7 @@ def report(
     for item, result in sorted(survivors, key=lambda row: row[0]["mutations"][0]["start_pos"]):
         mutation = item["mutations"][0]
         diff = result.get("diff") or ""
-        reason = ACCEPTED.get((_mutated_line(diff), mutation["operator_name"]), "not yet explained")
+        reason = ACCEPTED.get(_change(diff), "not yet explained")
         lines += [
             f"- line {mutation['start_pos'][0]}, `{mutation['operator_name']}`: {reason}",
             "",
