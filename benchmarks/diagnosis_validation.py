@@ -338,6 +338,9 @@ def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int)
         "+-3 deg, compression ratio +-3 %) and so does the stated load (+-10 %). The product "
         "calibrates on a healthy recording of the same engine (another seed) and diagnoses the case.",
         "",
+        "The decision rules' limits are tested apart from this population, one rule at a time and by "
+        "mutation (`make mutation`): docs/mutation-testing.md.",
+        "",
         "## Acceptance",
         "",
     ]

@@ -19,11 +19,15 @@ test_diagnosis.py does not all notice), with a test that catches it:
 - ``IMPACT_WITHOUT_BASELINE`` 10 -> 8: test_impacts[no baseline: below 10 x];
 - the labels "misfiring" and "weak, leaking or misfiring" swapped: every misfiring and weak row of
   test_a_cylinder_against_the_others and test_a_single_cylinder;
-- and each constant against its documented value: test_the_limits_are_those_documented.
+- and each constant against its documented value: test_the_limits_are_those_documented;
+- every number of findings.py and every comparison moved across its limit, by ``make mutation``
+  (docs/mutation-testing.md, which lists the equivalent mutants left): the tests from
+  test_confidence_is_the_normal_probability_beyond_the_threshold on, each limit exactly among them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -333,3 +337,197 @@ def test_vibration_zones(velocity: float, expected: tuple[str, float] | None) ->
     rms = {"mb5-vertical": VelocityRms(velocity, 0.1, (2.0, 450.0), 16)}
     _, found = _zones(_recording(), rms, DEFAULT_BOUNDARIES_MM_S)
     assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == ([expected] if expected else [])
+
+
+# Rows added for the mutants of findings.py that `make mutation` (docs/mutation-testing.md) found alive.
+
+
+def test_confidence_is_the_normal_probability_beyond_the_threshold() -> None:
+    """50 % on the threshold, 97.5 % at 1.96 standard errors beyond it, 84.1 % at one."""
+    assert findings.confidence_beyond(0.0) == 0.5
+    assert findings.confidence_beyond(1.96) == pytest.approx(0.975, abs=1e-4)
+    assert findings.confidence_beyond(1.0) == pytest.approx(0.8413, abs=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("share", "error", "summary"),
+    [
+        (0.84, 0.0127, "cylinder 2 at 84 % +- 2 % of the cylinders that fire alike"),
+        (0.84, 0.0128, "cylinder 2 at 84 % +- 3 % of the cylinders that fire alike"),
+    ],
+    ids=["1.96 x 1.27 % rounds to 2 %", "1.96 x 1.28 % rounds to 3 %"],
+)
+def test_a_cylinder_summary_states_its_share_and_95_interval(
+    share: float, error: float, summary: str
+) -> None:
+    found = cylinder_findings(_balance([1.0, share, 1.0], [1.0, share, 1.0], error, 0.01))
+    assert found[0].summary.startswith(summary)
+    assert (found[0].evidence[0]["predicted"], found[0].evidence[0]["measured"]) == (1.0, share)
+
+
+@pytest.mark.parametrize(
+    ("strength", "error", "summary"),
+    [
+        (0.384, 0.1298, "cylinder 1 at 38 % +- 25 % of the baseline's at load 1.00"),
+        (0.386, 0.1304, "cylinder 1 at 39 % +- 26 % of the baseline's at load 1.00"),
+    ],
+    ids=["38.4 % and 1.96 x 12.98 % round down", "38.6 % and 1.96 x 13.04 % round up"],
+)
+def test_a_single_cylinder_summary_states_its_strength_and_95_interval(
+    strength: float, error: float, summary: str
+) -> None:
+    found = single_cylinder_findings(_balance([strength], [math.nan], error, error), 1.0, 1.0)
+    assert found[0].summary.startswith(summary)
+    assert found[0].evidence[0]["predicted"] == 1.0
+
+
+def test_of_two_cylinders_only_the_weaker_is_named() -> None:
+    """Cylinder 1 at 60 % (a warning) makes cylinder 2 read 140 % (an alarm): only cylinder 1 is named."""
+    found = cylinder_findings(_balance([0.8, 1.2], [0.6, 1.4], 0.01, 0.01))
+    assert [(f.subject, f.severity) for f in found] == [("cylinder 1", "warning")]
+
+
+def test_a_cylinder_whose_cycle_phase_is_unknown_is_named_with_its_partner() -> None:
+    """Cylinder 2 of four fires 360 deg from cylinder 4 (index 3)."""
+    balance = _balance([1.0, 0.84, 1.0, 1.0], [1.0, 0.84, 1.0, 1.0], 0.01, 0.01)
+    found = cylinder_findings(balance, partners=[None, 3, None, None])
+    assert [f.subject for f in found] == ["cylinder 2 or cylinder 4"]
+
+
+def _orders(deviation: float, error: float) -> OrderDeviation:
+    return OrderDeviation(
+        orders=np.array([2.0]),
+        measured=np.array([1.0 + deviation], dtype=np.complex128),
+        predicted=np.array([1.0], dtype=np.complex128),
+        deviation=np.array([deviation]),
+        deviation_error=np.array([error]),
+    )
+
+
+@pytest.mark.parametrize(
+    ("deviation", "error", "expected"),
+    [(0.8, 0.2, ("warning", 0.5)), (0.6, 0.0, ("warning", 0.5))],
+    ids=["at exactly 4 errors", "no error stated: at least its floor"],
+)
+def test_bearing_orders_at_the_significance_limit(
+    deviation: float, error: float, expected: tuple[str, float]
+) -> None:
+    found = bearing_findings(
+        [BearingResult("mb5-vertical", 5, _orders(deviation, error), [])], with_baseline=True
+    )
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [expected]
+
+
+def test_a_bearing_found_twice_alike_keeps_its_first_summary_and_all_evidence() -> None:
+    """An order deviation and an impact, both warnings: the orders' summary, both pieces of evidence."""
+    result = BearingResult("mb5-vertical", 5, _orders(0.6, 0.01), [_impact(3.0)], elsewhere=1.0)
+    found = bearing_findings([result], with_baseline=True)
+    assert [f.severity for f in found] == ["warning"]
+    assert found[0].summary == (
+        "main bearing 5: orders 2 of mb5-vertical deviate from the calibrated model, up to 60 % (order 2)"
+    )
+    assert len(found[0].evidence) == 2
+
+
+def test_an_impact_confidence_counts_score_errors_beyond_its_threshold() -> None:
+    """1.35 x against 1.25 x with a score error of 0.1: one error beyond, 84.1 %."""
+    result = BearingResult("mb5-vertical", 5, None, [_impact(1.35)], elsewhere=1.0)
+    found = bearing_findings([result], with_baseline=True)
+    assert found[0].confidence == pytest.approx(0.8413, abs=1e-4)
+    assert (found[0].evidence[0]["predicted"], found[0].evidence[0]["threshold"]) == (1.0, 1.25)
+
+
+def test_an_impact_quieter_elsewhere_is_localised_at_any_excess() -> None:
+    """2.5 x on its own sensor, below the baseline's level on the others: localised."""
+    result = BearingResult("mb5-vertical", 5, None, [_impact(2.5, elsewhere=0.5)], elsewhere=0.5)
+    found = bearing_findings([result], with_baseline=True)
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [("warning", 1.25)]
+
+
+def test_a_faulty_sensor_finding_is_certain() -> None:
+    finding = sensor_finding(SensorFault("mb5-vertical", "dead", "as measured"), _recording())
+    assert finding.confidence == 1.0
+
+
+def test_a_cylinder_with_no_error_stated_is_judged_with_its_floor() -> None:
+    """A zero standard error: the finding stands, certain."""
+    found = cylinder_findings(_balance([1.0, 0.84, 1.0], [1.0, 0.84, 1.0], 0.0, 0.01))
+    assert [(f.severity, f.confidence) for f in found] == [("warning", 1.0)]
+
+
+def test_an_impact_with_no_error_stated_is_judged_with_its_floor() -> None:
+    """A zero score error: the finding stands, certain."""
+    impact = dataclasses.replace(_impact(3.0), score_error=0.0)
+    found = bearing_findings(
+        [BearingResult("mb5-vertical", 5, None, [impact], elsewhere=1.0)], with_baseline=True
+    )
+    assert [(f.severity, f.confidence) for f in found] == [("warning", 1.0)]
+
+
+# Each limit exactly: "below" and "above" a limit leave the limit itself out; "at least" takes it in.
+ON_THE_LIMITS: list[tuple[str, float, float, float, tuple[str, str, float] | None]] = [
+    ("at 85 %: healthy", 0.85, 0.01, 0.01, None),
+    ("at 50 %: a warning", 0.5, 0.01, 0.01, ("warning", WEAK, 0.85)),
+    ("at 115 %: healthy", 1.15, 0.01, 0.01, None),
+    ("at 130 %: a warning", 1.3, 0.01, 0.01, ("warning", STRONGER, 1.15)),
+    ("at 30 %: weak", 0.3, 0.01, 0.01, ("alarm", WEAK, 0.5)),
+    ("at exactly 4 contrast errors from 100 %", 0.75, 0.01, 0.0625, ("warning", WEAK, 0.85)),
+    ("no firing at exactly 1.96 errors: weak", 0.49, 0.25, 0.01, ("alarm", WEAK, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "error", "contrast", "expected"),
+    [row[1:] for row in ON_THE_LIMITS],
+    ids=[row[0] for row in ON_THE_LIMITS],
+)
+def test_a_cylinder_on_its_limits(
+    share: float, error: float, contrast: float, expected: tuple[str, str, float] | None
+) -> None:
+    found = cylinder_findings(_balance([1.0, share, 1.0], [1.0, share, 1.0], error, contrast))
+    assert _only(found) == expected
+
+
+@pytest.mark.parametrize(
+    ("strength", "error", "calibrated", "expected"),
+    [
+        (0.28, 0.01, 0.3, ("alarm", MISFIRING, 0.5)),
+        (0.5, 0.125, 1.0, ("warning", WEAK, 0.85)),
+        (0.3, 0.01, None, ("alarm", WEAK, 0.5)),
+    ],
+    ids=[
+        "a baseline reference of 30 % is no reference",
+        "at 50 % of the baseline and exactly 4 errors: a warning",
+        "no baseline: at 30 %, weak",
+    ],
+)
+def test_a_single_cylinder_on_its_limits(
+    strength: float, error: float, calibrated: float | None, expected: tuple[str, str, float]
+) -> None:
+    found = single_cylinder_findings(_balance([strength], [math.nan], error, error), 1.0, calibrated)
+    assert _only(found) == expected
+
+
+@pytest.mark.parametrize(
+    ("impact", "expected"),
+    [
+        (_impact(1.25), ("warning", 1.25)),
+        (_impact(3.0, significance=4.0, needed=1.0), ("warning", 1.25)),
+        (_impact(3.0, elsewhere=2.0), ("warning", 1.25)),
+    ],
+    ids=["at 1.25 x", "at a significance of 4", "localised: excess elsewhere exactly half"],
+)
+def test_an_impact_on_its_limits(impact: ImpactScore, expected: tuple[str, float]) -> None:
+    result = BearingResult("mb5-vertical", 5, None, [impact], elsewhere=impact.elsewhere)
+    found = bearing_findings([result], with_baseline=True)
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [expected]
+
+
+def test_a_neighbour_exactly_1_5_times_as_loud_is_named() -> None:
+    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.0), _impact(1.5, bearing=6)])]
+    assert [f.subject for f in bearing_findings(results, with_baseline=True)] == ["main bearing 6"]
+
+
+def test_bearing_orders_at_50_percent() -> None:
+    found = bearing_findings([BearingResult("mb5-vertical", 5, _orders(0.5, 0.01), [])], with_baseline=True)
+    assert [f.severity for f in found] == ["warning"]
