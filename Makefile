@@ -74,6 +74,7 @@ bench-diagnosis: $(STAMP)
 ## mutation: the decision rules (monitor/diagnosis/findings.py) mutated, each mutant against the limit tests
 ## (cosmic-ray, [tool.cosmic-ray] in pyproject.toml; a few minutes); rewrites docs/mutation-testing.md
 mutation: $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[mutation]'
 	$(BIN)/python -m benchmarks.mutation
 
 ## bench-service: the HTTP service under load on loopback (SQLite, and PostgreSQL where a server answers);
@@ -121,7 +122,7 @@ lock:
 	rm -rf .lock-venv
 	$(PYTHON) -m venv .lock-venv
 	.lock-venv/bin/python -m pip install --quiet --upgrade "pip>=24"
-	.lock-venv/bin/python -m pip install --quiet -e '.[test,import,cluster]'
+	.lock-venv/bin/python -m pip install --quiet -e '.[test,import,cluster,mutation]'
 	.lock-venv/bin/python -m pip freeze --exclude-editable --exclude pip > constraints.txt
 	rm -rf .lock-venv
 
