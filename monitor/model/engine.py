@@ -46,6 +46,7 @@ from monitor.types import FloatArray
 
 __all__ = [
     "Bearings",
+    "ChargePressureLaw",
     "Combustion",
     "Engine",
     "Firing",
@@ -239,13 +240,23 @@ class VibrationLimits(_Strict):
         return self
 
 
+#: How the charge pressure at inlet closing follows the load (see :mod:`monitor.model.gas`).
+ChargePressureLaw = Literal["turbocharged", "held", "naturally-aspirated"]
+
+#: A naturally aspirated engine's intake_pressure_bar may differ from ambient by this fraction (intake
+#: depression at rated flow, ram effect of a tuned intake: a few per cent either way) [-].
+NATURAL_INTAKE_TOLERANCE = 0.1
+
+
 class Combustion(_Strict):
     """Parametric cylinder-pressure model (used when no pressure trace is measured).
 
     Closed cycle between inlet closing and exhaust opening: polytropic
     compression, then heat release by a Wiebe law with polytropic expansion;
     the heat released is scaled so that the indicated mean effective
-    pressure is ``load * rated_imep_bar``. See :mod:`monitor.model.gas`.
+    pressure is ``load * rated_imep_bar``.  The charge pressure at inlet
+    closing follows the load by ``charge_pressure_law``; a description that
+    does not state it gets ``"turbocharged"``. See :mod:`monitor.model.gas`.
     """
 
     rated_imep_bar: Annotated[float, AfterValidator(_between(1.0, 60.0, "bar"))]
@@ -254,6 +265,14 @@ class Combustion(_Strict):
         description="charge (scavenge) air pressure, absolute, at rated load"
     )
     ambient_pressure_bar: PressureBar = 1.013
+    charge_pressure_law: ChargePressureLaw = Field(
+        default="turbocharged",
+        description=(
+            "how the charge pressure follows the load: 'turbocharged' (from ambient at no load to "
+            "intake_pressure_bar at rated, linear in load), 'held' (intake_pressure_bar at every load) "
+            "or 'naturally-aspirated' (ambient at every load)"
+        ),
+    )
     inlet_closing_deg: AngleDeg = Field(description="start of compression, before firing TDC (< 0)")
     exhaust_opening_deg: AngleDeg = Field(description="end of expansion, after firing TDC (> 0)")
     blowdown_deg: Annotated[float, AfterValidator(_between(1.0, 120.0, "deg"))] = 40.0
@@ -273,6 +292,15 @@ class Combustion(_Strict):
             )
         if not self.inlet_closing_deg < 0 < self.exhaust_opening_deg:
             raise ValueError("expected inlet_closing_deg < 0 < exhaust_opening_deg (degrees from firing TDC)")
+        if self.charge_pressure_law == "naturally-aspirated" and not (
+            abs(self.intake_pressure_bar - self.ambient_pressure_bar)
+            <= NATURAL_INTAKE_TOLERANCE * self.ambient_pressure_bar
+        ):
+            raise ValueError(
+                f"charge_pressure_law = 'naturally-aspirated' with intake_pressure_bar = "
+                f"{self.intake_pressure_bar:g}: expected about the ambient {self.ambient_pressure_bar:g} bar "
+                f"(within {NATURAL_INTAKE_TOLERANCE:.0%}); a charged engine is 'turbocharged' or 'held'"
+            )
         return self
 
 

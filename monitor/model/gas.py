@@ -21,10 +21,26 @@ law gives ``dp/dtheta = -n p V'/V + (n - 1) Q'/V`` whose exact solution is
 fraction, ``u = (theta - theta_soc) / duration``.  The pressure is therefore
 linear in the charge pressure ``p_ic`` and the heat ``Q_tot``:
 ``p = p_ic A(theta) + Q_tot B(theta)``, and the basis curves A, B are computed
-once per engine (:meth:`ParametricCycle.basis`).  Load enters as
-``p_ic = p_amb + load (p_ic,rated - p_amb)`` (charge pressure roughly
-proportional to load on a turbocharged engine) and ``imep = load *
-rated_imep``, which fixes ``Q_tot`` by one linear solve.
+once per engine (:meth:`ParametricCycle.basis`).  Load enters through
+``imep = load * rated_imep``, which fixes ``Q_tot`` by one linear solve, and
+through the charge pressure, by the law the engine description states
+(``charge_pressure_law``, :meth:`ParametricCycle.charge_pressure`):
+
+- ``"turbocharged"`` (the default): ``p_ic = p_amb + load (p_ic,rated -
+  p_amb)``.  The turbine's power, and with it the compressor's boost, rises
+  with the exhaust energy, which at constant speed grows about linearly with
+  the fuel per cycle, hence with the load (Watson and Janota, Turbocharging
+  the Internal Combustion Engine, Macmillan 1982); kept linear, without an
+  exponent, because no source at hand gives one for the bundled engines;
+- ``"held"``: ``p_ic = p_ic,rated`` at every load (boost held by a waste gate
+  or an external blower, or a simulator that scales only the combustion);
+- ``"naturally-aspirated"``: ``p_ic = p_amb`` at every load (unthrottled; the
+  description's intake pressure must then be about ambient).
+
+Speed does not enter the pressure: the cycle is a function of crank angle and
+load only (no heat loss per unit time, no speed-dependent boost), so the gas
+torque depends on speed only through the load the operating point gives
+(e.g. the propeller law ``load = (speed / rated speed)^2``).
 
 Gas force on the piston: ``F_g = (p - p_amb) A_piston``, positive pushing the
 piston towards the crank (paper 004: ``P = p A``).
@@ -375,9 +391,26 @@ class ParametricCycle:
         return a, b
 
     def charge_pressure(self, load: float) -> float:
-        """Charge (scavenge) air pressure at inlet closing for a load [Pa]."""
+        """Charge (scavenge) air pressure at inlet closing for a load.
+
+        Parameters
+        ----------
+        load : float
+            Fraction of rated IMEP, 0 to 1.1 [-].
+
+        Returns
+        -------
+        float
+            [Pa], by the description's ``charge_pressure_law``: ambient plus
+            ``load`` times the rated boost (turbocharged), the rated charge
+            pressure (held), or ambient (naturally aspirated).
+        """
         c = self.combustion
         _check_load(load)
+        if c.charge_pressure_law == "held":
+            return c.intake_pressure_bar * 1e5
+        if c.charge_pressure_law == "naturally-aspirated":
+            return c.ambient_pressure_bar * 1e5
         return (c.ambient_pressure_bar + load * (c.intake_pressure_bar - c.ambient_pressure_bar)) * 1e5
 
     @cached_property
