@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto bench-kill bench-startup bench-trends browser screenshots mutation
+	wheelhouse check-container proto bench-kill bench-startup bench-trends bench-load browser screenshots mutation
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -60,6 +60,12 @@ screenshots: $(STAMP) browser
 ## section of docs/trends.md
 bench-trends: $(STAMP)
 	$(BIN)/python -m benchmarks.trends
+
+## bench-load: the model's gas torque against the validation simulator at 25-100 % load, and a real
+## single-cylinder engine's crank speed predicted from its pressure at three loads (needs ../shared);
+## rewrites docs/load-response.md
+bench-load: $(STAMP)
+	$(BIN)/python -m benchmarks.load_response
 
 ## bench-startup: the quick commands' start-up, warm (fails when one takes 1 s or more); rewrites its section
 ## of docs/performance.md
