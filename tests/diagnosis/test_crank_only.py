@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ from monitor.errors import DiagnosisError
 from monitor.io import open_recording
 from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.report.diagnosis import diagnosis_document, diagnosis_table
-from monitor.report.web import recording_page
+from monitor.report.web import engine_page, recording_page
 from tests.diagnosis.crank_only_files import (
     ENGINE,
     FIRST_TOOTH_DEG,
@@ -133,6 +134,9 @@ def test_a_healthy_engine_is_healthy_and_its_bearings_not_judged(
     page = recording_page(document)
     assert 'id="bearings-not-judged"' in page and "Main bearings not judged" in page
     assert 'id="findings">No findings.' in page
+    links = SimpleNamespace(fleet="/fleet", recording=lambda i: f"/recordings/{i}")
+    engine_view = engine_page(ENGINE, None, document, latest_id=1, links=links, assets="/static")
+    assert 'id="bearings-not-judged"' in engine_view  # the engine's latest verdict says it too
 
 
 @pytest.mark.parametrize("with_baseline", [False, True], ids=["no baseline", "baseline"])

@@ -401,6 +401,7 @@ def engine_page(
         + f"<header><h1>{html.escape(engine_id)}</h1></header>\n"
         + f'<section class="verdict"><h2>Latest recording {_status(status)}{latest_link}</h2>'
         + _findings(findings, status)
+        + _bearings_not_judged(latest or {})
         + f"<h2>Trend findings</h2>{trend_html}</section>\n"
         + '<section id="charts"><noscript>The charts need JavaScript; the findings above do not.</noscript>'
         "</section>\n" + chooser + _data_script(data) + _scripts(assets) + "\n</body></html>\n"
