@@ -7,8 +7,9 @@ fleet at once, :class:`Calibrations`), and stored, replacing the engine's
 previous one; the analyses that run after it compare that engine's bearing
 orders through it (:class:`monitor.jobs.worker.Worker`). Results already
 stored are kept as they are. A calibration the product refuses (an unhealthy
-recording, no bearing channel, a faulty sensor) answers 422 with the
-product's message, and nothing is stored.
+recording, one with neither a bearing channel nor crank-speed orders, a faulty
+sensor) answers 422 with the product's message, and nothing is stored; a
+recording of the crank speed alone gives a baseline without sensors.
 
 Another fleet's engine, recording or baseline answers 404, as an unknown one.
 """

@@ -7,7 +7,8 @@ lowers its own CPU priority (:data:`monitor.runtime.processes.NICE`, as the anal
 with its parent, and runs :func:`monitor.diagnosis.calibrate` as
 ``engine-monitor calibrate`` does. It prints the baseline document
 (``calibrate``'s JSON) and exits 0, or prints the product's refusal (an
-unhealthy recording, no bearing channel, a faulty sensor) and exits 3.
+unhealthy recording, one with neither a bearing channel nor crank-speed orders, a faulty
+sensor) and exits 3.
 
 The service awaits it without holding a thread, within a time limit
 (:attr:`api.settings.Settings.calibration_timeout_s`), one calibration per fleet

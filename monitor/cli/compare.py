@@ -132,9 +132,10 @@ def add_calibrate_parser(sub: Any) -> None:
     calibrate = sub.add_parser(
         "calibrate",
         help="calibrate a healthy baseline recording's sensors, for later comparisons",
-        description="Calibrate, on a healthy recording, each main-bearing sensor's transfer from bearing "
-        "force to its orders, its impact profile and rms velocity; write them as JSON for 'compare "
-        "--baseline'.",
+        description="Calibrate, on a healthy recording, the tooth wheel's pitch errors, the crank-speed "
+        "model and each main-bearing sensor's transfer from bearing force to its orders, its impact profile "
+        "and rms velocity; write them as JSON for 'compare --baseline'. A recording of the crank speed alone "
+        "(a tooth wheel, a cam) calibrates without bearing sensors: the main bearings are then not judged.",
     )
     calibrate.add_argument("recording", metavar="RECORDING", help="healthy HDF5 or MCAP recording")
     calibrate.add_argument(
@@ -175,7 +176,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
 
-    if Path(args.output).suffix.lower() not in (".json", ".toml"):
+    as_toml = (
+        Path(args.output).suffix.lower() == ".toml"
+    )  # the [[sensor_transfers]] tables for an engine file
+    if not as_toml and Path(args.output).suffix.lower() != ".json":
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
     with ExitStack() as stack:
         recording = stack.enter_context(open_recording(args.recording))
@@ -192,8 +196,13 @@ def run_calibrate(args: argparse.Namespace) -> int:
             exclude=args.exclude_channel,
             progress=report,
         )
+    if as_toml and not baseline.sensors:
+        raise MonitorError(
+            f"-o {args.output}: {args.recording} has no main-bearing vibration channel, so no sensor "
+            "transfer to write; write the baseline (.json) instead"
+        )
     try:
-        if Path(args.output).suffix.lower() == ".toml":  # the [[sensor_transfers]] tables for an engine file
+        if as_toml:
             path = Path(args.output)
             path.write_text(baseline.to_toml())
         else:
@@ -202,9 +211,20 @@ def run_calibrate(args: argparse.Namespace) -> int:
         raise MonitorError(f"-o {args.output}: cannot be written ({error.strerror or error})") from None
     sensors = ", ".join(f"{n} (main bearing {s.bearing})" for n, s in baseline.sensors.items())
     print(
-        f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: {sensors}",
+        f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: "
+        + (
+            sensors
+            or "no bearing sensor calibrated (the recording has no main-bearing vibration channel): "
+            "the main bearings will not be judged against it, the cylinders and the crank speed will"
+        ),
         file=sys.stderr,
     )
+    if (crank := baseline.crank) is not None and crank.orders.size:
+        print(
+            f"crank-speed model ({crank.transfer}) calibrated at orders "
+            f"{', '.join(f'{k:g}' for k in crank.orders)}",
+            file=sys.stderr,
+        )
     if (pitch := baseline.pitch) is not None:
         where = f"the run {args.pitch_from}" if pitch.source == "run-up" else "the baseline"
         kept = (

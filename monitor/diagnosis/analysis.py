@@ -4,7 +4,8 @@ The recording's order spectra and high-frequency profiles (with the tooth-pitch 
 cycle phase), the model's cylinder parts at the recording's own mean speed and the load stated,
 the cylinder balance from the crank-speed orders (:mod:`monitor.diagnosis.balance`), and the
 engine's orders and main-bearing forces combined with the strengths it estimates
-(:func:`analyse`); which vibration channels sit on which main bearing (:func:`bearing_sensors`).
+(:func:`analyse`); which vibration channels sit on which main bearing (:func:`bearing_sensors`), and
+why the bearings are not judged when none does (:func:`bearings_unjudged`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ __all__ = [
     "CyclePhase",
     "analyse",
     "bearing_sensors",
+    "bearings_unjudged",
     "engine_orders",
     "phase_partners",
     "vibration_channels",
@@ -87,6 +89,32 @@ def bearing_sensors(recording: Recording, engine: Engine) -> list[tuple[Channel,
         ):
             out.append((channel, b))
     return out
+
+
+def bearings_unjudged(recording: Recording, judged: list[tuple[Channel, int]], engine: Engine) -> str:
+    """Why the main bearings are not judged, or "" when a sensor on one is left to judge them.
+
+    Parameters
+    ----------
+    recording : Recording
+        As given, before faulty or excluded channels were left out.
+    judged : list of (Channel, int)
+        The bearing sensors left to judge (:func:`bearing_sensors` of the screened recording).
+    engine : Engine
+
+    Returns
+    -------
+    str
+        The reason, to follow "main bearings not judged: ".
+    """
+    if judged:
+        return ""
+    if bearing_sensors(recording, engine):
+        return "its main-bearing vibration channels were left out (faulty, or excluded)"
+    return (
+        "the recording has no main-bearing vibration channel (acceleration or velocity at 'main "
+        "bearing N', vertical or horizontal): the status speaks for the cylinders and the crank speed only"
+    )
 
 
 @dataclass(frozen=True)

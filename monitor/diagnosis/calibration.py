@@ -3,7 +3,8 @@
 The recording is analysed as a diagnosis would be (:mod:`monitor.diagnosis.analysis`); it must
 show no cylinder finding.  Each bearing sensor's orders over the model's bearing force at the
 strengths found are its transfer, kept with the wheel's pitch errors, the crank-speed model's
-calibration and each sensor's rms velocity in a :class:`~monitor.diagnosis.baseline.Baseline`.
+calibration and each sensor's rms velocity in a :class:`~monitor.diagnosis.baseline.Baseline`
+(with no sensor at all for a recording of the crank speed alone).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ def calibrate(
     exclude: tuple[str, ...] | list[str] = (),
     progress: Callable[[float], None] | None = None,
 ) -> Baseline:
-    """Calibrate each bearing sensor's transfer on a healthy recording of the engine.
+    """Calibrate the crank-speed model and each bearing sensor's transfer on a healthy recording.
 
     Parameters
     ----------
@@ -77,8 +78,15 @@ def calibrate(
     Raises
     ------
     DiagnosisError
-        Without a vibration sensor on a main bearing, or with one that is clipped, dead or
-        implausibly scaled (a baseline is the reference for later recordings: leave it out).
+        Without a vibration sensor on a main bearing and without a cylinder balance (crank-speed
+        orders) either, or with a sensor that is clipped, dead or implausibly scaled (a baseline is
+        the reference for later recordings: leave it out).
+
+    Notes
+    -----
+    A recording of the crank speed alone (a tooth wheel, a cam) gives a baseline without sensors:
+    its pitch errors, its crank-speed model's calibration, its operating point and strengths. The
+    main bearings are then not judged against it.
     """
     recording, bad, _ = screen_sensors(recording, exclude=exclude)
     if bad:
@@ -89,11 +97,6 @@ def calibrate(
             + " ".join(f"--exclude-channel {f.channel}" for f in bad)
         )
     sensors = bearing_sensors(recording, engine)
-    if not sensors:
-        raise DiagnosisError(
-            "the recording has no acceleration or velocity channel on a main bearing (location "
-            "'main bearing N', direction 'vertical' or 'horizontal'): nothing to calibrate"
-        )
     # the wheel's pitch errors, learned here once for every later recording (and used here too)
     pitch = _learn_pitch(recording, engine, pitch_from)
     analysis = analyse(
@@ -115,9 +118,16 @@ def calibrate(
                 + ". Calibrate on a recording of the engine in good order"
             )
     result = analysis.spectra
-    out = {channel.name: _sensor_baseline(channel, b, analysis) for channel, b in sensors}
-    profile = result.high_frequency[sensors[-1][0].name]  # the sensors' profiles are sampled alike
     balance = analysis.balance
+    if not sensors and balance is None:
+        raise DiagnosisError(
+            "the recording has neither an acceleration or velocity channel on a main bearing (location "
+            "'main bearing N', direction 'vertical' or 'horizontal') nor a cylinder balance from crank-speed "
+            "orders (a tooth wheel or an encoder gives them; see the notes): nothing to calibrate"
+        )
+    out = {channel.name: _sensor_baseline(channel, b, analysis) for channel, b in sensors}
+    # the sensors' profiles are sampled alike; a crank-speed-only baseline has none
+    profile = result.high_frequency[sensors[-1][0].name].mean.size if sensors else 0
     used = balance is not None and balance.separable  # the strengths the bearing forces were predicted with
     strengths = balance.strength.tolist() if balance is not None and used else [1.0] * engine.cylinders
     return Baseline(
@@ -125,7 +135,7 @@ def calibrate(
         speed_rpm=result.mean_speed * 30 / math.pi,
         load=load,
         strengths=[float(s) for s in strengths],
-        samples_per_cycle=int(profile.mean.size),
+        samples_per_cycle=int(profile),
         sensors=out,
         source=source,
         pitch=result.reference.pitch_correction,

@@ -37,6 +37,7 @@ from monitor.diagnosis.analysis import (
     CyclePhase,
     analyse,
     bearing_sensors,
+    bearings_unjudged,
     vibration_channels,
 )
 from monitor.diagnosis.balance import CylinderBalance, Transfer
@@ -151,6 +152,8 @@ class Diagnosis:
     spectra : SpectrumResult
     baseline : str
         The baseline's source, or "".
+    bearings_not_judged : str
+        Why the main bearings were not judged (no sensor on one), or "" when they were.
     """
 
     engine_id: str
@@ -166,6 +169,7 @@ class Diagnosis:
     notes: list[str]
     spectra: SpectrumResult = field(repr=False)
     baseline: str = ""
+    bearings_not_judged: str = ""
 
 
 # ------------------------------------------------------------------------------------------ model
@@ -412,9 +416,13 @@ def diagnose(
     # the transfers: the baseline's, else those given in the engine file
     transfers = baseline if baseline is not None else Baseline.from_engine(engine)
     usable = transfers is not None and abs(speed_rpm / transfers.speed_rpm - 1.0) <= SPEED_TOLERANCE
-    notes += _transfer_notes(transfers, usable, speed_rpm, with_baseline=baseline is not None)
+    sensors = bearing_sensors(recording, engine)
+    unjudged = bearings_unjudged(recording_before, sensors, engine)
+    notes += _transfer_notes(
+        transfers, usable, speed_rpm, with_baseline=baseline is not None, unjudged=unjudged
+    )
     bearings = []
-    for channel, b in bearing_sensors(recording, engine):
+    for channel, b in sensors:
         bearing, comparison = _bearing_result(channel, b, analysis, engine, transfers, usable, notes)
         bearings.append(bearing)
         if comparison is not None:
@@ -446,6 +454,7 @@ def diagnose(
         notes=notes,
         spectra=result,
         baseline=baseline.source if baseline is not None else "",
+        bearings_not_judged=unjudged,
     )
 
 
@@ -501,9 +510,14 @@ def _velocities(recording: Recording, band: tuple[float, float]) -> tuple[dict[s
 
 
 def _transfer_notes(
-    transfers: Baseline | None, usable: bool, speed_rpm: float, *, with_baseline: bool
+    transfers: Baseline | None, usable: bool, speed_rpm: float, *, with_baseline: bool, unjudged: str
 ) -> list[str]:
-    """What the sensors' transfers leave undone: bearing orders not compared, impacts judged how."""
+    """What the sensors' transfers leave undone: bearing orders not compared, impacts judged how.
+
+    Without a bearing sensor to judge (``unjudged`` says why), only that the bearings were not judged.
+    """
+    if unjudged:
+        return [f"main bearings not judged: {unjudged}"]
     notes = []
     if transfers is not None and not usable:
         notes.append(

@@ -1,7 +1,8 @@
 """A diagnosis as a JSON document and as text tables.
 
 Both say the same: the operating point, the findings with their evidence,
-the cylinder balance, and per channel the measured against the predicted
+whether the main bearings were judged (not without a sensor on one), the
+cylinder balance, and per channel the measured against the predicted
 orders with their deviation and its uncertainty (complex amplitudes as
 magnitude and phase in degrees, relative to TDC of cylinder 1).
 """
@@ -53,6 +54,10 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             for f in diagnosis.findings
         ],
         "notes": list(diagnosis.notes),
+        "main_bearings": {
+            "judged": not diagnosis.bearings_not_judged,
+            "not_judged_because": diagnosis.bearings_not_judged or None,
+        },
         "cylinder_balance": None,
         "channels": {},
         "impacts": {},
@@ -133,6 +138,8 @@ def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int 
             lines.append(f"  [{f.severity}] {f.summary} (confidence {100 * f.confidence:.0f} %)")
     else:
         lines.append("findings: none")
+    if diagnosis.bearings_not_judged:
+        lines.append(f"main bearings: NOT JUDGED: {diagnosis.bearings_not_judged}")
     for note in diagnosis.notes:
         lines.append(f"note: {note}")
     balance = diagnosis.balance

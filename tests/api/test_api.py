@@ -444,8 +444,9 @@ def test_a_baseline_set_from_a_stored_recording_is_used_by_later_analyses_of_its
     """POST /engines/{id}/baseline calibrates on a stored recording what `engine-monitor calibrate`
     writes for the same file, stores it, and the fleet's later analyses of that engine compare through
     it as `compare --baseline` does; another fleet's analyses do not. Calibrations the product refuses
-    (an unhealthy recording, no bearing channel) answer 422 with its message and store nothing; another
-    fleet's engine, recording or baseline answers 404."""
+    (an unhealthy recording, one with neither a bearing channel nor crank-speed orders) answer 422 with its
+    message and store nothing; a recording of the crank speed alone gives a baseline without sensors;
+    another fleet's engine, recording or baseline answers 404."""
     from dataclasses import replace
 
     from monitor.io.hdf5 import read_hdf5
@@ -454,17 +455,20 @@ def test_a_baseline_set_from_a_stored_recording_is_used_by_later_analyses_of_its
     healthy, misfiring = SAMPLES / "7k98mc-baseline.h5", SAMPLES / "7k98mc-misfire-cyl4.h5"
     unhealthy = tmp_path / "misfire-copy.h5"  # the same samples, another file: another recording
     write_hdf5(replace(read_hdf5(misfiring), start_time="2026-01-02T03:04:05Z"), unhealthy)
-    deaf = tmp_path / "no-bearing-sensor.h5"
+    deaf, crank_only = tmp_path / "keyphasor-only.h5", tmp_path / "crank-speed-only.h5"
     sample = read_hdf5(healthy)
-    write_hdf5(replace(sample, channels=tuple(c for c in sample.channels if c.kind != "acceleration")), deaf)
+    write_hdf5(replace(sample, channels=tuple(c for c in sample.channels if c.kind == "keyphasor")), deaf)
+    write_hdf5(
+        replace(sample, channels=tuple(c for c in sample.channels if c.kind != "acceleration")), crank_only
+    )
     with server.client("a") as a, server.client("b") as b:
-        ids = {path.name: _upload(a, path).json()["id"] for path in (healthy, unhealthy, deaf)}
+        ids = {path.name: _upload(a, path).json()["id"] for path in (healthy, unhealthy, deaf, crank_only)}
         other = _upload(a, SAMPLES / "6l32-misfire-cyl3.h5").json()["id"]
         theirs = _upload(b, healthy).json()["id"]
         assert a.get(f"/engines/{engine}/baseline").status_code == 404
         for name, reason in (
             (unhealthy.name, "not healthy enough to calibrate on"),
-            (deaf.name, "no acceleration or velocity channel on a main bearing"),
+            (deaf.name, "neither an acceleration or velocity channel on a main bearing"),
         ):
             refused = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[name]})
             assert refused.status_code == 422, refused.text
@@ -474,6 +478,9 @@ def test_a_baseline_set_from_a_stored_recording_is_used_by_later_analyses_of_its
         mismatch = a.post(f"/engines/{engine}/baseline", json={"recording_id": other})
         assert mismatch.status_code == 422 and "'medium-speed-6l32', not 'man-b-w-7k98mc'" in mismatch.text
         assert a.get(f"/engines/{engine}/baseline").status_code == 404  # nothing stored
+        crank = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[crank_only.name]})
+        assert crank.status_code == 201, crank.text
+        assert crank.json()["baseline"]["sensors"] == {} and crank.json()["baseline"]["crank_speed_model"]
         set_ = a.post(f"/engines/{engine}/baseline", json={"recording_id": ids[healthy.name]})
         assert set_.status_code == 201, set_.text
         stored = a.get(f"/engines/{engine}/baseline").json()

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from monitor.diagnosis import calibrate, diagnose
@@ -423,3 +424,28 @@ def test_the_wheel_carries_every_script_and_style_the_pages_load(tmp_path: Path)
     wanted = [*pages._SCRIPTS, *pages._STYLES, f"{pages._UPLOT}/LICENSE"]
     missing = [name for name in wanted if f"monitor/report/web/static/{name}" not in names]
     assert not missing, f"the wheel lacks {missing}"
+
+
+def test_a_crank_speed_only_recording_shows_its_bearings_not_judged(browser: Any, tmp_path: Path) -> None:
+    """A recording of a tooth wheel and a cam alone (written with h5py by the test), healthy: under the
+    healthy badge and its "No findings.", a line says that the main bearings were not judged and why,
+    above the charts, which draw the cylinder balance and the crank speed as for any recording."""
+    from selenium.webdriver.common.by import By
+
+    from tests.diagnosis.crank_only_files import ENGINE, write_crank_only
+
+    recording = write_crank_only(tmp_path / "crank-only.h5", np.random.default_rng(7))
+    diagnosis = diagnose(read_hdf5(recording), load_engine(bundled_engines()[ENGINE]))
+    document = diagnosis_document(diagnosis, recording=recording.name)
+    path = tmp_path / "crank-only.html"
+    path.write_text(recording_page(document), encoding="utf-8")
+    browser.get(path.as_uri())
+    assert browser.find_element(By.CSS_SELECTOR, ".verdict .status").get_attribute("data-status") == "healthy"
+    line = browser.find_element(By.ID, "bearings-not-judged")
+    assert line.is_displayed() and line.text.startswith("Main bearings not judged:")
+    assert "no main-bearing vibration channel" in line.text
+    findings = browser.find_element(By.ID, "findings")
+    charts = browser.find_element(By.ID, "charts")
+    assert findings.location["y"] < line.location["y"] < charts.location["y"]
+    expected = 1 + len(document["channels"])  # the cylinder balance and the crank speed
+    assert int(browser.find_element(By.TAG_NAME, "body").get_attribute("data-charts")) == expected == 2

@@ -139,6 +139,18 @@ def _findings(findings: list[dict[str, Any]], status: str = "") -> str:
     return f'<ul class="findings" id="findings">{items}</ul>'
 
 
+def _bearings_not_judged(diagnosis: dict[str, Any]) -> str:
+    """A line saying that the main bearings were not judged, and why; "" when they were (or unsaid)."""
+    bearings = diagnosis.get("main_bearings")
+    if not isinstance(bearings, dict) or bearings.get("judged", True):
+        return ""
+    reason = str(bearings.get("not_judged_because") or "no sensor on a main bearing")
+    return (
+        '<p class="not-judged" id="bearings-not-judged"><strong>Main bearings not judged:</strong> '
+        f"{html.escape(reason)}</p>"
+    )
+
+
 def recording_page(
     diagnosis: dict[str, Any],
     spectrum: dict[str, Any] | None = None,
@@ -194,6 +206,7 @@ def recording_page(
         else ""
     )
     verdict = _analysis_state(analysis) if analysis else _findings(diagnosis.get("findings") or [], status)
+    verdict += _bearings_not_judged(diagnosis)
     data = {"view": "recording", "diagnosis": None if analysis else diagnosis, "spectrum": spectrum}
     return (
         _head(title, assets)
@@ -388,6 +401,7 @@ def engine_page(
         + f"<header><h1>{html.escape(engine_id)}</h1></header>\n"
         + f'<section class="verdict"><h2>Latest recording {_status(status)}{latest_link}</h2>'
         + _findings(findings, status)
+        + _bearings_not_judged(latest or {})
         + f"<h2>Trend findings</h2>{trend_html}</section>\n"
         + '<section id="charts"><noscript>The charts need JavaScript; the findings above do not.</noscript>'
         "</section>\n" + chooser + _data_script(data) + _scripts(assets) + "\n</body></html>\n"
