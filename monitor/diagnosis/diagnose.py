@@ -48,6 +48,7 @@ from monitor.diagnosis.findings import (
     bearing_findings,
     confidence_beyond,
     cylinder_findings,
+    missing_firing_findings,
     reference_profile,
     sensor_finding,
     single_cylinder_findings,
@@ -623,6 +624,8 @@ def _cylinder_findings(
     fits = balance is not None and balance.chi2_reduced <= MISFIT
     if balance is not None and fits and balance.separable and engine.cylinders > 1:
         return cylinder_findings(balance, analysis.partners)
+    if balance is not None and balance.separable and engine.cylinders > 1:  # a misfire is never hidden
+        return missing_firing_findings(balance, analysis.partners)
     if balance is not None and fits and engine.cylinders == 1:
         single = (
             # a calibrated model gives the strength against the baseline's directly

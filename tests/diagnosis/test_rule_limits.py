@@ -46,6 +46,7 @@ from monitor.diagnosis.findings import (
     sensor_finding,
     single_cylinder_findings,
 )
+from monitor.diagnosis.misfire import MissingFiring
 from monitor.diagnosis.sensors import SensorFault
 from monitor.diagnosis.zones import DEFAULT_BOUNDARIES_MM_S, VelocityRms
 from monitor.io.recording import Channel, Recording
@@ -55,6 +56,7 @@ WEAK = "weak, leaking or misfiring"
 NEARLY = "misfiring, or nearly: no firing is within its 95 % interval"
 STRONGER = "stronger than the others"
 STRONGER_THAN_MODEL = "stronger than the model"
+NEARLY_PATTERN = "misfiring, or nearly: it lacks most of its firing impulse"
 
 
 def test_the_limits_are_those_documented() -> None:
@@ -74,6 +76,7 @@ def test_the_limits_are_those_documented() -> None:
     assert findings.IMPACT_WITH_CYLINDER_FINDING == 2.0
     assert findings.IMPACT_WITHOUT_BASELINE == 10.0
     assert findings.LOCALISED == 2.0
+    assert findings.PATTERN_EXPLAINED == 0.5
     assert DEFAULT_BOUNDARIES_MM_S == (7.1, 11.0, 18.0)
 
 
@@ -159,6 +162,60 @@ def test_a_cylinder_against_the_others(
         assert f"({expected[1] if expected else ''}; heat release from the crank-speed orders)" in (
             found[0].summary
         )
+
+
+# (id, share of the others' impulse, deficit, its error, explained, the model's share, expected)
+PATTERN: list[tuple[str, float, float, float, float, float, tuple[str, str, float] | None]] = [
+    ("lacks most: below 50 %", 0.49, 1.0, 0.01, 0.9, 1.0, ("alarm", NEARLY_PATTERN, 0.5)),
+    ("lacks half or less: at 50 %", 0.50, 1.0, 0.01, 0.9, 1.0, None),
+    ("misfiring below 30 %", 0.29, 1.0, 0.01, 0.9, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("lacks most above 30 %", 0.31, 1.0, 0.01, 0.9, 1.0, ("alarm", NEARLY_PATTERN, 0.5)),
+    ("deficit 4.1 errors above nothing", 0.1, 1.0, 1.0 / 4.1, 0.9, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("deficit 3.9 errors above nothing", 0.1, 1.0, 1.0 / 3.9, 0.9, 1.0, None),
+    ("the pattern explains 51 %", 0.1, 1.0, 0.01, 0.51, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("the pattern explains 49 %", 0.1, 1.0, 0.01, 0.49, 1.0, None),
+    # the model's rule already calls it an alarm: its finding stands, the pattern's is not added
+    ("the model's alarm stands", 0.1, 1.0, 0.01, 0.9, 0.4, ("alarm", WEAK, 0.5)),
+    # a model's warning gives way to the pattern's alarm
+    ("the pattern's alarm replaces a warning", 0.1, 1.0, 0.01, 0.9, 0.7, ("alarm", MISFIRING, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "deficit", "error", "explained", "model", "expected"),
+    [row[1:] for row in PATTERN],
+    ids=[row[0] for row in PATTERN],
+)
+def test_a_missing_firing_impulse(
+    share: float,
+    deficit: float,
+    error: float,
+    explained: float,
+    model: float,
+    expected: tuple[str, str, float] | None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Cylinder 2 of three lacks ``deficit`` of its impulse by the pattern test (its result given
+    here), the model-based share at ``model`` with small errors: an alarm below 50 % whose deficit
+    stands 4 errors above nothing and whose pattern explains at least half the cancelling orders."""
+    balance = _balance([1.0, model, 1.0], [1.0, model, 1.0], 0.01, 0.01)
+    given = MissingFiring(
+        deficit=np.array([-0.1, deficit, -0.1]),
+        deficit_error=np.full(3, error),
+        level=np.full(3, deficit / (1 - share)),
+        level_error=np.full(3, 0.01),
+        share=np.array([1.1, share, 1.1]),
+        share_error=np.full(3, 0.05),
+        compression=np.ones(3),
+        explained=np.array([0.1, explained, 0.1]),
+        orders=np.array([0.5, 1.0, 1.5]),
+        cancelling=np.array([True, False, True]),
+    )
+    monkeypatch.setattr(findings, "missing_firing", lambda _: given)
+    found = cylinder_findings(balance)
+    assert _only(found) == expected
+    if found:
+        assert found[0].subject == "cylinder 2"
 
 
 # (id, strength, its standard error, the baseline's strength (None: none), expected)
