@@ -48,6 +48,7 @@ from monitor.diagnosis.findings import (
     bearing_findings,
     confidence_beyond,
     cylinder_findings,
+    missing_firing_doubt,
     missing_firing_findings,
     reference_profile,
     sensor_finding,
@@ -328,6 +329,8 @@ def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
                 f"the cylinders' differences are uncertain by up to {100 * worst:.0f} % (one standard "
                 "error): too little to call them healthy"
             )
+        if balance is not None and (doubt := missing_firing_doubt(balance)) is not None:
+            reasons.append(doubt)
     elif analysis.balance is None and engine.combustion is not None:
         reasons.append("the cylinder was not judged (see the notes)")
     return reasons

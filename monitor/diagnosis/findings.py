@@ -18,7 +18,7 @@ import numpy as np
 from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
-from monitor.diagnosis.misfire import missing_firing
+from monitor.diagnosis.misfire import MissingFiring, missing_firing
 from monitor.diagnosis.sensors import SensorFault
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
@@ -30,6 +30,7 @@ __all__ = [
     "bearing_findings",
     "confidence_beyond",
     "cylinder_findings",
+    "missing_firing_doubt",
     "missing_firing_findings",
     "reference_profile",
     "sensor_finding",
@@ -174,11 +175,12 @@ def cylinder_findings(balance: CylinderBalance, partners: list[int | None] | Non
     findings = _each_cylinder(balance, partners)
     weaker = int(np.argmin(balance.strength)) + 1
     # a missing firing impulse is never hidden by the model's fit: its pattern's alarm stands in for
-    # a milder finding on the cylinder, or for none
+    # a milder finding on the cylinder, or for none, or for an alarm that reads the cylinder higher
     for missing in missing_firing_findings(balance, partners):
         weaker = missing.evidence[0]["cylinder"]
+        share = missing.evidence[0]["measured"]
         same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
-        if not any(f.severity == "alarm" and f.evidence[0]["measured"] < 1.0 for f in same):
+        if not any(f.severity == "alarm" and f.evidence[0]["measured"] <= share for f in same):
             findings = [f for f in findings if f not in same] + [missing]
     if balance.strength.size == 2 and len(findings) == 2:
         findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
@@ -214,9 +216,7 @@ def missing_firing_findings(
         return []
     c = test.candidate
     a, share = float(test.deficit[c]), float(test.share[c])
-    if not (math.isfinite(share) and a >= SIGNIFICANCE * float(test.deficit_error[c])):
-        return []
-    if share >= CYLINDER_ALARM[0] or float(test.explained[c]) < PATTERN_EXPLAINED:
+    if not _lacks_most(test) or float(test.explained[c]) < PATTERN_EXPLAINED:
         return []
     e = max(float(test.share_error[c]), 1e-12)
     partner = partners[c] if partners is not None else None
@@ -313,6 +313,45 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
             )
         )
     return findings
+
+
+def _lacks_most(test: MissingFiring) -> bool:
+    """Whether the candidate's deficit is significant and most of the others' impulse."""
+    c = test.candidate
+    share = float(test.share[c])
+    significant = float(test.deficit[c]) >= SIGNIFICANCE * float(test.deficit_error[c])
+    return math.isfinite(share) and significant and share < CYLINDER_ALARM[0]
+
+
+def missing_firing_doubt(balance: CylinderBalance) -> str | None:
+    """Why a run without findings is not healthy: a deficit its pattern does not explain, if any.
+
+    A cylinder whose deficit would be an alarm (:func:`missing_firing_findings`) but whose pattern
+    explains less than :data:`PATTERN_EXPLAINED` of the orders where the cylinders cancel is
+    neither named nor let pass: the orders carry a missing impulse and something else (a transfer
+    that is not the engine's, a torsional resonance).
+
+    Parameters
+    ----------
+    balance : CylinderBalance
+
+    Returns
+    -------
+    str or None
+        The reason, or None.
+    """
+    test = missing_firing(balance)
+    if test is None or not _lacks_most(test):
+        return None
+    c = test.candidate
+    if float(test.explained[c]) >= PATTERN_EXPLAINED:
+        return None
+    return (
+        f"cylinder {c + 1} reads {round(100 * float(test.share[c]))} % of the others' firing impulse "
+        f"by its pattern, {float(test.significance[c]):.0f} standard errors, but the pattern explains "
+        f"only {round(100 * float(test.explained[c]))} % of the orders where the cylinders cancel: "
+        "a missing impulse and something else (near a torsional resonance try the shaft-line transfer)"
+    )
 
 
 def single_cylinder_findings(
