@@ -175,12 +175,12 @@ def cylinder_findings(balance: CylinderBalance, partners: list[int | None] | Non
     findings = _each_cylinder(balance, partners)
     weaker = int(np.argmin(balance.strength)) + 1
     # a missing firing impulse is never hidden by the model's fit: its pattern's alarm stands in for
-    # a milder finding on the cylinder, or for none, or for an alarm that reads the cylinder higher
+    # a milder finding on the cylinder, or for none, or for an alarm that reads it higher, not misfiring
     for missing in missing_firing_findings(balance, partners):
         weaker = missing.evidence[0]["cylinder"]
-        share = missing.evidence[0]["measured"]
+        share = max(missing.evidence[0]["measured"], MISFIRE_BELOW)
         same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
-        if not any(f.severity == "alarm" and f.evidence[0]["measured"] <= share for f in same):
+        if not any(f.severity == "alarm" and f.evidence[0]["measured"] < share for f in same):
             findings = [f for f in findings if f not in same] + [missing]
     if balance.strength.size == 2 and len(findings) == 2:
         findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
@@ -198,6 +198,8 @@ def missing_firing_findings(
     :data:`PATTERN_EXPLAINED` of the orders where the cylinders cancel, and the share of the
     others' impulse it fires is below the alarm limit (:data:`CYLINDER_ALARM`); "misfiring" below
     :data:`MISFIRE_BELOW`.  Its errors are the measurement's, never scaled by the model's misfit.
+    In :func:`cylinder_findings` it stands in for the balance's finding on the same cylinder
+    unless that is an alarm reading the cylinder lower, or misfiring.
 
     Parameters
     ----------
