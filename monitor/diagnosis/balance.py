@@ -173,6 +173,13 @@ class CylinderBalance:
     known, combustion : ndarray, complex
         The model's inertia and fixed torques, and its combustion at nominal strengths, at those
         orders, uncalibrated (the parts a :class:`CrankCalibration` shares a gap between).
+    columns : ndarray, complex, shape (n_orders, n_cylinders)
+        Each cylinder's combustion at nominal strength as it reaches the left-hand side (the
+        calibration's factors applied): the least-squares problem's design [same unit].
+    inertia_part, gas_part : ndarray, complex
+        The moving masses' torque and the gas force's fixed part (the compression and charge
+        pressure), summed over the cylinders as they reach the left-hand side, the calibration's
+        factors applied [same unit].
     """
 
     strength: FloatArray
@@ -196,6 +203,9 @@ class CylinderBalance:
     calibrated: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
     known: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     combustion: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    columns: ComplexArray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.complex128))
+    inertia_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    gas_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
 
     def calibration(self) -> CrankCalibration:
         """This (healthy) balance's calibration of the model where the cylinders add up.
@@ -318,7 +328,7 @@ def cylinder_balance(
     """
     if not parts.strength:
         raise ModelError("the model has no gas forces: cylinder strengths cannot be estimated")
-    use, orders, known, combustion = _cylinder_orders(speed, engine, parts, highest_order)
+    use, orders, known, combustion, gas = _cylinder_orders(speed, engine, parts, highest_order)
     y, se, unit, H, inertia = _left_hand_side(speed, use, engine, parts, transfer)
     # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
     factor, factor_error, inertia_factor, inertia_factor_error, calibrated = _factors(
@@ -381,13 +391,17 @@ def cylinder_balance(
         calibrated=calibrated,
         known=plain,
         combustion=burning,
+        columns=design,
+        inertia_part=inertia_factor * (H * (known - gas)).sum(axis=0),
+        gas_part=inertia_factor * (H * gas).sum(axis=0),
     )
 
 
 def _cylinder_orders(
     speed: OrderSpectrum, engine: Engine, parts: CylinderParts, highest_order: float | None
-) -> tuple[npt.NDArray[np.bool_], FloatArray, ComplexArray, ComplexArray]:
-    """The orders used (mask and values) and each cylinder's known and combustion torques at them."""
+) -> tuple[npt.NDArray[np.bool_], FloatArray, ComplexArray, ComplexArray, ComplexArray]:
+    """The orders used (mask and values) and each cylinder's known and combustion torques at them,
+    with the gas force's fixed part of the known."""
     n = engine.cylinders
     R = engine.cycle_revolutions
     top = highest_order if highest_order is not None else n / R
@@ -404,7 +418,8 @@ def _cylinder_orders(
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))  # (n_cyl, n_orders)
     known = (parts.inertia[0, index] + parts.fixed[0, index])[None, :] * rotation
     combustion = parts.combustion[0, index][None, :] * rotation
-    return use, orders, known, combustion
+    gas = parts.fixed[0, index][None, :] * rotation
+    return use, orders, known, combustion, gas
 
 
 def _left_hand_side(

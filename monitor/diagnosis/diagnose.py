@@ -49,6 +49,8 @@ from monitor.diagnosis.findings import (
     bearing_findings,
     confidence_beyond,
     cylinder_findings,
+    missing_firing_doubt,
+    missing_firing_findings,
     reference_profile,
     sensor_finding,
     single_cylinder_findings,
@@ -331,6 +333,8 @@ def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
                 f"the cylinders' differences are uncertain by up to {100 * worst:.0f} % (one standard "
                 "error): too little to call them healthy"
             )
+        if balance is not None and (doubt := missing_firing_doubt(balance)) is not None:
+            reasons.append(doubt)
     elif analysis.balance is None and engine.combustion is not None:
         reasons.append("the cylinder was not judged (see the notes)")
     return reasons
@@ -637,6 +641,8 @@ def _cylinder_findings(
     fits = balance is not None and balance.chi2_reduced <= MISFIT
     if balance is not None and fits and balance.separable and engine.cylinders > 1:
         return cylinder_findings(balance, analysis.partners)
+    if balance is not None and balance.separable and engine.cylinders > 1:  # a misfire is never hidden
+        return missing_firing_findings(balance, analysis.partners)
     if balance is not None and fits and engine.cylinders == 1:
         single = (
             # a calibrated model gives the strength against the baseline's directly

@@ -18,6 +18,7 @@ import numpy as np
 from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
+from monitor.diagnosis.misfire import MissingFiring, missing_firing
 from monitor.diagnosis.sensors import SensorFault
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
@@ -29,6 +30,8 @@ __all__ = [
     "bearing_findings",
     "confidence_beyond",
     "cylinder_findings",
+    "missing_firing_doubt",
+    "missing_firing_findings",
     "reference_profile",
     "sensor_finding",
     "single_cylinder_findings",
@@ -57,6 +60,11 @@ IMPACT_WITHOUT_BASELINE = 10.0
 # moved by a misfire or a load change, alike on all) [-]
 LOCALISED = 2.0
 SEVERITIES = ("healthy", "warning", "alarm")
+NEARLY_PATTERN = "it lacks most of its firing impulse"  # the pattern's label between 30 and 50 %
+# a missing impulse's pattern explains at least this share of the weighted power at the orders where
+# the cylinders cancel: a disturbance of another shape there (a transfer that is not the engine's, a
+# torsional resonance) is not one cylinder's missing impulse [-]
+PATTERN_EXPLAINED = 0.5
 ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
 BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
 
@@ -165,10 +173,89 @@ def cylinder_findings(balance: CylinderBalance, partners: list[int | None] | Non
     list of Finding
     """
     findings = _each_cylinder(balance, partners)
+    weaker = int(np.argmin(balance.strength)) + 1
+    # a missing firing impulse is never hidden by the model's fit: its pattern's alarm stands in for
+    # a milder finding on the cylinder, or for none, or for an alarm that reads it higher, not misfiring
+    for missing in missing_firing_findings(balance, partners):
+        weaker = missing.evidence[0]["cylinder"]
+        share = max(missing.evidence[0]["measured"], MISFIRE_BELOW)
+        same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
+        if not any(f.severity == "alarm" and f.evidence[0]["measured"] < share for f in same):
+            findings = [f for f in findings if f not in same] + [missing]
     if balance.strength.size == 2 and len(findings) == 2:
-        weaker = int(np.argmin(balance.strength))
-        findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker + 1]
+        findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
     return findings
+
+
+def missing_firing_findings(
+    balance: CylinderBalance, partners: list[int | None] | None = None
+) -> list[Finding]:
+    """A cylinder that lacks most of its firing impulse, by its pattern in the crank-speed orders.
+
+    The test (:mod:`monitor.diagnosis.misfire`) does not rest on the model's level: the cylinder
+    whose missing impulse's pattern is the most significant is an alarm when that deficit stands
+    :data:`SIGNIFICANCE` standard errors above nothing, its pattern explains at least
+    :data:`PATTERN_EXPLAINED` of the orders where the cylinders cancel, and the share of the
+    others' impulse it fires is below the alarm limit (:data:`CYLINDER_ALARM`); "misfiring" below
+    :data:`MISFIRE_BELOW`.  Its errors are the measurement's, never scaled by the model's misfit.
+    In :func:`cylinder_findings` it stands in for the balance's finding on the same cylinder
+    unless that is an alarm reading the cylinder lower, or misfiring.
+
+    Parameters
+    ----------
+    balance : CylinderBalance
+        With its parts (:attr:`CylinderBalance.columns`); none without them.
+    partners : list of int or None, optional
+        A four-stroke whose cycle phase is unknown: each cylinder's 360 deg partner (index).
+
+    Returns
+    -------
+    list of Finding
+        At most one.
+    """
+    test = missing_firing(balance)
+    if test is None:
+        return []
+    c = test.candidate
+    a, share = float(test.deficit[c]), float(test.share[c])
+    if not _lacks_most(test) or float(test.explained[c]) < PATTERN_EXPLAINED:
+        return []
+    e = max(float(test.share_error[c]), 1e-12)
+    partner = partners[c] if partners is not None else None
+    named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
+    what = "misfiring" if share < MISFIRE_BELOW else f"misfiring, or nearly: {NEARLY_PATTERN}"
+    return [
+        Finding(
+            kind="cylinder",
+            subject=named,
+            severity="alarm",
+            summary=(
+                f"{named} at {round(100 * share)} % +- {round(196 * e)} % of the others' firing impulse "
+                f"({what}; the pattern of a missing impulse in the crank-speed orders, "
+                "whatever the model's level)"
+                + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
+            ),
+            confidence=confidence_beyond((CYLINDER_ALARM[0] - share) / e),
+            evidence=[
+                {
+                    "quantity": "share of the others' firing impulse",
+                    "measured": share,
+                    "standard_error": e,
+                    "predicted": 1.0,
+                    "threshold": CYLINDER_ALARM[0],
+                    "unit": "-",
+                    "deficit": a,
+                    "deficit_standard_error": float(test.deficit_error[c]),
+                    "level": float(test.level[c]),
+                    "level_standard_error": float(test.level_error[c]),
+                    "explained": float(test.explained[c]),
+                    "orders": test.orders[test.cancelling].tolist(),
+                    "cylinder": c + 1,
+                    "model_chi2_reduced": balance.chi2_reduced,
+                }
+            ],
+        )
+    ]
 
 
 def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) -> list[Finding]:
@@ -228,6 +315,45 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
             )
         )
     return findings
+
+
+def _lacks_most(test: MissingFiring) -> bool:
+    """Whether the candidate's deficit is significant and most of the others' impulse."""
+    c = test.candidate
+    share = float(test.share[c])
+    significant = float(test.deficit[c]) >= SIGNIFICANCE * float(test.deficit_error[c])
+    return math.isfinite(share) and significant and share < CYLINDER_ALARM[0]
+
+
+def missing_firing_doubt(balance: CylinderBalance) -> str | None:
+    """Why a run without findings is not healthy: a deficit its pattern does not explain, if any.
+
+    A cylinder whose deficit would be an alarm (:func:`missing_firing_findings`) but whose pattern
+    explains less than :data:`PATTERN_EXPLAINED` of the orders where the cylinders cancel is
+    neither named nor let pass: the orders carry a missing impulse and something else (a transfer
+    that is not the engine's, a torsional resonance).
+
+    Parameters
+    ----------
+    balance : CylinderBalance
+
+    Returns
+    -------
+    str or None
+        The reason, or None.
+    """
+    test = missing_firing(balance)
+    if test is None or not _lacks_most(test):
+        return None
+    c = test.candidate
+    if float(test.explained[c]) >= PATTERN_EXPLAINED:
+        return None
+    return (
+        f"cylinder {c + 1} reads {round(100 * float(test.share[c]))} % of the others' firing impulse "
+        f"by its pattern, {float(test.significance[c]):.0f} standard errors, but the pattern explains "
+        f"only {round(100 * float(test.explained[c]))} % of the orders where the cylinders cancel: "
+        "a missing impulse and something else (near a torsional resonance try the shaft-line transfer)"
+    )
 
 
 def single_cylinder_findings(

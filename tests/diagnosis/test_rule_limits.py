@@ -46,6 +46,7 @@ from monitor.diagnosis.findings import (
     sensor_finding,
     single_cylinder_findings,
 )
+from monitor.diagnosis.misfire import MissingFiring
 from monitor.diagnosis.sensors import SensorFault
 from monitor.diagnosis.zones import DEFAULT_BOUNDARIES_MM_S, VelocityRms
 from monitor.io.recording import Channel, Recording
@@ -55,6 +56,7 @@ WEAK = "weak, leaking or misfiring"
 NEARLY = "misfiring, or nearly: no firing is within its 95 % interval"
 STRONGER = "stronger than the others"
 STRONGER_THAN_MODEL = "stronger than the model"
+NEARLY_PATTERN = "misfiring, or nearly: it lacks most of its firing impulse"
 
 
 def test_the_limits_are_those_documented() -> None:
@@ -62,7 +64,8 @@ def test_the_limits_are_those_documented() -> None:
     85 % or above 115 %, an alarm below 50 % or above 130 %, misfiring below 30 %; a single cylinder's
     error at least 15 % against the model (10 % against its baseline); bearing orders 50 % and 100 %;
     impacts 1.25 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
-    alarm, localised by a factor of 2; zones C and D from 11 and 18 mm/s."""
+    alarm, localised by a factor of 2; zones C and D from 11 and 18 mm/s; a missing impulse's pattern
+    explaining at least 50 % of the orders where the cylinders cancel."""
     assert findings.SIGNIFICANCE == 4.0
     assert findings.CYLINDER_WARNING == (0.85, 1.15)
     assert findings.CYLINDER_ALARM == (0.5, 1.3)
@@ -74,6 +77,7 @@ def test_the_limits_are_those_documented() -> None:
     assert findings.IMPACT_WITH_CYLINDER_FINDING == 2.0
     assert findings.IMPACT_WITHOUT_BASELINE == 10.0
     assert findings.LOCALISED == 2.0
+    assert findings.PATTERN_EXPLAINED == 0.5
     assert DEFAULT_BOUNDARIES_MM_S == (7.1, 11.0, 18.0)
 
 
@@ -159,6 +163,100 @@ def test_a_cylinder_against_the_others(
         assert f"({expected[1] if expected else ''}; heat release from the crank-speed orders)" in (
             found[0].summary
         )
+
+
+# (id, share of the others' impulse, deficit, its error, explained, the model's share, expected)
+PATTERN: list[tuple[str, float, float, float, float, float, tuple[str, str, float] | None]] = [
+    ("lacks most: below 50 %", 0.49, 1.0, 0.01, 0.9, 1.0, ("alarm", NEARLY_PATTERN, 0.5)),
+    ("lacks half or less: at 50 %", 0.50, 1.0, 0.01, 0.9, 1.0, None),
+    ("misfiring below 30 %", 0.29, 1.0, 0.01, 0.9, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("lacks most above 30 %", 0.31, 1.0, 0.01, 0.9, 1.0, ("alarm", NEARLY_PATTERN, 0.5)),
+    ("deficit 4.1 errors above nothing", 0.1, 1.0, 1.0 / 4.1, 0.9, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("deficit 3.9 errors above nothing", 0.1, 1.0, 1.0 / 3.9, 0.9, 1.0, None),
+    ("the pattern explains 51 %", 0.1, 1.0, 0.01, 0.51, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("the pattern explains 49 %", 0.1, 1.0, 0.01, 0.49, 1.0, None),
+    # the model's rule already calls it an alarm reading it lower, or misfiring: its finding stands
+    ("the model's lower alarm stands", 0.45, 1.0, 0.01, 0.9, 0.44, ("alarm", WEAK, 0.5)),
+    ("the model's misfiring stands", 0.05, 1.0, 0.01, 0.9, 0.29, ("alarm", MISFIRING, 0.5)),
+    # the model's alarm reads it as high, or higher and not misfiring: the pattern stands in for it
+    ("the model's alarm as high gives way", 0.45, 1.0, 0.01, 0.9, 0.45, ("alarm", NEARLY_PATTERN, 0.5)),
+    ("the model's higher alarm gives way", 0.29, 1.0, 0.01, 0.9, 0.31, ("alarm", MISFIRING, 0.5)),
+    # a model's warning gives way to the pattern's alarm
+    ("the pattern's alarm replaces a warning", 0.1, 1.0, 0.01, 0.9, 0.7, ("alarm", MISFIRING, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "deficit", "error", "explained", "model", "expected"),
+    [row[1:] for row in PATTERN],
+    ids=[row[0] for row in PATTERN],
+)
+def test_a_missing_firing_impulse(
+    share: float,
+    deficit: float,
+    error: float,
+    explained: float,
+    model: float,
+    expected: tuple[str, str, float] | None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Cylinder 2 of three lacks ``deficit`` of its impulse by the pattern test (its result given
+    here), the model-based share at ``model`` with small errors: an alarm below 50 % whose deficit
+    stands 4 errors above nothing and whose pattern explains at least half the cancelling orders."""
+    balance = _balance([1.0, model, 1.0], [1.0, model, 1.0], 0.01, 0.01)
+    given = _missing(share, deficit, error, explained)
+    monkeypatch.setattr(findings, "missing_firing", lambda _: given)
+    found = cylinder_findings(balance)
+    assert _only(found) == expected
+    if found:
+        assert found[0].subject == "cylinder 2"
+        # the balance's finding stands where it is an alarm reading the cylinder lower, or misfiring
+        by_pattern = "the pattern of a missing impulse" in found[0].summary
+        assert by_pattern == (not (model < 0.5 and (model < share or model < 0.3))), found[0].summary
+
+
+def _missing(share: float, deficit: float, error: float, explained: float) -> MissingFiring:
+    """The pattern test's result with cylinder 2 of three its candidate."""
+    return MissingFiring(
+        deficit=np.array([-0.1, deficit, -0.1]),
+        deficit_error=np.full(3, error),
+        level=np.full(3, deficit / (1 - share)),
+        level_error=np.full(3, 0.01),
+        share=np.array([1.1, share, 1.1]),
+        share_error=np.full(3, 0.05),
+        compression=np.ones(3),
+        explained=np.array([0.1, explained, 0.1]),
+        orders=np.array([0.5, 1.0, 1.5]),
+        cancelling=np.array([True, False, True]),
+    )
+
+
+# (id, share, deficit, its error, explained, whether the run is held back from healthy)
+DOUBT: list[tuple[str, float, float, float, float, bool]] = [
+    ("lacks most, its pattern explains 49 %", 0.1, 1.0, 0.01, 0.49, True),
+    ("lacks most, its pattern explains 51 % (a finding instead)", 0.1, 1.0, 0.01, 0.51, False),
+    ("at 50 %, unexplained", 0.5, 1.0, 0.01, 0.1, False),
+    ("deficit 3.9 errors, unexplained", 0.1, 1.0, 1.0 / 3.9, 0.1, False),
+]
+
+
+@pytest.mark.parametrize(
+    ("share", "deficit", "error", "explained", "doubt"),
+    [row[1:] for row in DOUBT],
+    ids=[row[0] for row in DOUBT],
+)
+def test_a_deficit_its_pattern_does_not_explain(
+    share: float, deficit: float, error: float, explained: float, doubt: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A deficit that would be an alarm but whose pattern explains less than half the cancelling
+    orders names nothing and keeps the run from being called healthy (the reason names it)."""
+    balance = _balance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 0.01, 0.01)
+    monkeypatch.setattr(findings, "missing_firing", lambda _: _missing(share, deficit, error, explained))
+    reason = findings.missing_firing_doubt(balance)
+    assert (reason is not None) == doubt
+    if reason is not None:
+        assert reason.startswith("cylinder 2 reads 10 % of the others' firing impulse")
+        assert cylinder_findings(balance) == []
 
 
 # (id, strength, its standard error, the baseline's strength (None: none), expected)
