@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -151,6 +152,9 @@ class Diagnosis:
     spectra : SpectrumResult
     baseline : str
         The baseline's source, or "".
+    operating_point : dict
+        The loads stated, estimated and used and the reference's calibrated points
+        (:func:`monitor.diagnosis.at_point.diagnose_at_point`); empty from :func:`diagnose` alone.
     """
 
     engine_id: str
@@ -166,6 +170,7 @@ class Diagnosis:
     notes: list[str]
     spectra: SpectrumResult = field(repr=False)
     baseline: str = ""
+    operating_point: dict[str, Any] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------------------------ model

@@ -53,6 +53,7 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             for f in diagnosis.findings
         ],
         "notes": list(diagnosis.notes),
+        "operating_point": dict(diagnosis.operating_point) or None,
         "cylinder_balance": None,
         "channels": {},
         "impacts": {},
