@@ -89,12 +89,12 @@ def diagnose_at_point(
     used = "stated"
     if load is None:
         used = "baseline" if points is not None else "rated"
-        if estimate is not None and len(reference_points(points)) > 1:
+        if estimate is not None and len(_calibrated(points)) > 1:
             used = "estimated"
             if abs(estimate.load - diagnosis.load) > 0.01:  # the model and reference at the estimate
                 diagnosis, reference = run(estimate.load)
     notes = _load_notes(load, estimate, diagnosis.load, used)
-    if reference is not None and len(reference_points(points)) > 1:
+    if reference is not None and len(_calibrated(points)) > 1:
         notes.append(reference.note())
     point: dict[str, Any] = {
         "load_used": diagnosis.load,
@@ -111,17 +111,8 @@ def diagnose_at_point(
     return replace(diagnosis, notes=diagnosis.notes + notes, operating_point=point)
 
 
-def reference_points(points: OperatingPoints | None) -> tuple[Any, ...]:
-    """The calibrated points (none without a baseline).
-
-    Parameters
-    ----------
-    points : OperatingPoints or None
-
-    Returns
-    -------
-    tuple of Baseline
-    """
+def _calibrated(points: OperatingPoints | None) -> tuple[Any, ...]:
+    """The calibrated points (none without a baseline)."""
     return points.points if points is not None else ()
 
 

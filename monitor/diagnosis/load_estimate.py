@@ -57,7 +57,7 @@ class LoadEstimate:
     reference: str
 
 
-Reference = Callable[[float], tuple[CrankCalibration | None, float, str]]
+ReferenceAt = Callable[[float], tuple[CrankCalibration | None, float, str]]
 """For a load: the crank-speed calibration to fit with, the reference strength to match, and what it is."""
 
 
@@ -67,7 +67,7 @@ def estimate_load(
     *,
     transfer: Transfer,
     max_order: float,
-    reference: Reference,
+    reference: ReferenceAt,
 ) -> LoadEstimate | None:
     """The load at which the cylinders' median strength matches the reference's.
 
@@ -110,18 +110,22 @@ def estimate_load(
         matched = 1.0 if usable is not None and balance.calibrated.any() else strength
         return float(np.median(balance.strength)) - matched, math.hypot(error, level), words
 
-    try:
-        values = [mismatch(float(load)) for load in LOADS]
-    except ModelError:
+    try:  # a load the model or the balance cannot take leaves the load unestimated, never the diagnosis
+        return _root(mismatch)
+    except (ModelError, FloatingPointError, np.linalg.LinAlgError):
         return None
-    gaps = np.array([v[0] for v in values])
+
+
+def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate | None:
+    """The load where the mismatch falls through zero, bracketed on :data:`LOADS`, by the secant rule."""
+    gaps = np.array([mismatch(float(load))[0] for load in LOADS])
     crossing = np.flatnonzero((gaps[:-1] > 0) & (gaps[1:] <= 0))
     if crossing.size == 0:
         return None
     i = int(crossing[0])
     a, b, fa, fb = float(LOADS[i]), float(LOADS[i + 1]), float(gaps[i]), float(gaps[i + 1])
-    for _ in range(4):  # the secant rule, kept inside the bracket
-        c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+    for _ in range(4):  # the secant rule, kept inside the bracket (fa > 0 >= fb)
+        c = b - fb * (b - a) / (fb - fa)
         fc = mismatch(c)[0]
         if abs(fc) < 1e-4:
             a, b, fa, fb = c, c, fc, fc
@@ -131,12 +135,12 @@ def estimate_load(
         else:
             b, fb = c, fc
     load = a if a == b else a - fa * (b - a) / (fb - fa)
-    step = 0.02
-    low, high = mismatch(max(load - step, 0.0)), mismatch(min(load + step, 1.1))
-    slope = (high[0] - low[0]) / (min(load + step, 1.1) - max(load - step, 0.0))
-    here = mismatch(load)
-    error = here[1] / abs(slope) if slope != 0 else math.inf
-    return LoadEstimate(float(load), float(error), here[2])
+    below, above = max(load - 0.02, float(LOADS[0])), min(load + 0.02, float(LOADS[-1]))
+    slope = (mismatch(above)[0] - mismatch(below)[0]) / (above - below)
+    _, spread, words = mismatch(load)
+    if not slope < 0:  # the strengths do not tell the load here
+        return None
+    return LoadEstimate(float(load), float(spread / -slope), words)
 
 
 def _reference_level(balance: CylinderBalance, calibration: CrankCalibration | None) -> float:
