@@ -206,3 +206,20 @@ def test_the_load_estimated_is_the_simulated_load(
         assert abs(estimate - truth) <= LOAD_UNCERTAINTY / 2
         if against is not None:  # no load stated, several points: the estimate is the load used
             assert point["load_used_from"] == "estimated" and point["load_used"] == estimate
+
+
+def test_the_interpolation_uncertainty_covers_a_point_left_out(recordings: dict[str, Path]) -> None:
+    """Leave the middle point (0.75) out and interpolate it from 0.5 and 1.0 (a leave-one-out prediction,
+    the route the rule chosen was checked by): over each sensor's orders the interpolated transfers miss
+    the calibrated ones by no more than twice the interpolation's stated relative uncertainty, and by no
+    more than 3 standard errors of the difference. The scenes' structure is linear, so what changes with
+    the load here is the calibrations' noise: the miss and the line-against-step difference are two
+    differences of such calibrations, of one size, and twice the one bounds the other; were the
+    interpolation's uncertainty left out (zero) the first bound fails."""
+    low, middle, high = read_baseline(recordings["baseline"]).points
+    predicted = OperatingPoints.of([low, high]).reference_at(middle.load)
+    for name, actual in middle.sensors.items():
+        guess = predicted.baseline.sensors[name]
+        miss = float(np.linalg.norm(guess.transfer - actual.transfer))
+        assert miss <= 2 * predicted.relative_uncertainty * float(np.linalg.norm(actual.transfer)), name
+        assert miss <= 3 * np.linalg.norm(np.hypot(guess.transfer_error, actual.transfer_error)), name
