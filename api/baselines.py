@@ -1,7 +1,9 @@
 """Baselines set from a stored recording (the routes: :mod:`api.routes.baselines`).
 
 A baseline is calibrated on one of the fleet's stored recordings of that
-engine, as ``engine-monitor calibrate`` does (:mod:`api.calibrate`: in a
+engine, or on several at different loads (one operating point each, the
+document of several points stored whole: the store keeps the first
+recording's id beside it), as ``engine-monitor calibrate`` does (:mod:`api.calibrate`: in a
 process of its own at low priority, within a time and memory limit, one per
 fleet at once, :class:`Calibrations`), and stored, replacing the engine's
 previous one; the analyses that run after it compare that engine's bearing
@@ -71,22 +73,26 @@ async def calibrate_baseline(
     calibrations: Calibrations,
     fleet_id: int,
     engine_id: str,
-    recording_id: int,
-    load: float,
+    recording_ids: list[int],
+    loads: list[float] | None,
 ) -> BaselineRow:
-    """Calibrate the engine's baseline on the fleet's stored recording and store it: the stored row, or
-    the ApiError that says why there is none (404, 422, 429 while the fleet calibrates another)."""
+    """Calibrate the engine's baseline on the fleet's stored recordings (one operating point each) and
+    store it: the stored row, or the ApiError that says why there is none (404, 422, 429 while the fleet
+    calibrates another)."""
     description = await run_in_threadpool(fleet_description, store, fleet_id, engine_id)
-    recording = await run_in_threadpool(store.recording, fleet_id, recording_id)
-    if recording is None:
-        raise ApiError(404, "not_found", f"no recording {recording_id}")
-    if recording.engine_id != engine_id:
-        raise ApiError(
-            422,
-            "engine_mismatch",
-            f"recording {recording.id} is of engine {recording.engine_id!r}, not {engine_id!r}: calibrate "
-            f"the baseline of {engine_id!r} on a recording of that engine",
-        )
+    recordings = []
+    for recording_id in recording_ids:
+        recording = await run_in_threadpool(store.recording, fleet_id, recording_id)
+        if recording is None:
+            raise ApiError(404, "not_found", f"no recording {recording_id}")
+        if recording.engine_id != engine_id:
+            raise ApiError(
+                422,
+                "engine_mismatch",
+                f"recording {recording.id} is of engine {recording.engine_id!r}, not {engine_id!r}: "
+                f"calibrate the baseline of {engine_id!r} on recordings of that engine",
+            )
+        recordings.append(recording)
     running = calibrations.running
     if fleet_id in running:
         raise ApiError(
@@ -99,17 +105,17 @@ async def calibrate_baseline(
     try:
         async with calibrations.slots:
             calibration = await calibrate_stored(
-                recording.path,
+                [r.path for r in recordings],
                 description,
-                load=load,
-                name=recording.filename,
+                loads=loads,
+                names=[r.filename for r in recordings],
                 memory_bytes=settings.calibration_memory_bytes,
-                timeout_s=settings.calibration_timeout_s,
+                timeout_s=settings.calibration_timeout_s * len(recordings),
             )
     finally:
         running.discard(fleet_id)
     if not calibration.ok:
         raise ApiError(422, "calibration_failed", calibration.message)
     return await run_in_threadpool(
-        store.put_baseline, fleet_id, engine_id, recording.id, ANALYSIS_VERSION, calibration.document
+        store.put_baseline, fleet_id, engine_id, recordings[0].id, ANALYSIS_VERSION, calibration.document
     )

@@ -1,11 +1,13 @@
 """Calibrate a baseline on a stored recording, in a process of its own, as the request waits.
 
-``python -m api.calibrate PARENT MEMORY_BYTES LOAD PATH`` reads the engine's
-description (the fleet's own, or null for the bundled one) and the
-recording's name as JSON on its standard input, limits its own address space,
+``python -m api.calibrate PARENT MEMORY_BYTES`` reads the engine's
+description (the fleet's own, or null for the bundled one), the recordings'
+paths and names and their loads (null: each estimated, or rated for one) as
+JSON on its standard input, limits its own address space,
 lowers its own CPU priority (:data:`monitor.runtime.processes.NICE`, as the analyses), dies
-with its parent, and runs :func:`monitor.diagnosis.calibrate` as
-``engine-monitor calibrate`` does. It prints the baseline document
+with its parent, and calibrates a point on each recording as
+``engine-monitor calibrate`` does (:func:`monitor.jobs.calibration.calibrate_recordings`).
+It prints the baseline document
 (``calibrate``'s JSON) and exits 0, or prints the product's refusal (an
 unhealthy recording, one with neither a bearing channel nor crank-speed orders, a faulty
 sensor) and exits 3.
@@ -43,43 +45,43 @@ class Calibration:
 
 
 def _calibrate(
-    path: str, engine_description: dict[str, Any] | None, load: float, name: str
+    paths: list[str], engine_description: dict[str, Any] | None, loads: list[float] | None, names: list[str]
 ) -> dict[str, Any]:
-    from monitor.diagnosis import calibrate
-    from monitor.io import open_recording
-    from monitor.jobs.analyse import recording_engine
+    from monitor.jobs.calibration import calibrate_recordings
 
-    with open_recording(path) as recording:
-        engine = recording_engine(recording, engine_description)
-        return calibrate(recording, engine, load=load, source=name).to_document()
+    return calibrate_recordings(
+        paths, loads=loads, engine=engine_description, names=names
+    ).points.to_document()
 
 
 async def calibrate_stored(
-    path: str,
+    paths: list[str],
     engine_description: dict[str, Any] | None,
     *,
-    load: float,
-    name: str,
+    loads: list[float] | None,
+    names: list[str],
     memory_bytes: int,
     timeout_s: float,
 ) -> Calibration:
-    """Calibrate a baseline on the recording at ``path`` in a child process with these limits."""
+    """Calibrate a baseline on the recordings at ``paths`` (one operating point each) in a child process
+    with these limits."""
     child = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
         "api.calibrate",
         str(os.getpid()),
         str(memory_bytes),
-        repr(float(load)),
-        path,
         stdin=asyncio.subprocess.PIPE,
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,
         cwd=Path(__file__).resolve().parents[1],
     )
-    request = json.dumps({"engine": engine_description, "name": name}).encode("utf-8")
+    request = {"engine": engine_description, "paths": paths, "names": names, "loads": loads}
+    label = ", ".join(names)
     try:
-        stdout, stderr = await asyncio.wait_for(child.communicate(request), timeout_s)
+        stdout, stderr = await asyncio.wait_for(
+            child.communicate(json.dumps(request).encode("utf-8")), timeout_s
+        )
     except (TimeoutError, asyncio.CancelledError) as stop:
         child.kill()
         await child.wait()
@@ -87,16 +89,18 @@ async def calibrate_stored(
             raise
         return Calibration(
             False,
-            message=f"{name}: the calibration took longer than the service's limit of {timeout_s:g} s: "
-            "calibrate on a shorter recording (a few minutes at a steady speed suffice)",
+            message=f"{label}: the calibration took longer than the service's limit of {timeout_s:g} s: "
+            "calibrate on shorter recordings (a few minutes at a steady speed suffice)",
         )
     if child.returncode == 0:
         return Calibration(True, json.loads(stdout))
     err = stderr.decode("utf-8", "replace").strip()
     reason = err.splitlines()[-1] if err else f"exit status {child.returncode}"
     if child.returncode != 3:
-        reason = f"{name}: the calibration failed ({reason})"
-    return Calibration(False, message=reason.replace(path, name))
+        reason = f"{label}: the calibration failed ({reason})"
+    for path, name in zip(paths, names, strict=True):
+        reason = reason.replace(path, name)
+    return Calibration(False, message=reason)
 
 
 def main() -> None:
@@ -109,8 +113,11 @@ def main() -> None:
     from monitor.errors import MonitorError
 
     given = json.loads(sys.stdin.read())
+    loads = None if given["loads"] is None else [float(v) for v in given["loads"]]
     try:
-        document = _calibrate(sys.argv[4], given["engine"], float(sys.argv[3]), str(given["name"]))
+        document = _calibrate(
+            [str(p) for p in given["paths"]], given["engine"], loads, [str(n) for n in given["names"]]
+        )
     except (MonitorError, OSError, ValueError) as error:
         print(str(error).replace("\n", " "), file=sys.stderr)
         sys.exit(3)

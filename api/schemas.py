@@ -10,9 +10,11 @@ from datetime import datetime
 from typing import Annotated, Any, Literal
 
 from fastapi import Path as FastPath
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, model_validator
 
 from api.engines import Source
+
+MAX_POINTS = 8  # recordings one baseline is calibrated on at once (each a calibration of its own)
 
 __all__ = [
     "ERRORS",
@@ -127,12 +129,45 @@ class Health(BaseModel):
 
 
 class BaselineIn(BaseModel):
-    recording_id: int = Field(
+    """One stored recording (``recording_id``, at ``load``), or several at different loads
+    (``recording_ids``, each at its ``loads`` entry, or each load estimated when ``loads`` is left out)."""
+
+    recording_id: int | None = Field(
+        default=None,
         ge=1,
         le=2**31 - 1,
         description="the fleet's stored recording of this engine, healthy, at a steady speed",
     )
     load: float = Field(default=1.0, gt=0.0, le=1.5, description="the load it ran at [-] (1: rated)")
+    recording_ids: list[Annotated[int, Field(ge=1, le=2**31 - 1)]] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=MAX_POINTS,
+        description="several stored healthy recordings of this engine, one operating point (load) each",
+    )
+    loads: list[Annotated[float, Field(gt=0.0, le=1.1)]] | None = Field(
+        default=None,
+        description="the load of each of recording_ids, in the same order [-]; left out: estimated",
+    )
+
+    @model_validator(mode="after")
+    def _one_way(self) -> BaselineIn:
+        if (self.recording_id is None) == (self.recording_ids is None):
+            raise ValueError("give recording_id, or recording_ids for several operating points")
+        if self.loads is not None and (
+            self.recording_ids is None or len(self.loads) != len(self.recording_ids)
+        ):
+            raise ValueError("loads needs recording_ids, one load each, in the same order")
+        if self.recording_ids is not None and len(set(self.recording_ids)) != len(self.recording_ids):
+            raise ValueError("recording_ids names a recording twice")
+        return self
+
+    def recordings(self) -> tuple[list[int], list[float] | None]:
+        """The recordings' ids and their loads (None: each estimated)."""
+        if self.recording_ids is None:
+            assert self.recording_id is not None
+            return [self.recording_id], [self.load]
+        return list(self.recording_ids), None if self.loads is None else list(self.loads)
 
 
 class BaselineOut(BaseModel):

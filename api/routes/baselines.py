@@ -36,12 +36,12 @@ async def set_baseline(
     settings: ServiceSettings,
     calibrations: ServiceCalibrations,
 ) -> dict[str, Any]:
-    """Calibrate the engine's baseline on one of the fleet's stored recordings of it, and store it (it
-    replaces the engine's previous one); later analyses compare the bearing orders through it. A
+    """Calibrate the engine's baseline on one of the fleet's stored recordings of it, or on several at
+    different loads (``recording_ids``, with ``loads`` or each load estimated), and store it (it
+    replaces the engine's previous one); later analyses compare through it at their own load. A
     recording the calibration refuses answers 422 with the reason, and nothing is stored."""
-    row = await calibrate_baseline(
-        store, settings, calibrations, fleet_id, engine_id, body.recording_id, body.load
-    )
+    ids, loads = body.recordings()
+    row = await calibrate_baseline(store, settings, calibrations, fleet_id, engine_id, ids, loads)
     return baseline_out(row)
 
 

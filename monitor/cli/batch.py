@@ -99,7 +99,7 @@ def run_batch(args: argparse.Namespace) -> int:
     int
         The worst over the scope: 0 healthy, 1 warning, 2 alarm, 3 inconclusive or not diagnosed.
     """
-    from monitor.diagnosis import Baseline
+    from monitor.diagnosis.operating_points import read_baseline
     from monitor.jobs import batch
     from monitor.store import DEFAULT_URL_ENV, open_store
 
@@ -108,7 +108,7 @@ def run_batch(args: argparse.Namespace) -> int:
         raise ModelError(f"--workers {args.workers}: expected at least 1")
     baselines = {}
     for path in args.baseline:
-        baseline = Baseline.read(path)
+        baseline = read_baseline(path)
         baselines[baseline.engine_id] = baseline.to_document()
     if args.path and not Path(args.path).exists():  # refused before a store or a fleet is made for it
         raise ModelError(f"{args.path}: no such file or folder")

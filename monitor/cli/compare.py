@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +52,12 @@ def add_compare_parser(sub: Any) -> None:
         metavar="B",
         help="a healthy baseline: its calibration (.json, from 'calibrate') or a recording to calibrate on",
     )
-    compare.add_argument("--load", type=float, help="load the engine ran at, fraction of rated (default 1)")
+    compare.add_argument(
+        "--load",
+        type=float,
+        help="load the engine ran at, fraction of rated, as a log reads it (+-0.1); default: estimated "
+        "against a baseline of several loads, else the baseline's, else 1",
+    )
     compare.add_argument(
         "--transfer",
         choices=("rigid", "shaft-line"),
@@ -137,7 +141,13 @@ def add_calibrate_parser(sub: Any) -> None:
         "and rms velocity; write them as JSON for 'compare --baseline'. A recording of the crank speed alone "
         "(a tooth wheel, a cam) calibrates without bearing sensors: the main bearings are then not judged.",
     )
-    calibrate.add_argument("recording", metavar="RECORDING", help="healthy HDF5 or MCAP recording")
+    calibrate.add_argument(
+        "recording",
+        nargs="+",
+        metavar="RECORDING",
+        help="healthy HDF5 or MCAP recording; several, one per operating point (load), for a baseline "
+        "that spans them",
+    )
     calibrate.add_argument(
         "-o",
         "--output",
@@ -146,7 +156,13 @@ def add_calibrate_parser(sub: Any) -> None:
         help="the baseline (JSON), or its transfers as [[sensor_transfers]] for the engine file (.toml)",
     )
     calibrate.add_argument("--engine", metavar="E.toml", help="engine description (default: the bundled one)")
-    calibrate.add_argument("--load", type=float, default=1.0, help="load it ran at (default 1)")
+    calibrate.add_argument(
+        "--load",
+        type=float,
+        action="append",
+        help="load it ran at, fraction of rated; once per recording, in the same order (default: 1 for "
+        "one recording, estimated from the crank-speed orders for several)",
+    )
     calibrate.add_argument(
         "--pitch-from",
         metavar="RUN",
@@ -172,33 +188,34 @@ def run_calibrate(args: argparse.Namespace) -> int:
     int
         0.
     """
-    from monitor.diagnosis import calibrate
-    from monitor.io import open_recording
-    from monitor.jobs.analyse import recording_engine
+    from monitor.jobs.calibration import calibrate_recordings
 
-    as_toml = (
-        Path(args.output).suffix.lower() == ".toml"
-    )  # the [[sensor_transfers]] tables for an engine file
+    as_toml = Path(args.output).suffix.lower() == ".toml"  # the [[sensor_transfers]] tables for an engine file
+    several = len(args.recording) > 1
     if not as_toml and Path(args.output).suffix.lower() != ".json":
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")
-    with ExitStack() as stack:
-        recording = stack.enter_context(open_recording(args.recording))
-        run = None if args.pitch_from is None else stack.enter_context(open_recording(args.pitch_from))
-        engine = recording_engine(recording, args.engine, missing=ENGINE_MISSING)
-        report = stack.enter_context(progress_bar(1.0, "calibrating", unit="recording"))
-        baseline = calibrate(
-            recording,
-            engine,
-            load=args.load,
-            source=Path(args.recording).name,
+    if several and as_toml:
+        raise MonitorError(
+            f"-o {args.output}: an engine file's sensor transfers hold at one speed: calibrate one recording"
+        )
+    with progress_bar(1.0, "calibrating", unit="recording") as report:
+        calibrated = calibrate_recordings(
+            args.recording,
+            loads=args.load,
+            engine=args.engine,
             cycle_phase=args.cycle_phase,
-            pitch_from=run,
+            pitch_from=args.pitch_from,
             exclude=args.exclude_channel,
+            engine_missing=ENGINE_MISSING,
             progress=report,
         )
+    for note in calibrated.notes:
+        print(note, file=sys.stderr)
+    points = calibrated.points
+    baseline = points.points[-1]
     if as_toml and not baseline.sensors:
         raise MonitorError(
-            f"-o {args.output}: {args.recording} has no main-bearing vibration channel, so no sensor "
+            f"-o {args.output}: {args.recording[0]} has no main-bearing vibration channel, so no sensor "
             "transfer to write; write the baseline (.json) instead"
         )
     try:
@@ -206,12 +223,17 @@ def run_calibrate(args: argparse.Namespace) -> int:
             path = Path(args.output)
             path.write_text(baseline.to_toml())
         else:
-            path = baseline.write(args.output)
+            path = points.write(args.output)
     except OSError as error:
         raise MonitorError(f"-o {args.output}: cannot be written ({error.strerror or error})") from None
+    if several:
+        at = ", ".join(f"load {p.load:.2f} at {p.speed_rpm:.2f} rpm ({p.source})" for p in points.points)
+        print(
+            f"baseline of {points.engine_id} at {len(points.points)} operating points: {at}", file=sys.stderr
+        )
     sensors = ", ".join(f"{n} (main bearing {s.bearing})" for n, s in baseline.sensors.items())
     print(
-        f"baseline of {engine.id} at {baseline.speed_rpm:.2f} rpm written to {path}: "
+        f"baseline of {points.engine_id} at {baseline.speed_rpm:.2f} rpm written to {path}: "
         + (
             sensors
             or "no bearing sensor calibrated (the recording has no main-bearing vibration channel): "

@@ -44,9 +44,26 @@ def add_simulate_parser(sub: Any) -> None:
         "--duration", type=positive_float, metavar="S", help="simulate only the first S seconds of the scene"
     )
     sim.add_argument(
+        "--load",
+        type=_load,
+        metavar="L",
+        help="simulate the scene at this load instead of its own, fraction of rated IMEP (0 to 1.1)",
+    )
+    sim.add_argument(
         "--truth", metavar="RECORDING", help="print the ground truth stored in a simulated recording (JSON)"
     )
     sim.set_defaults(run=run_simulate)
+
+
+def _load(text: str) -> float:
+    """A load from the command line: a fraction of rated IMEP from 0 to 1.1 (the scenes' range)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number") from None
+    if not 0.0 <= value <= 1.1:
+        raise argparse.ArgumentTypeError(f"{text}: expected a load from 0 to 1.1 (fraction of rated IMEP)")
+    return value
 
 
 def write_recording(recording: Recording, output: str) -> Path:
@@ -109,6 +126,9 @@ def run_simulate(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     if args.duration is not None:
         scene = scene.model_copy(update={"duration_s": min(scene.duration_s, args.duration)})
+    if args.load is not None:
+        point = scene.operating_point.model_copy(update={"load": args.load})
+        scene = scene.model_copy(update={"operating_point": point})
     start = time.perf_counter()
     with progress_bar(len(scene.sensors), "simulating", unit="sensor") as report:
         simulation = simulate(

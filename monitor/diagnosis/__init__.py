@@ -6,7 +6,10 @@ See :mod:`monitor.diagnosis.diagnose` for the steps and thresholds,
 :mod:`monitor.diagnosis.balance` for the cylinder balance,
 :mod:`monitor.diagnosis.bearings` for the bearing indicators,
 :mod:`monitor.diagnosis.zones` for the vibration zones and
-:mod:`monitor.diagnosis.baseline` for the stored calibration.
+:mod:`monitor.diagnosis.baseline` for the stored calibration,
+:mod:`monitor.diagnosis.operating_points` for a baseline over several loads and
+:mod:`monitor.diagnosis.load_estimate` and :mod:`monitor.diagnosis.at_point` for the load estimated
+and the diagnosis at the recording's own load.
 """
 
 from monitor.diagnosis.balance import CylinderBalance, cylinder_balance

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -156,6 +157,9 @@ class Diagnosis:
         The baseline's source, or "".
     bearings_not_judged : str
         Why the main bearings were not judged (no sensor on one), or "" when they were.
+    operating_point : dict
+        The loads stated, estimated and used and the reference's calibrated points
+        (:func:`monitor.diagnosis.at_point.diagnose_at_point`); empty from :func:`diagnose` alone.
     """
 
     engine_id: str
@@ -172,6 +176,7 @@ class Diagnosis:
     spectra: SpectrumResult = field(repr=False)
     baseline: str = ""
     bearings_not_judged: str = ""
+    operating_point: dict[str, Any] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------------------------ model

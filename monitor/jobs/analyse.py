@@ -29,9 +29,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from monitor.diagnosis import Baseline, Diagnosis, calibrate, diagnose
+from monitor.diagnosis import Baseline, Diagnosis, calibrate
+from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.diagnose import CyclePhase
+from monitor.diagnosis.operating_points import OperatingPoints, read_baseline
 from monitor.errors import DiagnosisError, MonitorError
 from monitor.io import open_recording
 from monitor.io.recording import Recording
@@ -105,7 +107,8 @@ class AnalysisOptions:
     Attributes
     ----------
     load : float or None
-        The load the engine ran at [-]; None: the baseline's, else rated (1).
+        The load the engine ran at [-]; None: estimated against a baseline of several operating
+        points, else the baseline's, else rated (1) (:mod:`monitor.diagnosis.at_point`).
     transfer : {"rigid", "shaft-line"}
         Torque to crank speed: the rigid engine side or the shaft line's receptance.
     cycle_phase : float, "unknown" or None
@@ -121,21 +124,22 @@ class AnalysisOptions:
 
 
 def baseline_of(
-    given: Baseline | dict[str, Any] | str | Path | None,
+    given: OperatingPoints | Baseline | dict[str, Any] | str | Path | None,
     options: AnalysisOptions = AnalysisOptions(),
     *,
     engine: str | Path | dict[str, Any] | None = None,
     engine_missing: str = FLEET_ENGINE_MISSING,
     calibrated: Callable[[str], None] | None = None,
-) -> Baseline | None:
-    """The baseline of an analysis, from what the caller holds.
+) -> OperatingPoints | None:
+    """The baseline of an analysis, from what the caller holds, as its calibrated operating points.
 
     Parameters
     ----------
-    given : Baseline, dict, str, Path or None
-        A baseline; a baseline document (``Baseline.to_document``); a baseline file (``.json``,
-        from ``calibrate``); or a healthy recording, calibrated here with ``options`` (its load
-        default 1, its cycle phase only if a number, the channels it has of those left out).
+    given : OperatingPoints, Baseline, dict, str, Path or None
+        Calibrated points or a baseline; a baseline document (``calibrate``'s JSON, of one point or
+        several); a baseline file (``.json``, from ``calibrate``); or a healthy recording, calibrated
+        here with ``options`` (its load default 1, its cycle phase only if a number, the channels it
+        has of those left out).
     options : AnalysisOptions, optional
     engine : str, Path or dict, optional
         The engine given for the healthy recording (:func:`recording_engine`).
@@ -146,17 +150,19 @@ def baseline_of(
 
     Returns
     -------
-    Baseline or None
+    OperatingPoints or None
 
     Raises
     ------
     MonitorError
         If ``given`` names sensor transfers (``.toml``: they belong in the engine file).
     """
-    if given is None or isinstance(given, Baseline):
+    if given is None or isinstance(given, OperatingPoints):
         return given
+    if isinstance(given, Baseline):
+        return OperatingPoints((given,))
     if isinstance(given, dict):
-        return Baseline.from_document(given)
+        return OperatingPoints.from_document(given)
     suffix = Path(given).suffix.lower()
     if suffix == ".toml":
         raise MonitorError(
@@ -164,7 +170,7 @@ def baseline_of(
             "with --engine; --baseline takes a baseline (.json) or a healthy recording"
         )
     if suffix == ".json":
-        return Baseline.read(given)
+        return read_baseline(given)
     with open_recording(given) as healthy:
         baseline = calibrate(
             healthy,
@@ -177,7 +183,7 @@ def baseline_of(
         )
     if calibrated is not None:
         calibrated(str(given))
-    return baseline
+    return OperatingPoints((baseline,))
 
 
 @dataclass(frozen=True)
@@ -244,7 +250,7 @@ def analyse(
     path: str | Path,
     *,
     engine: str | Path | dict[str, Any] | None = None,
-    baseline: Baseline | dict[str, Any] | str | Path | None = None,
+    baseline: OperatingPoints | Baseline | dict[str, Any] | str | Path | None = None,
     options: AnalysisOptions = AnalysisOptions(),
     name: str | None = None,
     engine_missing: str = FLEET_ENGINE_MISSING,
@@ -259,7 +265,7 @@ def analyse(
         The recording (HDF5 or MCAP).
     engine : str, Path or dict, optional
         The engine given (:func:`recording_engine`); default: the recording's bundled engine.
-    baseline : Baseline, dict, str, Path or None, optional
+    baseline : OperatingPoints, Baseline, dict, str, Path or None, optional
         The baseline (:func:`baseline_of`), chosen once the recording's engine is known.
     options : AnalysisOptions, optional
     name : str, optional
@@ -281,10 +287,10 @@ def analyse(
             baseline, options, engine=engine, engine_missing=engine_missing, calibrated=calibrated
         )
         with (progress or nullcontext)() as report:
-            diagnosis = diagnose(
+            diagnosis = diagnose_at_point(
                 recording,
                 chosen,
-                baseline=reference,
+                points=reference,
                 load=options.load,
                 transfer=options.transfer,
                 cycle_phase=options.cycle_phase,

@@ -58,6 +58,7 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             "judged": not diagnosis.bearings_not_judged,
             "not_judged_because": diagnosis.bearings_not_judged or None,
         },
+        "operating_point": dict(diagnosis.operating_point) or None,
         "cylinder_balance": None,
         "channels": {},
         "impacts": {},

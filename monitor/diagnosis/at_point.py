@@ -1,0 +1,159 @@
+"""The diagnosis at the recording's own operating point: the load given, the load estimated, the reference.
+
+A recording is diagnosed against the reference of its load (:mod:`monitor.diagnosis.operating_points`).
+Its load is known two ways: stated (``--load``, an engine log's reading: uncertain by
+:data:`~monitor.diagnosis.operating_points.LOAD_UNCERTAINTY`) and estimated from its crank-speed
+orders (:mod:`monitor.diagnosis.load_estimate`).  The stated load, where there is one, is the load
+the model and the reference are taken at: the estimate rests on the cylinders' strengths, which a
+fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower load), so
+the estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
+followed.  Without a stated load, against several calibrated points the estimate is used (the
+first pass at the middle point's load, the second at the estimate); against a single point or
+none, as before: the baseline's load, else rated (the estimate reported beside it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from monitor.diagnosis.analysis import CyclePhase
+from monitor.diagnosis.balance import Transfer
+from monitor.diagnosis.diagnose import Diagnosis, diagnose
+from monitor.diagnosis.load_estimate import LoadEstimate, estimate_load
+from monitor.diagnosis.operating_points import LOAD_UNCERTAINTY, OperatingPoints, Reference
+from monitor.io.recording import Recording
+from monitor.model.engine import Engine
+
+__all__ = ["AGREE", "diagnose_at_point"]
+
+AGREE = 2.0  # a stated and an estimated load further apart than this many joint standard errors disagree
+
+
+def diagnose_at_point(
+    recording: Recording,
+    engine: Engine,
+    *,
+    points: OperatingPoints | None = None,
+    load: float | None = None,
+    transfer: Transfer = "rigid",
+    max_order: float = 24.0,
+    cycle_phase: CyclePhase = None,
+    exclude: tuple[str, ...] | list[str] = (),
+    progress: Callable[[float], None] | None = None,
+) -> Diagnosis:
+    """Diagnose a recording against the reference at its load, with its load estimated and reported.
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    points : OperatingPoints, optional
+        The calibrated points (a single-point baseline is one).
+    load : float, optional
+        The load stated [-] (uncertain by ``LOAD_UNCERTAINTY``); default: the estimate's.
+    transfer : {"rigid", "shaft-line"}, optional
+    max_order : float, optional
+        [-]
+    cycle_phase : float or "unknown", optional
+    exclude : sequence of str, optional
+    progress : callable, optional
+        Told the fraction of the resampling done, from 0 to 1 [-].
+
+    Returns
+    -------
+    Diagnosis
+        Its ``operating_point`` says the load stated, estimated and used, and the reference.
+    """
+
+    def run(at: float | None) -> tuple[Diagnosis, Reference | None]:
+        reference = points.reference_at(at if at is not None else _middle(points)) if points else None
+        diagnosis = diagnose(
+            recording,
+            engine,
+            baseline=reference.baseline if reference is not None else None,
+            load=at,
+            transfer=transfer,
+            max_order=max_order,
+            cycle_phase=cycle_phase,
+            exclude=exclude,
+            progress=progress,
+        )
+        return diagnosis, reference
+
+    first = load if load is not None else (_middle(points) if points is not None else None)
+    diagnosis, reference = run(first)
+    estimate = _estimate(diagnosis, engine, points, transfer, max_order)
+    used = "stated"
+    if load is None:
+        used = "baseline" if points is not None else "rated"
+        if estimate is not None and len(_calibrated(points)) > 1:
+            used = "estimated"
+            if abs(estimate.load - diagnosis.load) > 0.01:  # the model and reference at the estimate
+                diagnosis, reference = run(estimate.load)
+    notes = _load_notes(load, estimate, diagnosis.load, used)
+    if reference is not None and len(_calibrated(points)) > 1:
+        notes.append(reference.note())
+    point: dict[str, Any] = {
+        "load_used": diagnosis.load,
+        "load_used_from": used,
+        "load_stated": load,
+        "load_stated_standard_error": LOAD_UNCERTAINTY if load is not None else None,
+        "load_estimated": estimate.load if estimate is not None else None,
+        "load_estimated_standard_error": estimate.standard_error if estimate is not None else None,
+        "calibrated_loads": points.loads if points is not None else [],
+        "reference_between": [reference.lower, reference.upper] if reference is not None else None,
+        "extrapolated": bool(reference.extrapolated) if reference is not None else False,
+        "interpolation_uncertainty": reference.relative_uncertainty if reference is not None else 0.0,
+    }
+    return replace(diagnosis, notes=diagnosis.notes + notes, operating_point=point)
+
+
+def _calibrated(points: OperatingPoints | None) -> tuple[Any, ...]:
+    """The calibrated points (none without a baseline)."""
+    return points.points if points is not None else ()
+
+
+def _middle(points: OperatingPoints) -> float:
+    return points.points[len(points.points) // 2].load
+
+
+def _estimate(
+    diagnosis: Diagnosis, engine: Engine, points: OperatingPoints | None, transfer: Transfer, max_order: float
+) -> LoadEstimate | None:
+    def reference(at: float) -> tuple[Any, float, str]:
+        if points is None:
+            return None, 1.0, "the model's strengths"
+        return (
+            points.reference_at(at).baseline.crank,
+            points.mean_strength_at(at),
+            "the calibrated points' strengths",
+        )
+
+    return estimate_load(
+        diagnosis.spectra, engine, transfer=transfer, max_order=max_order, reference=reference
+    )
+
+
+def _load_notes(stated: float | None, estimate: LoadEstimate | None, used: float, source: str) -> list[str]:
+    """The loads stated, estimated and used, and a disagreement between the first two."""
+    notes = []
+    if estimate is not None:
+        notes.append(
+            f"load estimated from the crank-speed orders: {estimate.load:.2f} +- "
+            f"{estimate.standard_error:.2f} (against {estimate.reference})"
+        )
+    if stated is not None and estimate is not None:
+        joint = math.hypot(LOAD_UNCERTAINTY, estimate.standard_error)
+        if abs(stated - estimate.load) > AGREE * joint:
+            notes.append(
+                f"the load stated ({stated:.2f} +- {LOAD_UNCERTAINTY:.2f}) and the load estimated "
+                f"({estimate.load:.2f} +- {estimate.standard_error:.2f}) disagree beyond their "
+                "uncertainties: check the load reading; a weak cylinder also reads as a lower load. "
+                "The stated load is used"
+            )
+    if source == "estimated":
+        notes.append(f"no load stated: the estimated load {used:.2f} is used")
+    return notes
