@@ -10,8 +10,9 @@ Change detection (:func:`steady_segments`), binary segmentation with a threshold
 own noise:
 
 1. The noise: ``sigma = 1.4826 median |x_{c+1} - x_c| / sqrt(2)``, the median absolute successive
-   difference scaled to a Gaussian's standard deviation. A step moves one difference and a slow
-   trend moves all of them by little, so neither inflates it.
+   difference scaled to a Gaussian's standard deviation, of each piece tested (a series' noise may
+   change with its level: the load indicator's, relative to it, is about constant). A step moves
+   one difference and a slow trend moves all of them by little, so neither inflates it.
 2. The split: over a piece of ``n`` cycles, the two-sample statistic
    ``T_k = |mean(x[:k]) - mean(x[k:])| / (sigma sqrt(1/k + 1/(n - k)))`` at every ``k``; its largest
    over the two series splits the piece if it exceeds ``tau = Phi^-1(1 - alpha / (4 (n - 1)))``
@@ -19,9 +20,14 @@ own noise:
    positively correlated, so the chance of a split of a steady piece is at most ``alpha``) and if the
    step is one the diagnosis would tell apart (:data:`SPEED_STEP` of the speed,
    :data:`LOAD_STEP` of the load indicator). Each side is split again until nothing is.
-3. The segments: pieces of at least :data:`MIN_CYCLES` cycles without a drift of their own (a
-   least-squares line's rise across them of half a step or more, its slope beyond ``tau`` of its
-   standard error: a ramp chopped into pieces is no steady segment); neighbours less than
+3. The segments: neighbouring pieces that the test of step 2 no longer tells apart are joined
+   (a chance split at the binary segmentation's later stages, each a test of its own); then the
+   pieces of at least :data:`MIN_CYCLES` cycles without a drift of their own (a
+   least-squares line's rise across them of a step or more, its slope beyond ``tau`` of its
+   standard error: binary segmentation chops a ramp into pieces that rise by one to two steps,
+   which are no steady segments; a step below the floor, left whole, makes a line rise by 1.5
+   times its size, so one of two thirds of the floor or more leaves no segment and the recording
+   is diagnosed whole, as without segments); neighbours less than
    :data:`MIN_CYCLES` apart that the test of step 2 no longer tells apart are joined again (a
    glitch split off does not cut a steady run in two). The :data:`GUARD` cycles on each side of a
    change (the cycle in which the load moved holds both) and every piece that is not a segment
@@ -63,6 +69,7 @@ SPEED_STEP = 0.02  # a change of the mean speed smaller than this (relative) is 
 LOAD_STEP = 0.10  # a change of the load indicator smaller than this (relative) is the same point [-]
 ALPHA = 0.01  # the chance, at most, that the test splits a steady piece [-]
 GUARD = 1  # cycles on each side of a change left to the transition [-]
+ROUND_OFF = 1e-9  # the least noise a series is taken to have, relative to its level (a noise-free one) [-]
 
 
 @dataclass(frozen=True)
@@ -223,31 +230,31 @@ def _threshold(n: int, series: int) -> float:
     return float(norm.isf(ALPHA / (2 * series * max(n - 1, 1))))
 
 
-def _best_split(
-    columns: list[tuple[FloatArray, float, float]], a: int, b: int
-) -> tuple[int, float, bool] | None:
+def _best_split(columns: list[tuple[FloatArray, float]], a: int, b: int) -> tuple[int, float, bool] | None:
     """The most significant place to split cycles ``a:b``: (place, statistic, step big enough)."""
     n = b - a
     if n < 4:
         return None
     k = np.arange(2, n - 1)  # at least two cycles on each side
     best: tuple[int, float, bool] | None = None
-    for values, sigma, floor in columns:
+    for values, floor in columns:
         x = values[a:b]
+        level = max(abs(float(np.mean(x))), 1e-300)
+        # the piece's own noise (a series' noise may change with its level), at least round-off's
+        sigma = max(noise_of(x), ROUND_OFF * level)
         total = np.cumsum(x)
         left = total[k - 1] / k
         right = (total[-1] - total[k - 1]) / (n - k)
         step = np.abs(left - right)
-        statistic = step / (max(sigma, 1e-300) * np.sqrt(1.0 / k + 1.0 / (n - k)))
+        statistic = step / (sigma * np.sqrt(1.0 / k + 1.0 / (n - k)))
         i = int(np.argmax(statistic))
-        level = max(abs(float(np.mean(x))), 1e-300)
         candidate = (a + int(k[i]), float(statistic[i]), bool(step[i] >= floor * level))
         if best is None or candidate[1] > best[1]:
             best = candidate
     return best
 
 
-def _splits(columns: list[tuple[FloatArray, float, float]], a: int, b: int) -> list[int]:
+def _splits(columns: list[tuple[FloatArray, float]], a: int, b: int) -> list[int]:
     """Binary segmentation of cycles ``a:b``: the places of significant steps, in order."""
     found = _best_split(columns, a, b)
     if found is None:
@@ -258,28 +265,31 @@ def _splits(columns: list[tuple[FloatArray, float, float]], a: int, b: int) -> l
     return [*_splits(columns, a, place), place, *_splits(columns, place, b)]
 
 
-def _drifts(columns: list[tuple[FloatArray, float, float]], a: int, b: int) -> bool:
-    """Whether cycles ``a:b`` drift: a least-squares line rising significantly by half a step or more."""
+def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
+    """Whether cycles ``a:b`` drift: a least-squares line rising significantly by a step or more."""
     c = np.arange(b - a, dtype=np.float64)
     c -= c.mean()
-    for values, sigma, floor in columns:
+    for values, floor in columns:
         x = values[a:b]
+        level = max(abs(float(np.mean(x))), 1e-300)
+        sigma = max(noise_of(x), ROUND_OFF * level)
         slope = float(c @ (x - x.mean()) / (c @ c))
-        significant = abs(slope) > _threshold(2, len(columns)) * max(sigma, 1e-300) / math.sqrt(c @ c)
-        if significant and abs(slope) * (b - a) >= 0.5 * floor * max(abs(float(np.mean(x))), 1e-300):
+        significant = abs(slope) > _threshold(2, len(columns)) * sigma / math.sqrt(c @ c)
+        if significant and abs(slope) * (b - a) >= floor * level:
             return True
     return False
 
 
-def _differ(
-    columns: list[tuple[FloatArray, float, float]], one: tuple[int, int], two: tuple[int, int]
-) -> bool:
+def _differ(columns: list[tuple[FloatArray, float]], one: tuple[int, int], two: tuple[int, int]) -> bool:
     """Whether two pieces' levels differ by a significant step that the diagnosis would tell apart."""
-    for values, sigma, floor in columns:
+    for values, floor in columns:
         x, y = values[one[0] : one[1]], values[two[0] : two[1]]
         step = abs(float(x.mean()) - float(y.mean()))
-        spread = max(sigma, 1e-300) * math.sqrt(1.0 / x.size + 1.0 / y.size)
+        # each piece's own noise (Welch); a piece too short to tell its own takes its neighbour's
         level = max(abs(float(np.concatenate([x, y]).mean())), 1e-300)
+        sx, sy = noise_of(x), noise_of(y)
+        sx, sy = (sx if x.size >= 4 else sy), (sy if y.size >= 4 else sx)
+        spread = max(math.sqrt(sx**2 / x.size + sy**2 / y.size), ROUND_OFF * level)
         if step / spread > _threshold(x.size + y.size, len(columns)) and step >= floor * level:
             return True
     return False
@@ -300,14 +310,18 @@ def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Seg
         No segment when none is steady and long enough (a run-up); one when the whole recording is
         at one point (its cycles all, or those of its one steady span).
     """
-    columns = [(series.speed, noise_of(series.speed), SPEED_STEP)]
+    columns = [(series.speed, SPEED_STEP)]
     if series.load is not None:
-        columns.append((series.load, noise_of(series.load), LOAD_STEP))
+        columns.append((series.load, LOAD_STEP))
     n = series.cycles
     places = [0, *_splits(columns, 0, n), n]
-    pieces = [
-        (a, b) for a, b in itertools.pairwise(places) if b - a >= min_cycles and not _drifts(columns, a, b)
-    ]
+    merged: list[tuple[int, int]] = []
+    for a, b in itertools.pairwise(places):  # a split the test no longer confirms pairwise is undone
+        if merged and not _differ(columns, merged[-1], (a, b)):
+            merged[-1] = (merged[-1][0], b)
+        else:
+            merged.append((a, b))
+    pieces = [(a, b) for a, b in merged if b - a >= min_cycles and not _drifts(columns, a, b)]
     joined: list[tuple[int, int]] = []
     for piece in pieces:  # neighbours that the test no longer tells apart are one segment
         if joined and piece[0] - joined[-1][1] < min_cycles and not _differ(columns, joined[-1], piece):
