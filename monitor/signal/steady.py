@@ -274,7 +274,7 @@ def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
         level = max(abs(float(np.mean(x))), 1e-300)
         sigma = max(noise_of(x), ROUND_OFF * level)
         slope = float(c @ (x - x.mean()) / (c @ c))
-        significant = abs(slope) > _threshold(2, len(columns)) * sigma / math.sqrt(c @ c)
+        significant = abs(slope) > _threshold(b - a, len(columns)) * sigma / math.sqrt(c @ c)
         if significant and abs(slope) * (b - a) >= floor * level:
             return True
     return False
