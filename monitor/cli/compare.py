@@ -59,6 +59,13 @@ def add_compare_parser(sub: Any) -> None:
         "against a baseline of several loads, else the baseline's, else 1",
     )
     compare.add_argument(
+        "--segment-loads",
+        type=_loads,
+        default=(),
+        metavar="L1,L2,...",
+        help="a recording that crosses operating points: the load of each steady segment, in time order",
+    )
+    compare.add_argument(
         "--transfer",
         choices=("rigid", "shaft-line"),
         default="rigid",
@@ -70,6 +77,19 @@ def add_compare_parser(sub: Any) -> None:
     add_cycle_phase(compare, unknown=True)
     compare.error = exit_3_on_usage_error(compare)
     compare.set_defaults(run=run_compare)
+
+
+def _loads(text: str) -> tuple[float, ...]:
+    """``--segment-loads``: loads separated by commas, each a fraction of rated from 0 to 1.1."""
+    try:
+        loads = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected loads separated by commas, e.g. 1.0,0.5"
+        ) from None
+    if not all(0.0 <= v <= 1.1 for v in loads):
+        raise argparse.ArgumentTypeError(f"{text!r}: each load is a fraction of rated, from 0 to 1.1")
+    return loads
 
 
 def run_compare(args: argparse.Namespace) -> int:
@@ -86,7 +106,6 @@ def run_compare(args: argparse.Namespace) -> int:
         0 healthy, 1 warning, 2 alarm, 3 inconclusive.
     """
     from monitor.jobs.analyse import AnalysisOptions, analyse
-    from monitor.report.diagnosis import diagnosis_table
 
     def calibrated(healthy: str) -> None:
         print(
@@ -102,12 +121,13 @@ def run_compare(args: argparse.Namespace) -> int:
             transfer=args.transfer,
             cycle_phase=args.cycle_phase,
             exclude=tuple(args.exclude_channel),
+            segment_loads=args.segment_loads,
         ),
         engine_missing=ENGINE_MISSING,
         calibrated=calibrated,
         progress=lambda: progress_bar(1.0, "diagnosing", unit="recording"),
     )
-    table = diagnosis_table(analysis.diagnosis, recording=analysis.name)
+    table = analysis.table()
     if args.json:
         print_json(analysis.diagnosis_document())
     else:
@@ -190,7 +210,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     """
     from monitor.jobs.calibration import calibrate_recordings
 
-    as_toml = Path(args.output).suffix.lower() == ".toml"  # the [[sensor_transfers]] tables for an engine file
+    as_toml = Path(args.output).suffix.lower() == ".toml"  # [[sensor_transfers]] tables for an engine file
     several = len(args.recording) > 1
     if not as_toml and Path(args.output).suffix.lower() != ".json":
         raise MonitorError(f"-o {args.output}: expected a .json (baseline) or .toml (sensor transfers) file")

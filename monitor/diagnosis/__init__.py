@@ -9,7 +9,9 @@ See :mod:`monitor.diagnosis.diagnose` for the steps and thresholds,
 :mod:`monitor.diagnosis.baseline` for the stored calibration,
 :mod:`monitor.diagnosis.operating_points` for a baseline over several loads and
 :mod:`monitor.diagnosis.load_estimate` and :mod:`monitor.diagnosis.at_point` for the load estimated
-and the diagnosis at the recording's own load.
+and the diagnosis at the recording's own load, :mod:`monitor.diagnosis.misfire` for the misfire
+pattern, :mod:`monitor.diagnosis.segments` for recordings that cross operating points and
+:mod:`monitor.diagnosis.rigid_speed` for the crank's speed orders driven by a torque.
 """
 
 from monitor.diagnosis.balance import CylinderBalance, cylinder_balance
@@ -22,8 +24,8 @@ from monitor.diagnosis.diagnose import (
     Diagnosis,
     Finding,
     diagnose,
-    predicted_speed,
 )
+from monitor.diagnosis.rigid_speed import predicted_speed
 
 __all__ = [
     "ANALYSIS_VERSION",

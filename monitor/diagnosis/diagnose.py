@@ -58,6 +58,7 @@ from monitor.diagnosis.findings import (
     with_elsewhere,
     worse,
 )
+from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
@@ -67,7 +68,6 @@ from monitor.diagnosis.zones import (
     zone_of,
 )
 from monitor.errors import DiagnosisError, SignalError
-from monitor.fourier import order_coefficients
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia_at
@@ -87,7 +87,6 @@ __all__ = [
     "Diagnosis",
     "Finding",
     "diagnose",
-    "predicted_speed",
 ]
 
 ANALYSIS_VERSION = "1"
@@ -180,54 +179,6 @@ class Diagnosis:
 
 
 # ------------------------------------------------------------------------------------------ model
-def predicted_speed(
-    torque: ComplexArray,
-    orders: FloatArray,
-    inertia: float | ComplexArray,
-    mean_speed: float,
-    cycle_revolutions: int,
-) -> ComplexArray:
-    """Speed orders of a rigid body driven by a torque, exactly: ``omega = sqrt(c + 2 E / J)``.
-
-    ``E`` is the torque's integral over the angle (order by order ``T_k / (i k)``) and ``c``
-    is chosen so that the mean speed over the cycle is ``mean_speed``; with an inertia per order,
-    ``E / J`` is formed order by order.
-
-    Parameters
-    ----------
-    torque : ndarray, complex, shape (n_orders,)
-        [N m] (order 0 ignored: the load takes the mean).
-    orders : ndarray
-    inertia : float or ndarray, complex, shape (n_orders,)
-        The body's, or the inertia each order meets (order 0's unused) [kg m^2].
-    mean_speed : float
-        [rad/s]
-    cycle_revolutions : int
-
-    Returns
-    -------
-    ndarray, complex, shape (n_orders,)
-        [rad/s], order 0 the mean speed.
-    """
-    highest = float(orders[-1])
-    points = 2 ** math.ceil(math.log2(max(64, 8 * highest * cycle_revolutions)))
-    theta = np.arange(points) * (2 * math.pi * cycle_revolutions / points)
-    energy_orders = np.zeros(orders.size, dtype=np.complex128)
-    met = np.broadcast_to(np.asarray(inertia), orders.shape)
-    energy_orders[1:] = torque[1:] / (1j * orders[1:]) / met[1:]
-    energy = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ energy_orders)  # E / J
-    c = mean_speed**2
-    for _ in range(50):  # Newton on the mean speed
-        omega = np.sqrt(np.maximum(c + 2 * energy, 1e-12 * mean_speed**2))
-        miss = float(omega.mean()) - mean_speed
-        c -= miss / float(np.mean(0.5 / omega))
-        if abs(miss) < 1e-13 * mean_speed:
-            break
-    omega = np.sqrt(np.maximum(c + 2 * energy, 1e-12 * mean_speed**2))
-    out = order_coefficients(omega, cycle_revolutions=cycle_revolutions, max_order=highest).coefficients
-    return np.asarray(out[: orders.size])
-
-
 def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCorrection | None:
     """The baseline's learned pitch errors, if they belong to this recording's angle-reference wheel."""
     if baseline is None or baseline.pitch is None:

@@ -14,6 +14,11 @@ in its own terms and this module turns them into the same analysis:
 - the options (:class:`AnalysisOptions`): load, transfer, cycle phase, channels
   left out; the batch and the service use the defaults.
 
+A recording that crosses operating points (a load step, a manoeuvre) is
+diagnosed per steady segment (:mod:`monitor.diagnosis.segments`): two steady
+segments or more, each diagnosed at its own point, the status the worst
+segment's; a steady recording's analysis is the whole recording's, unchanged.
+
 The documents are the ones the store keeps (:meth:`Analysis.results`): the
 diagnosis (``compare --json``, docs/diagnosis.md) and the measured spectra
 (docs/spectrum-json.md). :func:`diagnose_file` is the same analysis in an
@@ -34,13 +39,15 @@ from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.diagnose import CyclePhase
 from monitor.diagnosis.operating_points import OperatingPoints, read_baseline
+from monitor.diagnosis.segments import SegmentDiagnosis, SegmentedDiagnosis, diagnose_segments
 from monitor.errors import DiagnosisError, MonitorError
 from monitor.io import open_recording
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine, bundled_engines, load_engine, parse_engine
-from monitor.report.diagnosis import diagnosis_document
+from monitor.report.diagnosis import segmented_document, segmented_table
 from monitor.report.spectrum_json import spectrum_document
 from monitor.runtime.progress import Report
+from monitor.signal.steady import Transition
 
 __all__ = [
     "DIAGNOSIS",
@@ -115,12 +122,16 @@ class AnalysisOptions:
         Four-stroke without a cam or cylinder-1 pressure: the shift of the angle reference [rad].
     exclude : tuple of str
         Channels left out (sensors known to be faulty).
+    segment_loads : tuple of float
+        The load of each steady segment, in time order, for a recording that crosses operating
+        points [-]; empty: ``load`` for each (:mod:`monitor.diagnosis.segments`).
     """
 
     load: float | None = None
     transfer: Transfer = "rigid"
     cycle_phase: CyclePhase = None
     exclude: tuple[str, ...] = field(default_factory=tuple)
+    segment_loads: tuple[float, ...] = field(default_factory=tuple)
 
 
 def baseline_of(
@@ -197,10 +208,16 @@ class Analysis:
     engine : Engine
         The engine it was diagnosed against.
     diagnosis : Diagnosis
+        The whole recording's.
     start_time : str
         When it was recorded (as the recording says).
     truncated : bool
         Whether the file was cut short (diagnosed on what it holds).
+    segments : tuple of SegmentDiagnosis
+        Each steady segment's diagnosis, when the recording crosses operating points (two or more);
+        empty for a steady recording.
+    transitions : tuple of Transition
+        Between the segments.
     """
 
     name: str
@@ -208,16 +225,23 @@ class Analysis:
     diagnosis: Diagnosis
     start_time: str = ""
     truncated: bool = False
+    segments: tuple[SegmentDiagnosis, ...] = ()
+    transitions: tuple[Transition, ...] = ()
+
+    @property
+    def segmented(self) -> SegmentedDiagnosis:
+        """The diagnosis with its segments (none for a steady recording)."""
+        return SegmentedDiagnosis(self.diagnosis, self.segments, self.transitions)
 
     @property
     def status(self) -> str:
-        """The diagnosis' status: "healthy", "warning", "alarm" or "inconclusive"."""
-        return self.diagnosis.status
+        """The status: "healthy", "warning", "alarm" or "inconclusive" (the worst segment's, if segmented)."""
+        return self.segmented.status
 
     @property
     def exit_status(self) -> int:
         """``compare``'s exit status: 0 healthy, 1 warning, 2 alarm, 3 inconclusive."""
-        return EXIT_STATUS[self.diagnosis.status]
+        return EXIT_STATUS[self.status]
 
     @property
     def title(self) -> str:
@@ -225,8 +249,12 @@ class Analysis:
         return f"{self.name}: {self.engine.id} at {self.diagnosis.speed_rpm:.1f} rpm"
 
     def diagnosis_document(self) -> dict[str, Any]:
-        """The diagnosis document (``compare --json``, docs/diagnosis.md)."""
-        return diagnosis_document(self.diagnosis, recording=self.name)
+        """The diagnosis document (``compare --json``, docs/diagnosis.md), with segments if it has them."""
+        return segmented_document(self.segmented, recording=self.name)
+
+    def table(self) -> str:
+        """The diagnosis as text (``compare``'s tables): the whole recording's, or each segment's."""
+        return segmented_table(self.segmented, recording=self.name)
 
     def spectrum_document(self) -> dict[str, Any]:
         """The measured spectra the diagnosis started from, every order (docs/spectrum-json.md)."""
@@ -297,8 +325,27 @@ def analyse(
                 exclude=list(options.exclude),
                 progress=report,
             )
+        segmented = diagnose_segments(
+            recording,
+            chosen,
+            diagnosis,
+            baseline=reference,
+            load=options.load,
+            transfer=options.transfer,
+            cycle_phase=options.cycle_phase,
+            exclude=list(options.exclude),
+            loads=options.segment_loads,
+        )
         start_time, truncated = recording.start_time, recording.truncated
-    return Analysis(name or Path(path).name, chosen, diagnosis, start_time, truncated)
+    return Analysis(
+        name or Path(path).name,
+        chosen,
+        diagnosis,
+        start_time,
+        truncated,
+        segmented.segments,
+        segmented.transitions,
+    )
 
 
 def diagnose_file(

@@ -4,7 +4,9 @@ Both say the same: the operating point, the findings with their evidence,
 whether the main bearings were judged (not without a sensor on one), the
 cylinder balance, and per channel the measured against the predicted
 orders with their deviation and its uncertainty (complex amplitudes as
-magnitude and phase in degrees, relative to TDC of cylinder 1).
+magnitude and phase in degrees, relative to TDC of cylinder 1). A recording
+diagnosed per steady segment (:mod:`monitor.diagnosis.segments`) gives each
+segment's, with the transitions between them.
 """
 
 from __future__ import annotations
@@ -15,9 +17,12 @@ from typing import Any
 import numpy as np
 
 from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
+from monitor.diagnosis.findings import SEVERITIES
+from monitor.diagnosis.segments import SegmentedDiagnosis
 from monitor.report.jsonsafe import json_ready
+from monitor.signal.steady import Segment
 
-__all__ = ["diagnosis_document", "diagnosis_table"]
+__all__ = ["diagnosis_document", "diagnosis_table", "segmented_document", "segmented_table"]
 
 
 def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
@@ -192,4 +197,114 @@ def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int 
                 f"  {name}: {v.value:.3f} +- {v.error:.3f} mm/s over {v.band_hz[0]:g}-{v.band_hz[1]:g} Hz, "
                 f"zone {zone}"
             )
+    return "\n".join(lines)
+
+
+def _point(segment: Segment) -> dict[str, Any]:
+    """A segment's operating point as the documents give it."""
+    return {"speed_rpm": segment.speed * 30 / math.pi, "load_indicator": segment.load_indicator}
+
+
+def segmented_document(segmented: SegmentedDiagnosis, *, recording: str = "") -> dict[str, Any]:
+    """The diagnosis document, with its steady segments and transitions when it has them (docs/diagnosis.md).
+
+    Without segments it is :func:`diagnosis_document` of the whole recording, unchanged. With them,
+    the whole recording's document (its spectra's comparisons and balance) whose ``status`` is the
+    worst segment's and whose ``findings`` are the segments' (each named once, at its worst, with
+    the ``segments`` it was found in), and two more entries: ``segments`` (each with its span, its
+    operating point and its own diagnosis document) and ``transitions``.
+
+    Parameters
+    ----------
+    segmented : SegmentedDiagnosis
+    recording : str, optional
+        The recording's name.
+
+    Returns
+    -------
+    dict
+    """
+    document = diagnosis_document(segmented.whole, recording=recording)
+    if not segmented.segments:
+        return document
+    parts = [diagnosis_document(s.diagnosis, recording=recording) for s in segmented.segments]
+    findings: dict[tuple[str, str], dict[str, Any]] = {}
+    for item, part in zip(segmented.segments, parts, strict=True):
+        for finding in part["findings"]:
+            key = (finding["kind"], finding["subject"])
+            kept = findings.get(key)
+            if kept is None:
+                findings[key] = {**finding, "segments": [item.index]}
+                continue
+            kept["segments"].append(item.index)
+            if SEVERITIES.index(finding["severity"]) > SEVERITIES.index(kept["severity"]):
+                findings[key] = {**finding, "segments": kept["segments"]}
+    document["status"] = segmented.status
+    document["findings"] = list(findings.values())
+    said = (
+        f"diagnosed per steady segment: {len(parts)} segments, {len(segmented.transitions)} "
+        "transition(s); the status and findings are the segments'"
+    )
+    document["notes"] = [said, *document["notes"]]
+    document["segments"] = [
+        {
+            "index": item.index,
+            "start_s": item.segment.start_s,
+            "stop_s": item.segment.stop_s,
+            "cycles": item.segment.cycles,
+            **_point(item.segment),
+            "diagnosis": part,
+        }
+        for item, part in zip(segmented.segments, parts, strict=True)
+    ]
+    document["transitions"] = [
+        {"start_s": t.start_s, "stop_s": t.stop_s, "from": _point(t.before), "to": _point(t.after)}
+        for t in segmented.transitions
+    ]
+    return dict(json_ready(document))
+
+
+def segmented_table(segmented: SegmentedDiagnosis, *, recording: str = "", max_rows: int = 12) -> str:
+    """The diagnosis as text: :func:`diagnosis_table` of the whole, or of each steady segment.
+
+    Parameters
+    ----------
+    segmented : SegmentedDiagnosis
+    recording : str, optional
+    max_rows : int, optional
+        Orders listed per channel.
+
+    Returns
+    -------
+    str
+    """
+    if not segmented.segments:
+        return diagnosis_table(segmented.whole, recording=recording, max_rows=max_rows)
+
+    def point(segment: Segment) -> str:
+        text = f"{segment.speed * 30 / math.pi:.1f} rpm"
+        return text + (
+            "" if segment.load_indicator is None else f", load indicator {segment.load_indicator:.4g} rad/s"
+        )
+
+    lines = [
+        f"{recording or 'recording'}: {segmented.whole.engine_id}, diagnosed per steady segment "
+        f"({len(segmented.segments)} segments)",
+        f"status: {segmented.status.upper()} (the worst segment's)",
+    ]
+    for t in segmented.transitions:
+        lines.append(
+            f"transition {t.start_s:.2f} to {t.stop_s:.2f} s: from {point(t.before)} to {point(t.after)}"
+        )
+    for item in segmented.segments:
+        lines += [
+            "",
+            f"--- segment {item.index}: {item.segment.start_s:.2f} to {item.segment.stop_s:.2f} s, "
+            f"{item.segment.cycles} cycles, {point(item.segment)}",
+            diagnosis_table(
+                item.diagnosis,
+                recording=f"{recording or 'recording'} segment {item.index}",
+                max_rows=max_rows,
+            ),
+        ]
     return "\n".join(lines)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +27,7 @@ from monitor.model.inertia import engine_side_inertia
 from monitor.scene.effects import CrankSpeedParams, ExternalTorqueParams, GasParams, named
 from monitor.scene.model import Scene
 from monitor.scene.sources import Sources
+from monitor.scene.steps import joined
 from monitor.scene.synthesis import MAX_ORDER, CycleTable, synthesise
 from monitor.torsion.shaft_line import shaft_line_of
 from monitor.torsion.time_response import harmonic_content
@@ -68,7 +69,13 @@ class Crank:
 
 
 def crank_motion(
-    scene: Scene, engine: Engine, sources: Sources | None, evaluated: list[str], expected: dict[str, Any]
+    scene: Scene,
+    engine: Engine,
+    sources: Sources | None,
+    evaluated: list[str],
+    expected: dict[str, Any],
+    *,
+    steps: Sequence[tuple[float, Sources]] = (),
 ) -> Crank:
     """The crank's angle-time table over the scene (and a second beyond), by the named speed model.
 
@@ -87,6 +94,9 @@ def crank_motion(
     expected : dict
         The truth's expected orders; the crank speed's (``"crank speed"``) or the free angular
         vibration's (``"crank angular vibration"``) are added when ``crank_speed`` is named.
+    steps : sequence of (float, Sources), optional
+        The load steps' times [s] and the sources from each on (:mod:`monitor.scene.steps`): the rigid
+        crank's speed takes the sources of the epoch each angle is reached in (the truth: the first's).
 
     Returns
     -------
@@ -123,6 +133,10 @@ def crank_motion(
         evaluated.append("crank_speed")
         assert sources is not None  # check_effects saw to a torque source
         omega = _rigid_speed(engine, sources, angle, omega_mean, expected)
+        if steps:
+            omegas = [omega] + [_rigid_speed(engine, s, angle, omega_mean, {}) for _, s in steps]
+            starts = [0.0] + [t for t, _ in steps]
+            omega = joined(starts, omegas, np.interp(angle, coarse_a, coarse_t))
     slowness = 1.0 / omega
     h = angle[1] - angle[0]
     # Simpson over pairs of intervals, trapezoid halves for the odd points in between

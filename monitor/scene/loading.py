@@ -15,7 +15,8 @@ from pydantic import BaseModel, ValidationError
 
 from monitor.errors import SceneError
 from monitor.scene.effects import check_effects
-from monitor.scene.model import OperatingPoint, Scene, Sensor, Trend
+from monitor.scene.model import LoadStep, OperatingPoint, Scene, Sensor, Trend
+from monitor.scene.steps import check_steps
 
 __all__ = ["load_scene", "parse_scene"]
 
@@ -27,6 +28,8 @@ def _fields_at(loc: tuple[int | str, ...]) -> list[str]:
         model = Sensor
     elif loc[:2] == ("operating_point", "trend"):
         model = Trend
+    elif loc[:2] == ("operating_point", "load_steps"):
+        model = LoadStep
     elif loc[:1] == ("operating_point",):
         model = OperatingPoint
     return [name for name in model.model_fields if name != "source_dir"]
@@ -79,6 +82,7 @@ def parse_scene(data: dict[str, Any], *, origin: str = "scene", source_dir: Path
                 f"least {4 * rate:g}"
             )
     check_effects(scene, origin=origin)
+    check_steps(scene, origin=origin)
     return scene
 
 

@@ -10,6 +10,7 @@ A scene is a TOML file::
     speed_rpm = 104.0
     load = 1.0                         # fraction of rated IMEP
     trend = { kind = "ramp", to_rpm = 110.0 }   # or "constant" (default) or "sine"
+    load_steps = [{ time_s = 8.0, load = 0.5 }]  # the load from then on (none by default)
 
     [[sensors]]
     name = "mb3-vertical"
@@ -36,6 +37,7 @@ Which effects exist, what each needs and gives, is in
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -44,6 +46,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
     "PULSE_KINDS",
+    "LoadStep",
     "OperatingPoint",
     "Scene",
     "Sensor",
@@ -75,12 +78,37 @@ class Trend(_Strict):
         return self
 
 
+class LoadStep(_Strict):
+    """A step of the load inside the recording: from ``time_s`` on, the engine runs at ``load``.
+
+    The gas pressure's heat release (and the charge pressure, by the engine's cycle) changes at
+    that time; the mean speed keeps its trend, as a governor holds it (see :mod:`monitor.scene.steps`).
+    """
+
+    time_s: Annotated[float, Field(gt=0, description="time of the step from the recording's start [s]")]
+    load: Annotated[float, Field(ge=0, le=1.1, description="fraction of rated IMEP from then on")]
+
+
 class OperatingPoint(_Strict):
-    """Mean speed, load and the speed's trend."""
+    """Mean speed, load, the speed's trend and the load's steps."""
 
     speed_rpm: Annotated[float, Field(gt=0, le=3000, description="mean crank speed at the start [rpm]")]
     load: Annotated[float, Field(ge=0, le=1.1, description="fraction of rated IMEP")] = 1.0
     trend: Trend = Field(default_factory=Trend)
+    load_steps: list[LoadStep] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> OperatingPoint:
+        times = [step.time_s for step in self.load_steps]
+        if any(b <= a for a, b in itertools.pairwise(times)):
+            raise ValueError(
+                f"load_steps: times {', '.join(f'{t:g}' for t in times)} s must increase (one step at a time)"
+            )
+        return self
+
+    def loads(self) -> list[tuple[float, float]]:
+        """The load's epochs: (start time [s], load [-]), the first from 0 at ``load``."""
+        return [(0.0, self.load)] + [(step.time_s, step.load) for step in self.load_steps]
 
     @property
     def top_rpm(self) -> float:
@@ -205,6 +233,12 @@ class Scene(_Strict):
 
     @model_validator(mode="after")
     def _unique(self) -> Scene:
+        late = [step.time_s for step in self.operating_point.load_steps if step.time_s >= self.duration_s]
+        if late:
+            raise ValueError(
+                f"operating_point.load_steps: time_s = {late[0]:g} s is not inside the recording "
+                f"(duration_s = {self.duration_s:g} s)"
+            )
         names = [s.name for s in self.sensors]
         doubles = sorted({n for n in names if names.count(n) > 1})
         if doubles:

@@ -8,6 +8,7 @@ sample by sample with that angle (:mod:`monitor.scene.channels`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,8 +21,9 @@ from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.scene.channels import channel
 from monitor.scene.crank import crank_motion
 from monitor.scene.effects import WornBearingParams, named
-from monitor.scene.model import Scene
+from monitor.scene.model import PULSE_KINDS, Scene
 from monitor.scene.sources import sources_of
+from monitor.scene.steps import epoch_scenes, joined
 
 __all__ = ["Simulation", "simulate"]
 
@@ -104,11 +106,24 @@ def simulate(
     _check_locations(scene, engine)
     evaluated: list[str] = []
     sources = sources_of(scene, engine, evaluated)
+    # a load step: the sources of each later epoch, joined at the steps (monitor.scene.steps)
+    epochs = epoch_scenes(scene)[1:]
+    later = [(start, epoch, sources_of(epoch, engine, [])) for start, epoch in epochs]
     expected: dict[str, Any] = {}
-    crank = crank_motion(scene, engine, sources, evaluated, expected)
+    steps = [(start, s) for start, _, s in later if s is not None]
+    crank = crank_motion(scene, engine, sources, evaluated, expected, steps=steps)
     channels = []
     for i, sensor in enumerate(scene.sensors):
-        channels.append(channel(sensor, i, scene, engine, crank, sources, seed, expected))
+        made = channel(sensor, i, scene, engine, crank, sources, seed, expected)
+        if later and not made.is_events and sensor.kind not in PULSE_KINDS:
+            values = [made.data] + [
+                channel(sensor, i, epoch, engine, crank, s, seed, {}).data for _, epoch, s in later
+            ]
+            starts = [0.0] + [start for start, _, _ in later]
+            made = dataclasses.replace(
+                made, data=joined(starts, values, made.times()).astype(made.data.dtype)
+            )
+        channels.append(made)
         if progress is not None:
             progress((i + 1) / len(scene.sensors))
     for name in (
@@ -127,7 +142,10 @@ def simulate(
         "engine": engine.id,
         "duration_s": scene.duration_s,
         "seed": seed,
-        "operating_point": scene.operating_point.model_dump(),
+        # a scene without steps keeps the truth it always had (no empty load_steps in it)
+        "operating_point": scene.operating_point.model_dump(
+            exclude=set() if scene.operating_point.load_steps else {"load_steps"}
+        ),
         "effects": scene.effects,
         "gas_model": sources.gas_model if sources else "none",
         "cylinder_gas_scale": sources.gas_scale if sources else [1.0] * engine.cylinders,

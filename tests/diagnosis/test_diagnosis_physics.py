@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.integrate import quad
 
 from monitor.diagnosis.balance import cylinder_balance, measured_torque
-from monitor.diagnosis.diagnose import predicted_speed
+from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.diagnosis.zones import velocity_rms, zone_of
 from monitor.errors import SignalError
 from monitor.io.recording import Channel

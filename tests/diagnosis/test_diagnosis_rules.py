@@ -24,7 +24,7 @@ from monitor.diagnosis.analysis import engine_orders
 from monitor.diagnosis.balance import CrankCalibration, cylinder_balance
 from monitor.diagnosis.baseline import Baseline
 from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_score, window_bins
-from monitor.diagnosis.diagnose import predicted_speed
+from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.errors import ModelError
 from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at

@@ -1,0 +1,233 @@
+"""The diagnosis per steady segment of a recording that crosses operating points.
+
+A recording whose load or speed changes inside it (a load step on a generator, a manoeuvre) is
+not one operating point: the model at its mean speed and load describes neither part. The whole
+recording's angle map gives its operating point cycle by cycle, and from it the steady segments
+and the transitions between them (:mod:`monitor.signal.steady`). When there are two segments or
+more, each is cut out of the recording by time (:func:`monitor.io.timespan.between`) and
+diagnosed at its own operating point: the model at its own mean speed (the diagnosis takes the
+speed from the segment itself) and at its own load where the user gave one per segment
+(``compare --segment-loads``), else at the load given for the recording, with a note that says so
+and gives the segment's load indicator against the recording's. The load indicator is not turned
+into a load: the fluctuation at the firing harmonic holds the reciprocating parts' inertia torque
+as well as the gas torque, and the cylinders' pressure moves with the load by the charge pressure
+as well as the heat release, so its ratio between two segments is not theirs of the load. A
+segment judged at a load it did not run at reads every cylinder's strength off by one factor:
+the cylinders' contrast still names a misfire, but the balance's errors, relative to the
+strengths, can grow until the segment is inconclusive (never healthy for that reason alone).
+
+The overall status is the worst segment's (alarm, warning, inconclusive, healthy in that order);
+a transition is reported as such and is no finding. A recording with one steady segment or none
+(a steady run, a run-up) is the whole recording's diagnosis, unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from monitor.diagnosis.analysis import CyclePhase
+from monitor.diagnosis.at_point import diagnose_at_point
+from monitor.diagnosis.balance import Transfer
+from monitor.diagnosis.diagnose import Diagnosis
+from monitor.diagnosis.operating_points import OperatingPoints
+from monitor.errors import DiagnosisError
+from monitor.io.recording import Recording
+from monitor.io.timespan import between
+from monitor.model.engine import Engine
+from monitor.signal.steady import (
+    MIN_CYCLES,
+    Segment,
+    Segmentation,
+    Transition,
+    cycle_series,
+    steady_segments,
+)
+
+__all__ = [
+    "STATUS_RANK",
+    "SegmentDiagnosis",
+    "SegmentedDiagnosis",
+    "diagnose_segments",
+    "segmentation_of",
+]
+
+STATUS_RANK = {"healthy": 0, "inconclusive": 1, "warning": 2, "alarm": 3}
+"""How bad each status is, for the worst over the segments."""
+
+
+@dataclass(frozen=True)
+class SegmentDiagnosis:
+    """One steady segment with its diagnosis.
+
+    Attributes
+    ----------
+    index : int
+        Its place among the segments, from 1 [-].
+    segment : Segment
+    diagnosis : Diagnosis
+    """
+
+    index: int
+    segment: Segment
+    diagnosis: Diagnosis
+
+
+@dataclass(frozen=True)
+class SegmentedDiagnosis:
+    """A recording's diagnosis segment by segment (none: the whole recording's stands alone).
+
+    Attributes
+    ----------
+    whole : Diagnosis
+        The whole recording's diagnosis (its spectra, its plot).
+    segments : tuple of SegmentDiagnosis
+        Two or more when the recording crosses operating points; empty otherwise.
+    transitions : tuple of Transition
+    """
+
+    whole: Diagnosis
+    segments: tuple[SegmentDiagnosis, ...] = ()
+    transitions: tuple[Transition, ...] = ()
+
+    @property
+    def status(self) -> str:
+        """The worst segment's status, or the whole recording's when it is not segmented."""
+        if not self.segments:
+            return self.whole.status
+        return max((s.diagnosis.status for s in self.segments), key=STATUS_RANK.__getitem__)
+
+
+def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = MIN_CYCLES) -> Segmentation:
+    """The steady segments of a diagnosed recording, from the angle map its diagnosis built.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The whole recording's.
+    engine : Engine
+        Its cycle and cylinders (the firing harmonic: one impulse per cylinder a cycle).
+    min_cycles : int, optional
+        Cycles a segment needs [-].
+
+    Returns
+    -------
+    Segmentation
+    """
+    reference = diagnosis.spectra.reference
+    series = cycle_series(
+        reference.angle_map,
+        cycle_revolutions=engine.cycle_revolutions,
+        firing_harmonic=engine.cylinders,
+        pulses_per_revolution=reference.pulses_per_revolution,
+    )
+    return steady_segments(series, min_cycles=min_cycles)
+
+
+def _note(
+    item: Segment, index: int, count: int, load: float, source: str, mean_indicator: float | None
+) -> str:
+    """What a segment's diagnosis says of its span and of the load it was judged at."""
+    text = (
+        f"segment {index} of {count}: {item.start_s:.2f} to {item.stop_s:.2f} s, {item.cycles} cycles at "
+        f"{item.speed * 30 / math.pi:.1f} rpm; "
+        + (
+            f"the model at the load given for this segment ({load:.2f})"
+            if source == "segment"
+            else f"the reference at the load estimated from this segment ({load:.2f})"
+            if source == "estimated"
+            else f"the model at the load given for the recording ({load:.2f}): give each segment's "
+            "load (compare --segment-loads) to judge it at its own"
+        )
+    )
+    if item.load_indicator is not None and mean_indicator:
+        text += (
+            f"; this segment's load indicator (the firing harmonic's speed fluctuation) is "
+            f"{item.load_indicator / mean_indicator:.2f} times the recording's"
+        )
+    return text
+
+
+def diagnose_segments(
+    recording: Recording,
+    engine: Engine,
+    whole: Diagnosis,
+    *,
+    baseline: OperatingPoints | None = None,
+    load: float | None = None,
+    transfer: Transfer = "rigid",
+    cycle_phase: CyclePhase = None,
+    exclude: tuple[str, ...] | list[str] = (),
+    loads: Sequence[float] = (),
+    min_cycles: int = MIN_CYCLES,
+) -> SegmentedDiagnosis:
+    """Each steady segment of a recording diagnosed at its own operating point (module docstring).
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    whole : Diagnosis
+        The whole recording's diagnosis (:func:`monitor.diagnosis.diagnose`, with the same options).
+    baseline : OperatingPoints, optional
+        The calibrated points; each segment is compared at its own load, estimated where not given
+        (:func:`monitor.diagnosis.at_point.diagnose_at_point`).
+    load : float, optional
+        The load given for the recording [-]; default: the baseline's, else rated (1).
+    transfer : {"rigid", "shaft-line"}, optional
+    cycle_phase : float or "unknown", optional
+    exclude : sequence of str, optional
+        As for :func:`monitor.diagnosis.diagnose`.
+    loads : sequence of float, optional
+        Each segment's load, in time order [-]; default: ``load`` for every segment.
+    min_cycles : int, optional
+        Cycles a segment needs [-].
+
+    Returns
+    -------
+    SegmentedDiagnosis
+        Without segments when the recording has fewer than two steady ones (``loads`` then unused:
+        a note on the whole diagnosis says so).
+
+    Raises
+    ------
+    DiagnosisError
+        When ``loads`` are given and not one per segment.
+    """
+    found = segmentation_of(whole, engine, min_cycles=min_cycles)
+    if len(found.segments) < 2:
+        if loads:
+            whole.notes.append(
+                f"the loads per segment were not used: the recording has {len(found.segments)} steady "
+                f"segment(s) of {min_cycles} cycles or more, and is diagnosed whole"
+            )
+        return SegmentedDiagnosis(whole)
+    if loads and len(loads) != len(found.segments):
+        spans = ", ".join(f"{s.start_s:.2f}-{s.stop_s:.2f} s" for s in found.segments)
+        raise DiagnosisError(
+            f"{len(loads)} load(s) given per segment; the recording has {len(found.segments)} steady "
+            f"segments ({spans}): give one load for each, in time order"
+        )
+    indicators = [s.load_indicator for s in found.segments if s.load_indicator is not None]
+    cycles = sum(s.cycles for s in found.segments)
+    mean_indicator = (
+        sum(s.load_indicator * s.cycles for s in found.segments if s.load_indicator is not None) / cycles
+        if len(indicators) == len(found.segments)
+        else None
+    )
+    diagnosed = []
+    for i, item in enumerate(found.segments, start=1):
+        part = diagnose_at_point(
+            between(recording, item.start_s, item.stop_s),
+            engine,
+            points=baseline,
+            load=loads[i - 1] if loads else load,
+            transfer=transfer,
+            cycle_phase=cycle_phase,
+            exclude=exclude,
+        )
+        source = "segment" if loads else str(part.operating_point.get("load_used_from", "stated"))
+        part.notes.insert(0, _note(item, i, len(found.segments), part.load, source, mean_indicator))
+        diagnosed.append(SegmentDiagnosis(i, item, part))
+    return SegmentedDiagnosis(whole, tuple(diagnosed), found.transitions)
