@@ -353,6 +353,7 @@ def diagnose(
     recording, sensor_faults, screen_notes, rms, unrated = _screen(recording, baseline, band, exclude)
     if baseline is not None:
         _check_baseline(recording, engine, baseline)
+    stated = load is not None
     if load is None:
         load = baseline.load if baseline is not None else 1.0
     analysis = analyse(
@@ -389,7 +390,8 @@ def diagnose(
             comparisons.append(comparison)
     bearings = with_elsewhere(bearings, result.high_frequency, engine, baseline)
     findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
-    findings += _cylinder_findings(analysis, engine, baseline, load, notes)
+    undecided: list[str] = []
+    findings += _cylinder_findings(analysis, engine, baseline, load if stated else None, notes, undecided)
     findings += bearing_findings(
         bearings,
         with_baseline=baseline is not None,
@@ -397,7 +399,7 @@ def diagnose(
     )
     velocity, zone_findings = _zones(recording, rms, boundaries)
     findings += zone_findings
-    status = _status(findings, analysis, engine, notes)
+    status = _status(findings, analysis, engine, notes, undecided)
     order = {"alarm": 0, "warning": 1}
     findings.sort(key=lambda f: (order[f.severity], -f.confidence, f.subject))
     return Diagnosis(
@@ -442,7 +444,9 @@ def _screen(
     return recording, faults, notes, rms, unrated
 
 
-def _status(findings: list[Finding], analysis: Analysis, engine: Engine, notes: list[str]) -> str:
+def _status(
+    findings: list[Finding], analysis: Analysis, engine: Engine, notes: list[str], undecided: list[str]
+) -> str:
     """The worst finding's severity; "inconclusive" (reasons noted) if none and the checks were not made."""
     status = "healthy"
     for f in findings:
@@ -450,7 +454,7 @@ def _status(findings: list[Finding], analysis: Analysis, engine: Engine, notes: 
     # no finding is "healthy" only if the checks were made: the cylinders resolved (where an engine has
     # several and a gas model) and the speed steady; otherwise the recording is inconclusive
     if status == "healthy":
-        reasons = _unresolved(analysis, engine)
+        reasons = undecided + _unresolved(analysis, engine)
         if reasons:
             status = "inconclusive"
             notes += [f"inconclusive: {reason}" for reason in reasons]
@@ -589,9 +593,18 @@ def _order_comparison(
 
 
 def _cylinder_findings(
-    analysis: Analysis, engine: Engine, baseline: Baseline | None, load: float, notes: list[str]
+    analysis: Analysis,
+    engine: Engine,
+    baseline: Baseline | None,
+    load: float | None,
+    notes: list[str],
+    undecided: list[str],
 ) -> list[Finding]:
-    """The cylinders' findings from the balance, where it fits the model (else none: inconclusive)."""
+    """The cylinders' findings from the balance, where it fits the model (else none: inconclusive).
+
+    ``load`` is the load stated (None: none, rated assumed); a single cylinder reading low (a warning)
+    against the model at a load nobody stated is put in ``undecided``, not named: a lower load reads alike.
+    """
     balance = analysis.balance
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
     fits = balance is not None and balance.chi2_reduced <= MISFIT
@@ -610,11 +623,25 @@ def _cylinder_findings(
             if baseline is not None and len(baseline.strengths) == 1
             else None
         )
-        findings = single_cylinder_findings(balance, load, single)
+        findings = single_cylinder_findings(balance, 1.0 if load is None else load, single)
+        # an alarm (below a fifth of the model's rated firing) is no load a running engine is set to
+        low_warning = findings and findings[0].severity == "warning" and float(balance.strength[0]) < 1.0
+        if load is None and single is None and low_warning:
+            undecided.append(
+                f"cylinder 1 reads {round(100 * float(balance.strength[0]))} % of the model's at rated load "
+                "and no load was stated: a single cylinder's weaker firing and a lower load read alike; "
+                "state the load set (--load) or compare against a baseline"
+            )
+            return []
         notes.append(
-            f"a single cylinder is judged against the load stated ({load:.2f}): state the load set "
-            "(the fuel or the governor's setting), not the power delivered, or a weak cylinder reads as "
-            "a lower load"
+            "a single cylinder is judged against the load "
+            + (
+                f"stated ({load:.2f})"
+                if load is not None
+                else f"{'of its baseline' if baseline is not None else 'rated'}, none stated"
+            )
+            + ": state the load set (the fuel or the governor's setting), not the power delivered, or a "
+            "weak cylinder reads as a lower load"
         )
         return findings
     return []

@@ -67,6 +67,7 @@ NEARLY_PATTERN = "it lacks most of its firing impulse"  # the pattern's label be
 PATTERN_EXPLAINED = 0.5
 ABSOLUTE_UNCERTAINTY = 0.15  # a single cylinder's strength against the model: model and stated load [-]
 BASELINE_UNCERTAINTY = 0.10  # a single cylinder's strength against its baseline's: the stated loads [-]
+SINGLE_BEYOND = 2.0  # a single cylinder's errors beyond a limit: 97.7 % (one-sided) that it is beyond [-]
 
 
 @dataclass(frozen=True)
@@ -362,7 +363,8 @@ def single_cylinder_findings(
     """A single cylinder has no others to be compared with: its strength against the baseline's (which
     calibrates the model's level on this engine; an error of at least :data:`BASELINE_UNCERTAINTY`, the
     stated loads), or without one against the model's at the stated load (at least
-    :data:`ABSOLUTE_UNCERTAINTY`, the model and the stated load).
+    :data:`ABSOLUTE_UNCERTAINTY`, the model and the stated load); a limit is crossed :data:`SINGLE_BEYOND`
+    such errors beyond it (the floor is systematic: 4 of them from 100 % would decide before any limit).
 
     Parameters
     ----------
@@ -381,14 +383,15 @@ def single_cylinder_findings(
     floor = BASELINE_UNCERTAINTY if reference != 1.0 or calibrated is not None else ABSOLUTE_UNCERTAINTY
     e = max(float(balance.strength_error[0]) / reference, floor)
     against = "the baseline's" if calibrated is not None else f"the model's {balance.strength_meaning}"
+    margin = SINGLE_BEYOND * e
     severity, threshold = "healthy", None
-    if s < CYLINDER_WARNING[0]:
+    if s < CYLINDER_WARNING[0] - margin:
         severity, threshold = "warning", CYLINDER_WARNING[0]
-        if s < CYLINDER_ALARM[0]:
+        if s < CYLINDER_ALARM[0] - margin:
             severity, threshold = "alarm", CYLINDER_ALARM[0]
-    elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding
+    elif s > CYLINDER_ALARM[1] + margin:  # stronger than the model: only an alarm-sized excess is a finding
         severity, threshold = "warning", CYLINDER_ALARM[1]
-    if threshold is None or abs(s - 1.0) < SIGNIFICANCE * e:
+    if threshold is None:
         return []
     low = s < 1.0
     what = (
