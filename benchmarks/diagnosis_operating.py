@@ -54,7 +54,7 @@ class Row:
 
 ROWS = (
     Row(
-        f"misfire at {MISFIRE_LOAD:.0%} load or more called healthy (exit 0)",
+        f"misfire at {100 * MISFIRE_LOAD:g} % load or more called healthy (exit 0)",
         "none",
         lambda o: o.truth == "misfire" and o.true_load >= MISFIRE_LOAD,
         lambda o: o.exit_code == 0,
@@ -77,7 +77,7 @@ ROWS = (
         0.95,
     ),
     Row(
-        f"weak cylinder at 80 % named (above {WEAK_80_ABOVE:.0%}), 2 or more cylinders",
+        f"weak cylinder at 80 % named (above {100 * WEAK_80_ABOVE:g} %), 2 or more cylinders",
         "at least 80 %",
         lambda o: o.truth == "weak" and o.strength > WEAK_80_ABOVE and o.cylinders > 1,
         lambda o: o.named,

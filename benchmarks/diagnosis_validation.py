@@ -395,15 +395,20 @@ def update_rules_doc(path: Path, outcomes: list[Outcome], *, when: str) -> None:
     path.write_text(head + "\n".join(block) + tail)
 
 
-def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: float, workers: int) -> str:
-    """The Markdown document: the at-point population's tables as they always were, then one per
-    operating-point class with and without the load."""
-    # the at-point population, told the load: the tables that were there before the other classes
-    outcomes = [
+def at_point(everything: list[Outcome]) -> list[Outcome]:
+    """The cases at their baseline's point, told the load, that the simulator made: the population the
+    tables before the operating-point classes were measured on."""
+    return [
         o
         for o in everything
         if o.operating == "baseline point" and o.load_told and o.failed_at != "simulator"
     ]
+
+
+def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: float, workers: int) -> str:
+    """The Markdown document: the at-point population's tables as they always were, then one per
+    operating-point class with and without the load."""
+    outcomes = at_point(everything)
     by = defaultdict(list)
     for o in outcomes:
         by[(o.truth, o.duration_s)].append(o)
@@ -610,14 +615,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     )
     if args.rules_doc is not None:
-        at_point = [
-            o
-            for o in outcomes
-            if o.operating == "baseline point" and o.load_told and o.failed_at != "simulator"
-        ]
-        update_rules_doc(
-            args.rules_doc, at_point, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(at_point)} cases"
-        )
+        at = at_point(outcomes)
+        update_rules_doc(args.rules_doc, at, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(at)} cases")
     rows = args.out.with_suffix(".json")
 
     rows.write_text(json.dumps([asdict(o) for o in outcomes], indent=0, default=str))
