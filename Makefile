@@ -72,10 +72,11 @@ bench-load: $(STAMP)
 bench-startup: $(STAMP)
 	$(BIN)/python -m benchmarks.startup
 
-## bench-diagnosis: the diagnosis on a population of engines from the validation simulator (540 cases;
+## bench-diagnosis: the diagnosis on a population of engines from the validation simulator (540 cases at
+## their baseline's operating point, 540 off it, each diagnosed with and without the load;
 ## its document states the time the run took); rewrites docs/diagnosis-validation.md
 bench-diagnosis: $(STAMP)
-	$(BIN)/python -m benchmarks.diagnosis_validation --cases 540 --workers 2
+	$(BIN)/python -m benchmarks.diagnosis_validation --cases 540 --off-point-cases 540 --workers 2
 
 ## mutation: the decision rules (monitor/diagnosis/findings.py) mutated, each mutant against the limit tests
 ## (cosmic-ray, [tool.cosmic-ray] in pyproject.toml; a few minutes); rewrites docs/mutation-testing.md

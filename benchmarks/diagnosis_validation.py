@@ -7,7 +7,10 @@ ones do. For each case the product is given what a user has: the engine file, a 
 of the same engine to calibrate on (the case's healthy twin), the recording, and a load that is
 off by up to 10 %. Its verdict is compared with what the simulator put in.
 
-    python -m benchmarks.diagnosis_validation [--cases 540] [--workers 2]
+    python -m benchmarks.diagnosis_validation [--cases 540] [--off-point-cases 540] [--workers 2]
+
+Cases off the baseline's operating point (another load or speed, a load step mid-recording, crank
+speed alone) are diagnosed told their load and not told it: benchmarks/diagnosis_operating.py.
 
 Every number in the document comes from the run that wrote it; each case's row is written beside it
 as JSON (docs/diagnosis-validation.json, not kept in the repository).
@@ -24,21 +27,27 @@ import time
 import traceback
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchmarks.diagnosis_operating import missed_table, operating_sections
 from monitor.diagnosis import calibrate, diagnose
 from monitor.diagnosis.findings import MISFIRE_BELOW
 from monitor.errors import MonitorError
 from monitor.model.engine import load_engine
 from validation.simulator import healthy_twin, random_case
+from validation.simulator.operating import OPERATING_CLASSES
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 DURATIONS = (10.0, 30.0, 60.0)
+# off the baseline's point: shorter recordings (the weak row needs 30 s, no row 60 s), a seed range of
+# their own (dated, like the first, by their seed modulo 100,000 minutes after 2026-01-01)
+OFF_POINT_DURATIONS = (10.0, 30.0)
+OFF_POINT_FIRST_SEED = 200_000
 CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
 
@@ -46,6 +55,11 @@ EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
 def case_length(index: int) -> float:
     """The recording's length [s] of the run's ``index``-th case (its seed less ``--first-seed``)."""
     return DURATIONS[index % len(DURATIONS)]
+
+
+def off_point_length(index: int) -> float:
+    """The recording's length [s] of the ``index``-th case off the baseline's point."""
+    return OFF_POINT_DURATIONS[index % len(OFF_POINT_DURATIONS)]
 
 
 @dataclass(frozen=True)
@@ -71,6 +85,12 @@ class Outcome:
     rules: str = ""  # each finding as rule|subject|severity, "; "-separated (:func:`rule_of`)
     share: float = math.nan  # a misfiring or weak cylinder's strength over the others', as read [-]
     inconclusive: str = ""  # why a run without findings was not called healthy
+    operating: str = "baseline point"  # the operating-point class (validation.simulator.OPERATING_CLASSES)
+    load_told: bool = True  # whether the product was told the load
+    failed_at: str = ""  # an error's stage: simulator, calibration or diagnosis
+    true_load: float = math.nan  # mean IMEP over rated, as run [-]
+    load_type: str = ""  # propeller or generator
+    charge_law: str = ""  # the simulator's charge pressure against load
 
 
 def classify(finding: Any) -> tuple[str, str]:
@@ -145,9 +165,30 @@ def _said(error: Exception) -> str:
 
 
 def run_case(seed: int, duration_s: float) -> Outcome:
-    """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case."""
+    """Simulate one case at its baseline's point and its healthy twin, calibrate on the twin and diagnose
+    the case, told its load (as the at-point population always was)."""
+    return run_ways(seed, duration_s, "baseline point", (True,))[0]
+
+
+def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...]) -> list[Outcome]:
+    """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case each way.
+
+    ``operating`` as :func:`~validation.simulator.random_case` takes it; ``ways`` whether the product
+    is told the load (the true load off by up to 10 %), once per way. A case the simulator cannot
+    make is an outcome of status "error" failed at "simulator"; one the product cannot calibrate on or
+    diagnose fails at "calibration" or "diagnosis".
+    """
     start = time.perf_counter()
-    case = random_case(seed, duration_s=duration_s)
+    try:
+        case = random_case(seed, duration_s=duration_s, operating=operating)
+        twin = healthy_twin(case, seed=seed + 1_000_000)
+    except Exception as error:  # the simulator's failure, not the product's: counted apart
+        spent = time.perf_counter() - start
+        failed = Outcome(
+            seed, duration_s, 0, "", math.nan, "", "", math.nan, "error", 3, "error", False, False, "", spent
+        )
+        failed = replace(failed, error=_said(error), failed_at="simulator", operating=operating)
+        return [replace(failed, load_told=told) for told in ways]
     truth = case.truth
     # the true cylinder, bearing or channel, as the findings name it
     subject = str(
@@ -160,19 +201,39 @@ def run_case(seed: int, duration_s: float) -> Outcome:
     )
     # a weak cylinder's heat release as a share of the healthy one's (the simulator's "weak_factor")
     strength = float(truth["weak_factor"]) if truth["class"] == "weak" else math.nan
-    engine_text = case.engine_toml
+
+    def about(outcome: Outcome, told: bool) -> Outcome:
+        """The outcome with where the case ran and whether the product was told its load."""
+        return replace(
+            outcome,
+            load_told=told,
+            operating=str(truth["operating_class"]),
+            true_load=float(truth["true_load"]),
+            load_type=str(truth["load_type"]),
+            charge_law=str(truth["charge_law"]),
+        )
+
     cylinders = 0
+    stage = "calibration"
+    outcomes: list[Outcome] = []
     try:
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / "engine.toml"
-            path.write_text(engine_text)
+            path.write_text(case.engine_toml)
             engine = load_engine(path)
         cylinders = engine.cylinders
-        twin = healthy_twin(case, seed=seed + 1_000_000)
         baseline = calibrate(twin.recording, engine, load=twin.load_given)
-        diagnosis = diagnose(case.recording, engine, baseline=baseline, load=case.load_given)
+        stage = "diagnosis"
+        for told in ways:
+            diagnosis = diagnose(
+                case.recording, engine, baseline=baseline, load=case.load_given if told else None
+            )
+            said = _outcome(seed, duration_s, engine, truth, subject, strength, diagnosis)
+            # each way's time: the first's the simulation and calibration too
+            outcomes.append(about(replace(said, seconds=time.perf_counter() - start), told))
+            start = time.perf_counter()
     except Exception as error:  # a case the product cannot diagnose is recorded, not fatal
-        return Outcome(
+        failed = Outcome(
             seed,
             duration_s,
             int(cylinders or 0),
@@ -189,7 +250,22 @@ def run_case(seed: int, duration_s: float) -> Outcome:
             "",
             time.perf_counter() - start,
             _said(error),
+            failed_at=stage,
         )
+        outcomes += [about(failed, told) for told in ways[len(outcomes) :]]
+    return outcomes
+
+
+def _outcome(
+    seed: int,
+    duration_s: float,
+    engine: Any,
+    truth: dict[str, Any],
+    subject: str,
+    strength: float,
+    diagnosis: Any,
+) -> Outcome:
+    """What the product said of one case, against what the simulator put in (its time left 0)."""
     findings = [(*classify(f), f.severity) for f in diagnosis.findings]
     rules = "; ".join(
         f"{rule_of(f, engine.cylinders)}|{s}|{f.severity}"
@@ -215,7 +291,7 @@ def run_case(seed: int, duration_s: float) -> Outcome:
         _named(truth, findings),
         any(f.severity == "alarm" for f in diagnosis.findings),
         "; ".join(f"{c} {s} ({v})" for c, s, v in findings),
-        time.perf_counter() - start,
+        0.0,
         rules=rules,
         inconclusive="; ".join(why),
         share=share,
@@ -319,16 +395,29 @@ def update_rules_doc(path: Path, outcomes: list[Outcome], *, when: str) -> None:
     path.write_text(head + "\n".join(block) + tail)
 
 
-def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int) -> str:
-    """The Markdown document."""
+def at_point(everything: list[Outcome]) -> list[Outcome]:
+    """The cases at their baseline's point, told the load, that the simulator made: the population the
+    tables before the operating-point classes were measured on."""
+    return [
+        o
+        for o in everything
+        if o.operating == "baseline point" and o.load_told and o.failed_at != "simulator"
+    ]
+
+
+def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: float, workers: int) -> str:
+    """The Markdown document: the at-point population's tables as they always were, then one per
+    operating-point class with and without the load."""
+    outcomes = at_point(everything)
     by = defaultdict(list)
     for o in outcomes:
         by[(o.truth, o.duration_s)].append(o)
     lines = [
         "# Diagnosis validation on engines it was not built with",
         "",
-        f"Written by `make bench-diagnosis` (`python -m benchmarks.diagnosis_validation --cases {cases}`) on "
-        f"{datetime.now(UTC):%Y-%m-%d}: {len(outcomes)} cases in {seconds / 60:.1f} min on {workers} "
+        "Written by `make bench-diagnosis` (`python -m benchmarks.diagnosis_validation --cases "
+        f"{cases} --off-point-cases {off_point}`) on {datetime.now(UTC):%Y-%m-%d}: {cases} cases at their "
+        f"baseline's operating point and {off_point} off it, in {seconds / 60:.1f} min on {workers} "
         "worker(s). Every number below comes from that run.",
         "",
         "Each case is simulated by `validation.simulator`, written apart from the product's scenes and "
@@ -341,7 +430,10 @@ def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int)
         "The decision rules' limits are tested apart from this population, one rule at a time and by "
         "mutation (`make mutation`): docs/mutation-testing.md.",
         "",
-        "## Acceptance",
+        "## Acceptance at the baseline's operating point",
+        "",
+        "The cases below run where their baseline was calibrated (the same load and speed), and the "
+        "product is told their load; the cases off that point are in the last section.",
         "",
     ]
 
@@ -429,8 +521,41 @@ def report(outcomes: list[Outcome], *, cases: int, seconds: float, workers: int)
             f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | {o.truth} | "
             f"{o.subject} | {o.status} | {said.replace('|', '/')} |"
         )
-    lines.append("")
+    lines += ["", *_operating_section(everything)]
     return "\n".join(lines)
+
+
+def _operating_section(everything: list[Outcome]) -> list[str]:
+    """The per-class acceptance tables, each told the load and not (Markdown lines)."""
+    failed = [o for o in everything if o.failed_at == "simulator" and o.load_told]
+    lines = [
+        "## Acceptance per operating-point class",
+        "",
+        "A fleet calibrates an engine once: every case's baseline is its healthy twin at the point the "
+        "case was first drawn at (load 45-95 %). The case itself runs at a point of its class "
+        "(`validation.simulator.operating`): the baseline's point; a propeller engine on its curve at "
+        "60-100 % of rated speed (torque as speed squared); a generator at 25-100 % load at rated speed; "
+        "a step from one load of the engine's law to another at 30-70 % of the recording; or an engine "
+        "with its crank-speed sensors alone, at a load of its law. Off the baseline's point the charge "
+        "pressure follows one of two laws, drawn per engine (boost falling with load, or held at its "
+        "rated value), and a weak cylinder releases 80 % of a healthy one's heat or 50-70 %. Each case "
+        "is diagnosed twice against the same baseline: told its load (the true mean load off by up to "
+        "10 %) and not told it (the product takes the baseline's). The load told of a load step is its "
+        "mean over the recording: the product takes one load per recording.",
+        "",
+        f"Cases the simulator could not make: {len(failed)}"
+        + (
+            " (" + "; ".join(sorted({f"seed {o.seed}: {o.error[:80]}" for o in failed})[:10]) + ")"
+            if failed
+            else ""
+        )
+        + ".",
+        "",
+        *operating_sections(everything, OPERATING_CLASSES),
+        *missed_table(everything),
+        "",
+    ]
+    return lines
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -438,6 +563,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", type=int, default=540, help="cases, spread over the lengths (default 540)")
     parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument(
+        "--off-point-cases",
+        type=int,
+        default=540,
+        help="cases off the baseline's operating point, each class equally likely (default 540)",
+    )
+    parser.add_argument("--off-point-first-seed", type=int, default=OFF_POINT_FIRST_SEED)
     parser.add_argument("--out", type=Path, default=DOCS / "diagnosis-validation.md")
     parser.add_argument(
         "--rules-doc",
@@ -449,13 +581,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.rules_doc is None and args.out == DOCS / "diagnosis-validation.md":
         args.rules_doc = DOCS / "diagnosis.md"
-    jobs = [(args.first_seed + i, case_length(i)) for i in range(args.cases)]
+    ways = (True, False)
+    jobs = [(args.first_seed + i, case_length(i), "baseline point") for i in range(args.cases)]
+    jobs += [
+        (args.off_point_first_seed + i, off_point_length(i), "random") for i in range(args.off_point_cases)
+    ]
     outcomes: list[Outcome] = []
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(run_case, seed, duration) for seed, duration in jobs]
+        futures = [
+            pool.submit(run_ways, seed, duration, operating, ways) for seed, duration, operating in jobs
+        ]
         for done, future in enumerate(as_completed(futures), start=1):
-            outcomes.append(future.result())
+            outcomes += future.result()
             elapsed = time.perf_counter() - start
             print(
                 f"\r{done}/{len(jobs)} cases, {elapsed / 60:.1f} min, about "
@@ -465,18 +603,27 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
     print(file=sys.stderr)
-    outcomes.sort(key=lambda o: o.seed)
+    outcomes.sort(key=lambda o: (o.seed, not o.load_told))
     seconds = time.perf_counter() - start
-    args.out.write_text(report(outcomes, cases=args.cases, seconds=seconds, workers=args.workers))
-    if args.rules_doc is not None:
-        update_rules_doc(
-            args.rules_doc, outcomes, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(outcomes)} cases"
+    args.out.write_text(
+        report(
+            outcomes,
+            cases=args.cases,
+            off_point=args.off_point_cases,
+            seconds=seconds,
+            workers=args.workers,
         )
+    )
+    if args.rules_doc is not None:
+        at = at_point(outcomes)
+        update_rules_doc(args.rules_doc, at, when=f"{datetime.now(UTC):%Y-%m-%d}, {len(at)} cases")
     rows = args.out.with_suffix(".json")
 
     rows.write_text(json.dumps([asdict(o) for o in outcomes], indent=0, default=str))
     print(
-        f"{len(outcomes)} cases in {seconds / 60:.1f} min; written to {args.out} and {rows}", file=sys.stderr
+        f"{len(jobs)} cases ({len(outcomes)} diagnoses) in {seconds / 60:.1f} min; written to {args.out} "
+        f"and {rows}",
+        file=sys.stderr,
     )
     return 0
 

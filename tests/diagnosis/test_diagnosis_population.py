@@ -6,7 +6,9 @@ that differs from the simulated engine as real ones do), diagnosed the way ``mak
 does (:func:`benchmarks.diagnosis_validation.run_case`): calibrated on a healthy recording of the
 same engine, told a load up to 10 % off. The whole population's rates are in
 docs/diagnosis-validation.md; the sample is held to its acceptance table, with the tolerance its
-size needs. A few cases that each once exposed a bug are kept by name below it.
+size needs. A few cases that each once exposed a bug are kept by name below it. A second sample
+runs off the baseline's operating point (another load or speed, a load step, crank speed alone),
+each case diagnosed told its load and not, held to what the product meets there.
 """
 
 from __future__ import annotations
@@ -15,7 +17,15 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from benchmarks.diagnosis_validation import Outcome, case_length, run_case
+from benchmarks.diagnosis_operating import judged
+from benchmarks.diagnosis_validation import (
+    OFF_POINT_FIRST_SEED,
+    Outcome,
+    case_length,
+    off_point_length,
+    run_case,
+    run_ways,
+)
 
 # The draw: SAMPLE_SIZE distinct seeds, uniform over [FIRST_SEED, END_SEED), from
 # numpy.random.default_rng(DRAW_SEED); each case as long as the benchmark makes it (case_length:
@@ -134,3 +144,51 @@ def test_a_case_that_exposed_a_bug_is_named_on_the_right_subject(
     assert outcome.truth == truth and not outcome.error, outcome
     assert outcome.named, outcome
     assert outcome.exit_code == exit_code, outcome
+
+
+# Off the baseline's point: OFF_POINT_SIZE distinct seeds, uniform over [OFF_POINT_FIRST, END_SEED),
+# from numpy.random.default_rng(DRAW_SEED), each of the operating-point class the simulator draws
+# for it ("random": the engine's own law, a load step or crank speed alone) and as long as the
+# benchmark makes it (off_point_length: 10 or 30 s by the seed's parity), each diagnosed told its
+# load and not. Past the benchmark's off-point seeds (200,000 to 200,539), below 300,000 (dated,
+# like the first draw's, by the seed modulo 100,000 minutes after 2026-01-01). About 50 s of CPU.
+# The draw holds 5 propeller-curve cases, 1 constant-speed, 10 load steps and 8 of crank speed
+# alone; 9 misfires, 5 weak cylinders, 5 worn bearings, 2 sensor faults, 3 healthy runs.
+# Only what the product met off its baseline's point when this was written is held here (a
+# reduced benchmark, 360 cases off the point: healthy runs at a steady point without an alarm, 0 of
+# 27 each way); the rest it did not meet (a misfire at a steady point called healthy, 1 of 24 told
+# the load; false bearing findings on healthy engines at another speed; load steps inconclusive
+# or misread) is measured by make bench-diagnosis, per class, and not held by the suite.
+STEADY = ("propeller curve", "constant speed")
+OFF_POINT_FIRST = OFF_POINT_FIRST_SEED + 540
+OFF_POINT_END = OFF_POINT_FIRST_SEED + 100_000
+OFF_POINT_SIZE = 24
+
+
+def draw_off_point() -> list[tuple[int, float]]:
+    """The off-point sample's cases: (seed, length [s]), by seed."""
+    rng = np.random.default_rng(DRAW_SEED)
+    seeds = OFF_POINT_FIRST + rng.choice(OFF_POINT_END - OFF_POINT_FIRST, size=OFF_POINT_SIZE, replace=False)
+    return [(int(seed), off_point_length(int(seed))) for seed in sorted(seeds)]
+
+
+@pytest.fixture(scope="module")
+def off_point() -> list[Outcome]:
+    """Every case of the off-point draw, diagnosed told its load and not (one process)."""
+    return [o for seed, length in draw_off_point() for o in run_ways(seed, length, "random", (True, False))]
+
+
+def test_every_off_point_case_is_simulated_and_diagnosed_or_refused_for_want_of_a_bearing_sensor(
+    off_point: list[Outcome],
+) -> None:
+    assert {o.operating for o in off_point} == {*STEADY, "load step", "crank speed only"}
+    assert not [o for o in off_point if o.failed_at == "simulator"]
+    assert not [o for o in off_point if o.failed_at == "diagnosis"]
+    # a calibration needs a bearing channel today: only an engine without one may be refused
+    assert not [o for o in off_point if o.failed_at == "calibration" and o.operating != "crank speed only"]
+
+
+def test_a_healthy_run_at_a_steady_point_off_the_baseline_raises_no_alarm(off_point: list[Outcome]) -> None:
+    healthy = [o for o in judged(off_point) if o.truth == "healthy" and o.operating in STEADY]
+    assert {o.load_told for o in healthy} == {True, False}  # the draw holds 1, diagnosed both ways
+    assert not [o for o in healthy if o.alarm], healthy  # required: none

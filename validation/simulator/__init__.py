@@ -62,6 +62,14 @@ dead (flat, or noise only), or in the wrong unit (data x 1000 or / 9.81, range w
 A generator engine keeps its speed through a misfire or a weak cylinder by giving the others
 more fuel; a propeller engine at a fixed fuel slows down.
 
+Operating points (:mod:`validation.simulator.operating`).  A case runs at its healthy twin's load
+(the baseline's point), or off it: a propeller engine anywhere on its curve at 60-100 % of rated
+speed, a generator at 25-100 % load at rated speed, a step from one such load to another inside
+the recording (:class:`LoadStep`: the load, the fuel and the cycle table change at once, the
+governor or the propeller's curve taking the crank to the new speed), or an engine with its angle
+sensors alone.  Off the baseline's point the charge pressure falls with the load
+(turbocharged) or is held at its rated value, drawn per engine.
+
 The description given to the product (:func:`engine_description`) is what an operator would know,
 perturbed as real files differ from real engines: geometry +-2 %, masses and inertias +-10 %,
 combustion start +-3 deg, compression ratio +-3 %; its combustion is a single Wiebe law fitted to
@@ -82,7 +90,7 @@ performance using Wiebe's functions", SAE 850107, 1985, doi:10.4271/850107 (doub
 """
 
 from validation.simulator.cases import Case, healthy_twin, population, random_case
-from validation.simulator.crank import CrankRun, Load, operating_load, run_crank
+from validation.simulator.crank import CrankRun, Load, LoadStep, operating_load, run_crank
 from validation.simulator.description import description_engine, engine_description
 from validation.simulator.engine import DoubleWiebe, SimEngine, random_engine
 from validation.simulator.gas import (
@@ -109,6 +117,7 @@ from validation.simulator.kinematics import (
     slider_crank,
     throw_vertical_force,
 )
+from validation.simulator.operating import OPERATING_CLASSES, OperatingPoint
 from validation.simulator.scenario import FAULT_CLASSES
 from validation.simulator.shared import AMBIENT_PRESSURE, SimulationError
 
@@ -120,6 +129,7 @@ __all__ = [
     "GAS_CONSTANT",
     "HEAT_LEVELS",
     "HEAT_STEP",
+    "OPERATING_CLASSES",
     "Case",
     "ClosedCycle",
     "CrankRun",
@@ -127,6 +137,8 @@ __all__ = [
     "DoubleWiebe",
     "Installation",
     "Load",
+    "LoadStep",
+    "OperatingPoint",
     "SimEngine",
     "SimulationError",
     "SliderCrank",

@@ -17,19 +17,25 @@ from validation.simulator.channels import (
     structural_response,
     worn_bearing_bursts,
 )
-from validation.simulator.crank import CrankRun, operating_load, run_crank
+from validation.simulator.crank import CrankRun, LoadStep, operating_load, run_crank
 from validation.simulator.description import engine_description
 from validation.simulator.engine import SimEngine, random_engine
 from validation.simulator.gas import (
+    CHARGE_LAWS,
     HEAT_LEVELS,
     HEAT_STEP,
     CycleTable,
     cycle_table,
-    load_charge_pressure,
     rated_of_seed,
 )
-from validation.simulator.installation import Installation, random_installation, sensor_mix
+from validation.simulator.installation import (
+    Installation,
+    random_installation,
+    sensor_mix,
+    without_bearing_sensors,
+)
 from validation.simulator.kinematics import bearing_split
+from validation.simulator.operating import OperatingPoint, draw_operating_point
 from validation.simulator.scenario import Scenario, draw_scenario
 from validation.simulator.shared import NOISE_STREAM, TWIN_WORD, FloatArray
 
@@ -68,9 +74,13 @@ def _simulate(
     twin: bool,
     duration_s: float,
     fault: str | None,
-    load: float | None = None,
+    operating: str | OperatingPoint = "baseline point",
 ) -> Case:
-    """A case: ``engine_seed`` gives engine, installation, description, operating point and fault."""
+    """A case: ``engine_seed`` gives engine, installation, description, operating point and fault.
+
+    ``operating`` a class of :data:`~validation.simulator.operating.OPERATING_CLASSES` (or
+    "random") draws the point; an :class:`OperatingPoint` is a healthy twin's, at that point.
+    """
     if not (math.isfinite(duration_s) and duration_s >= 1.0):
         raise ValueError(f"duration_s = {duration_s!r}: expected a duration of at least 1 s")
     if noise_seed < 0:
@@ -78,17 +88,22 @@ def _simulate(
     engine = random_engine(engine_seed)
     install = random_installation(engine)
     toml_text = engine_description(engine)
-    scenario = draw_scenario(engine, install, engine_seed, fault)
-    if load is not None:  # a healthy twin at the case's operating point
-        scenario = Scenario(load=load, given_ratio=scenario.given_ratio, fault="healthy")
+    if isinstance(operating, OperatingPoint):  # a healthy twin, or a healthy run, at the point given
+        point = operating
+        drawn = draw_scenario(engine, install, engine_seed, fault)
+        scenario = Scenario(load=point.loads[0], given_ratio=drawn.given_ratio, fault="healthy")
+    else:
+        point, scenario = draw_operating_point(engine, install, engine_seed, fault, operating)
+    if point.crank_only:
+        install = without_bearing_sensors(install)
     words = [noise_seed, NOISE_STREAM, TWIN_WORD] if twin else [noise_seed, NOISE_STREAM]
     rng = np.random.default_rng(np.random.SeedSequence(words))
     n = engine.cylinders
     factors = np.ones(n)
     if scenario.cylinder is not None:
         factors[scenario.cylinder - 1] = scenario.factor
-    table = _operating_table(engine, engine_seed, scenario.load)
-    run, pre = _run(engine, install, table, scenario.load, factors, duration_s, rng)
+    tables = [_operating_table(engine, engine_seed, load, point.charge_law) for load in point.loads]
+    run, pre = _run(engine, install, tables, point, factors, duration_s, rng)
     count = len(install.sensor_bearings)
     clean, _ = structural_response(run, install, pre, duration_s)
     data = _with_hum_and_noise(clean, install, rng)
@@ -127,7 +142,7 @@ def _simulate(
         channels=tuple(channels),
         notes=f"validation simulator: engine seed {engine_seed}, noise seed {noise_seed}",
     )
-    ran = _what_ran(engine, install, table, run, pre, duration_s, scenario.given_ratio)
+    ran = _what_ran(engine, install, tables[0], run, pre, duration_s, scenario.given_ratio)
     true_load = float(ran["true_load"])
     truth.update(ran)
     truth.update(
@@ -136,6 +151,12 @@ def _simulate(
         twin=twin,
         duration_s=duration_s,
         scenario_load=scenario.load,
+        operating_class=point.kind,
+        baseline_load=scenario.load,
+        test_loads=list(point.loads),
+        step_time_s=point.step_fraction * duration_s if len(point.loads) > 1 else None,
+        charge_law=point.charge_law,
+        crank_only=point.crank_only,
     )
     return Case(
         seed=noise_seed if twin else engine_seed,
@@ -146,7 +167,7 @@ def _simulate(
     )
 
 
-def _operating_table(engine: SimEngine, engine_seed: int, load: float) -> CycleTable:
+def _operating_table(engine: SimEngine, engine_seed: int, load: float, charge_law: str) -> CycleTable:
     """The cycle table at the healthy operating speed (propeller: where the rated curve meets the load)."""
     rated_net = engine.rated_indicated_torque - engine.friction_torque
     if engine.load_type == "propeller":
@@ -157,7 +178,7 @@ def _operating_table(engine: SimEngine, engine_seed: int, load: float) -> CycleT
     return cycle_table(
         engine,
         speed=speed_guess,
-        charge_pressure=load_charge_pressure(engine, load),
+        charge_pressure=CHARGE_LAWS[charge_law](engine, load),
         fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
         heat_reference=rated_of_seed(engine_seed)[0],
     )
@@ -166,15 +187,21 @@ def _operating_table(engine: SimEngine, engine_seed: int, load: float) -> CycleT
 def _run(
     engine: SimEngine,
     install: Installation,
-    table: CycleTable,
-    load: float,
+    tables: list[CycleTable],
+    point: OperatingPoint,
     factors: FloatArray,
     duration_s: float,
     rng: np.random.Generator,
 ) -> tuple[CrankRun, float]:
     """The crank's run over the recording and the time before it starts [s] (the start settling)."""
     n = engine.cylinders
+    table, load = tables[0], point.loads[0]
     load_model, fuel, speed0 = operating_load(engine, table, load, factors)
+    after = [
+        operating_load(engine, t, value, factors)
+        for t, value in zip(tables[1:], point.loads[1:], strict=True)
+    ]
+    slowest = min([speed0] + [speed for _, _, speed in after])
     # cycle-to-cycle scatter of the heat release that gives the engine's peak-pressure scatter
     healthy = table.fuel_for(load * engine.rated_imep)
     fired = float(np.interp(healthy, table.fuel, table.peak_pressure))
@@ -188,7 +215,7 @@ def _run(
     pre = math.ceil(max(0.5, 2 * engine.cycle_angle / speed0) * fs) / fs
     split = bearing_split(engine.cylinder_positions, engine.bearing_positions, engine.throw_bearings)
     pure = split[[b - 1 for b in install.sensor_bearings]]
-    revolutions_per_second = speed0 / (2 * math.pi)
+    revolutions_per_second = slowest / (2 * math.pi)
     ppr = (
         720 if fs / revolutions_per_second <= 720 else int(360 * math.ceil(fs / revolutions_per_second / 360))
     )
@@ -203,6 +230,11 @@ def _run(
         variation=variation,
         mixes=np.vstack([sensor_mix(engine, install.crosstalk), pure]),
         points_per_revolution=ppr,
+        step=(
+            LoadStep(pre + point.step_fraction * duration_s, after[0][0], after[0][1], tables[1])
+            if after
+            else None
+        ),
     )
     return run, pre
 
@@ -238,11 +270,19 @@ def _what_ran(
         inside = ends > pre
     imep = run.imep[:, inside]
     peak = np.interp(run.fuel[:, inside], table.fuel, table.peak_pressure)
+    # a step's loads: the cycles of each side inside the recording, the two after the step left out
+    firing = np.arange(ends.size)
+    sides = [inside & (firing < run.step_firing), inside & (firing >= run.step_firing + 2)]
+    segment_loads = [float(run.imep[:, side].mean() / engine.rated_imep) for side in sides if side.any()]
     in_span = (run.time >= pre) & (run.time <= pre + duration_s)
     covered = run.time[in_span]
     mean_speed = run.step * (covered.size - 1) / float(covered[-1] - covered[0])
     return {
         "true_load": float(imep.mean() / engine.rated_imep),
+        "segment_loads": segment_loads,
+        # each whole cycle inside the recording: its start from the recording's [s] and mean load [-]
+        "cycle_start_s": [float(v) for v in (ends - engine.cycle_angle / run.cycle_speed)[inside] - pre],
+        "cycle_loads": [float(v) for v in run.imep[:, inside].mean(axis=0) / engine.rated_imep],
         "load_given_ratio": given_ratio,
         "load_type": engine.load_type,
         "mean_speed_rpm": mean_speed * 30 / math.pi,
@@ -260,7 +300,13 @@ def _what_ran(
     }
 
 
-def random_case(seed: int, *, duration_s: float, fault: str | None = "random") -> Case:
+def random_case(
+    seed: int,
+    *,
+    duration_s: float,
+    fault: str | None = "random",
+    operating: str | OperatingPoint = "baseline point",
+) -> Case:
     """Simulate one validation case.
 
     Parameters
@@ -273,6 +319,11 @@ def random_case(seed: int, *, duration_s: float, fault: str | None = "random") -
         "random" (each of :data:`FAULT_CLASSES` equally likely; no misfire on a single-cylinder
         engine), None or "healthy", one class, or "sensor_fault:KIND" to choose the sensor fault
         (clipped, dead_flat, dead_noise, unit_x1000, unit_per_9.81).
+    operating : str or OperatingPoint, optional
+        One of :data:`~validation.simulator.operating.OPERATING_CLASSES` (default "baseline point":
+        the case runs where its healthy twin does), or "random": a class off the baseline's point
+        (:func:`~validation.simulator.operating.draw_operating_point`); or a point, where the
+        engine then runs healthy (``fault`` only draws the load told).
 
     Returns
     -------
@@ -283,7 +334,10 @@ def random_case(seed: int, *, duration_s: float, fault: str | None = "random") -
         for a dead channel), ``sensor_fault`` (clipped, dead_flat, dead_noise, unit_x1000,
         unit_per_9.81), ``true_load`` (mean IMEP of all cylinders over the rated IMEP), the mean
         speed (``mean_speed_rpm``, also ``speed_rpm``), ``cycle``, ``cylinders``, the IMEP and peak
-        pressure of every cylinder, the reversal angles and bursts of a worn bearing, and the seeds.
+        pressure of every cylinder, the reversal angles and bursts of a worn bearing, and the seeds;
+        and where it ran: ``operating_class``, ``baseline_load`` (the twin's), ``test_loads`` (the
+        healthy engine's, drawn), ``segment_loads`` (as run, each side of a step), ``step_time_s``
+        (from the recording's start; None without a step), ``charge_law`` and ``crank_only``.
 
     Raises
     ------
@@ -292,7 +346,7 @@ def random_case(seed: int, *, duration_s: float, fault: str | None = "random") -
     SimulationError
         For a misfire asked of a single-cylinder engine.
     """
-    return _simulate(seed, seed, twin=False, duration_s=duration_s, fault=fault)
+    return _simulate(seed, seed, twin=False, duration_s=duration_s, fault=fault, operating=operating)
 
 
 def healthy_twin(case: Case, *, seed: int) -> Case:
@@ -308,22 +362,33 @@ def healthy_twin(case: Case, *, seed: int) -> Case:
     Returns
     -------
     Case
-        Same description and engine id, same duration and load as ``case`` (a healthy engine at
-        the case's operating point): the baseline a user would calibrate on.
+        Same description, engine id, installation, charge law and duration as ``case``, healthy,
+        at the baseline's load (the case's own for a case at the baseline's point): the baseline a
+        user would calibrate on.
     """
     truth = case.truth
+    point = OperatingPoint(
+        "baseline point",
+        (float(truth["baseline_load"]),),
+        charge_law=str(truth["charge_law"]),
+        crank_only=bool(truth["crank_only"]),
+    )
     return _simulate(
         int(truth["engine_seed"]),
         seed,
         twin=True,
         duration_s=float(truth["duration_s"]),
         fault=None,
-        load=float(truth["scenario_load"]),
+        operating=point,
     )
 
 
 def population(
-    n: int, *, durations: tuple[float, ...] = (10.0, 30.0, 60.0), first_seed: int = 0
+    n: int,
+    *,
+    durations: tuple[float, ...] = (10.0, 30.0, 60.0),
+    first_seed: int = 0,
+    operating: str = "baseline point",
 ) -> Iterator[Case]:
     """Random cases of seeds ``first_seed .. first_seed + n - 1``, durations in turn.
 
@@ -335,6 +400,8 @@ def population(
         Recording lengths, used in turn [s].
     first_seed : int, optional
         Seed of the first case.
+    operating : str, optional
+        As :func:`random_case` takes it.
 
     Yields
     ------
@@ -343,4 +410,4 @@ def population(
     if not durations:
         raise ValueError("durations: expected at least one duration [s]")
     for i in range(n):
-        yield random_case(first_seed + i, duration_s=durations[i % len(durations)])
+        yield random_case(first_seed + i, duration_s=durations[i % len(durations)], operating=operating)

@@ -46,6 +46,29 @@ class Load:
 
 
 @dataclass(frozen=True)
+class LoadStep:
+    """A change of load inside a run: from ``time`` on, another load, fuel and cycle table.
+
+    Attributes
+    ----------
+    time : float
+        When the load changes [s].
+    load : Load
+        What the crank drives after it (a generator's torque changes at once).
+    fuel : float
+        Healthy cylinders' fuel level after it (a propeller's fixed fuel, a governor's feed-forward)
+        [-]; it takes effect at the first firing not yet begun, about a cycle later.
+    table : CycleTable
+        Cylinder pressure against fuel level at the new operating point (charge pressure, speed).
+    """
+
+    time: float
+    load: Load
+    fuel: float
+    table: CycleTable
+
+
+@dataclass(frozen=True)
 class CrankRun:
     """A simulated run of the crank, on a uniform crank-angle grid.
 
@@ -67,6 +90,8 @@ class CrankRun:
         IMEP of each of those firings [Pa].
     cycle_speed : ndarray, shape (K,)
         Mean speed of each simulated cycle [rad/s].
+    step_firing : int
+        The first firing at the load after a :class:`LoadStep` (F if the run has none).
     """
 
     step: float
@@ -77,6 +102,7 @@ class CrankRun:
     fuel: FloatArray
     imep: FloatArray
     cycle_speed: FloatArray
+    step_firing: int = -1
 
 
 def _cumtrapz(values: FloatArray, step: float) -> FloatArray:
@@ -99,6 +125,7 @@ def run_crank(
     mixes: npt.ArrayLike | None = None,
     points_per_revolution: int = 720,
     settle_start: bool = True,
+    step: LoadStep | None = None,
 ) -> CrankRun:
     """Integrate the rigid crank over angle until ``end_time``.
 
@@ -126,6 +153,8 @@ def run_crank(
     settle_start : bool, optional
         Scale the first cycle's energy so that its mean speed is ``initial_speed`` (start on the
         periodic orbit).
+    step : LoadStep, optional
+        A change of load during the run; default none.
 
     Returns
     -------
@@ -161,10 +190,8 @@ def run_crank(
     )
     cycle = engine.cycle_angle
     energy0 = 0.5 * float(crank.inertia[0]) * initial_speed**2
-    if settle_start:
-        for _ in range(4):
-            _, _, _, time, _ = crank.window(0, energy0, 0.0, False)
-            energy0 *= (initial_speed * time[-1] / cycle) ** 2
+    for _ in range(4 if settle_start else 0):
+        energy0 *= (initial_speed * crank.window(0, energy0, 0.0, False)[3][-1] / cycle) ** 2
     times: list[FloatArray] = []
     speeds: list[FloatArray] = []
     accels: list[FloatArray] = []
@@ -174,6 +201,9 @@ def run_crank(
     kp, ki = load.governor_gains
     base = fuel
     while t0 < end_time:
+        if step is not None and crank.switch_column < 0 and t0 >= step.time:
+            base, (kp, ki) = step.fuel, step.load.governor_gains
+            crank.switch(step, k + 3)
         energy, omega, accel, time, forces = crank.window(k, energy0, t0, True)
         times.append(time[:-1])
         speeds.append(omega[:-1])
@@ -181,8 +211,8 @@ def run_crank(
         force_parts.append(forces[:, :-1].astype(np.float32))
         mean = cycle / (time[-1] - time[0])
         cycle_speed.append(mean)
-        if load.kind == "generator":
-            error = (load.speed_reference - mean) / load.speed_reference
+        if crank.load.kind == "generator":
+            error = (crank.load.speed_reference - mean) / crank.load.speed_reference
             integral += error
             crank.draw_until(k + 3)
             crank.sigma[k + 3] = float(np.clip(base * (1 + kp * error + ki * integral), 0.0, load.fuel_limit))
@@ -190,9 +220,7 @@ def run_crank(
         k += 1
         if k > 10_000_000:  # pragma: no cover - a guard, not a case
             raise SimulationError("the crank simulation does not advance")
-    windows = k
-    columns = np.arange(1, windows + 1)  # firings 0 .. windows - 1
-    fired = crank.sigma[columns][None, :] * crank.factors[:, None] * crank.multiplier[:, columns]
+    fired, imep, step_firing = _firings(crank, table, step, k)
     return CrankRun(
         step=crank.step,
         time=np.concatenate(times),
@@ -200,9 +228,24 @@ def run_crank(
         acceleration=np.concatenate(accels),
         forces=np.concatenate(force_parts, axis=1) if force_parts else np.zeros((0, 0), np.float32),
         fuel=fired,
-        imep=table.imep_at(fired),
+        imep=imep,
         cycle_speed=np.asarray(cycle_speed),
+        step_firing=step_firing,
     )
+
+
+def _firings(
+    crank: _AngleWindows, table: CycleTable, step: LoadStep | None, windows: int
+) -> tuple[FloatArray, FloatArray, int]:
+    """Each cylinder's fuel and IMEP of the run's firings, and the first firing after a load step."""
+    columns = np.arange(1, windows + 1)  # firings 0 .. windows - 1
+    fired = crank.sigma[columns][None, :] * crank.factors[:, None] * crank.multiplier[:, columns]
+    imep = table.imep_at(fired)
+    step_firing = windows
+    if step is not None and crank.switch_column >= 0:
+        step_firing = min(crank.switch_column - 1, windows)
+        imep[:, step_firing:] = step.table.imep_at(fired[:, step_firing:])
+    return fired, imep, step_firing
 
 
 class _AngleWindows:
@@ -252,16 +295,15 @@ class _AngleWindows:
         part = np.floor((psi + cycle / 2) / cycle).astype(int)
         self.low = part.min(axis=1)
         self.high = part == self.low[:, None] + 1
-        wrapped = np.mod(psi + cycle / 2, cycle) - cycle / 2
-        tab = np.empty((n, table.fuel.size, m + 1))
-        for c in range(n):
-            for level in range(table.fuel.size):
-                tab[c, level] = np.interp(wrapped[c], table.crank_angle, table.pressure[level], period=cycle)
-        self.tab = tab
+        self.wrapped = np.mod(psi + cycle / 2, cycle) - cycle / 2
+        self.tab = self._tabulate(table)
+        self.tab_after = self.tab
+        self.switch_column = -1  # the first firing column at the load after a step (none: -1)
         fuel_step = float(table.fuel[1] - table.fuel[0]) if table.fuel.size >= 2 else 0.0
         if not (fuel_step > 0 and table.fuel[0] == 0 and np.allclose(np.diff(table.fuel), fuel_step)):
             raise ValueError("table: expected fuel levels 0, d, 2 d, ... (uniform, from zero) [-]")
         self.fuel_step = fuel_step
+        self.tab_fuel = table.fuel
         self.top = table.fuel.size - 2
         self.rows = np.arange(n)
         self.k_prop = load.propeller_coefficient
@@ -274,11 +316,41 @@ class _AngleWindows:
         self.multiplier = np.ones((n, estimate + 4))
         self.drawn = 0
 
-    def pressure_of(self, levels: FloatArray) -> FloatArray:
+    def _tabulate(self, table: CycleTable) -> FloatArray:
+        """Each cylinder's pressure at each fuel level over the window's grid [Pa]."""
+        n, m = self.wrapped.shape
+        cycle = self.engine.cycle_angle
+        tab = np.empty((n, table.fuel.size, m))
+        for c in range(n):
+            for level in range(table.fuel.size):
+                tab[c, level] = np.interp(
+                    self.wrapped[c], table.crank_angle, table.pressure[level], period=cycle
+                )
+        return tab
+
+    def switch(self, step: LoadStep, column: int) -> None:
+        """Drive ``step.load`` from now on and fire ``step.fuel`` from firing column ``column``."""
+        if not np.array_equal(step.table.fuel, self.tab_fuel):
+            raise ValueError("step.table: expected the fuel levels of the run's table")
+        self.load = step.load
+        self.k_prop = step.load.propeller_coefficient
+        self.beta = 2 * self.k_prop / self.inertia
+        growth = _cumtrapz(self.beta, self.step)
+        self.grow, self.shrink = np.exp(growth), np.exp(-growth)
+        self.tab_after = self._tabulate(step.table)
+        self.draw_until(column)
+        self.sigma[column:] = step.fuel
+        self.switch_column = column
+
+    def pressure_of(self, levels: FloatArray, columns: npt.NDArray[np.int_]) -> FloatArray:
         pos = np.clip(levels / self.fuel_step, 0.0, self.top + 1.0)
         i = np.minimum(pos.astype(int), self.top)
         w = (pos - i)[:, None]
-        return np.asarray((1 - w) * self.tab[self.rows, i] + w * self.tab[self.rows, i + 1])
+        before = (1 - w) * self.tab[self.rows, i] + w * self.tab[self.rows, i + 1]
+        if self.switch_column < 0 or not (columns >= self.switch_column).any():
+            return np.asarray(before)
+        after = (1 - w) * self.tab_after[self.rows, i] + w * self.tab_after[self.rows, i + 1]
+        return np.asarray(np.where((columns >= self.switch_column)[:, None], after, before))
 
     def draw_until(self, column: int) -> None:
         while column >= self.sigma.size:
@@ -296,7 +368,7 @@ class _AngleWindows:
         col0 = k + self.low + 1
         q0 = self.sigma[col0] * factors * multiplier[rows, col0]
         q1 = self.sigma[col0 + 1] * factors * multiplier[rows, col0 + 1]
-        p = np.where(self.high, self.pressure_of(q1), self.pressure_of(q0))
+        p = np.where(self.high, self.pressure_of(q1, col0 + 1), self.pressure_of(q0, col0))
         gas = (p - AMBIENT_PRESSURE) * self.area
         source = (gas * self.arm).sum(axis=0) - self.load.torque
         if self.k_prop > 0:

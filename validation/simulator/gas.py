@@ -399,6 +399,28 @@ def load_charge_pressure(engine: SimEngine, load: float) -> float:
     return AMBIENT_PRESSURE + max(load, 0.0) * (engine.rated_charge_pressure - AMBIENT_PRESSURE)
 
 
+def held_charge_pressure(engine: SimEngine, load: float) -> float:
+    """Charge pressure held at its rated value at every load (a blower or a held boost) [Pa].
+
+    Parameters
+    ----------
+    engine : SimEngine
+    load : float
+        Engine load [-] (the charge pressure does not depend on it).
+
+    Returns
+    -------
+    float
+        [Pa].
+    """
+    del load
+    return engine.rated_charge_pressure
+
+
+#: The charge-pressure laws a case's engine may follow, by name.
+CHARGE_LAWS = {"turbocharged": load_charge_pressure, "held": held_charge_pressure}
+
+
 def _rated_table(engine: SimEngine) -> tuple[float, CycleTable]:
     guess = engine.rated_imep * engine.swept_volume / 0.45
     levels = np.array([0.8, 1.0, 1.2])

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import signal
@@ -198,4 +198,29 @@ def random_installation(engine: SimEngine) -> Installation:
         keyphasor_angle=keyphasor,
         tooth_jitter=float(rng.uniform(0.2e-6, 1e-6)),
         cam_jitter=20e-6,
+    )
+
+
+def without_bearing_sensors(install: Installation) -> Installation:
+    """The installation with its angle sensors only: an engine measured by its crank speed alone.
+
+    Parameters
+    ----------
+    install : Installation
+
+    Returns
+    -------
+    Installation
+        No bearing sensors (and so no bearing channels), the angle sensors unchanged.
+    """
+    nothing = np.zeros(0)
+    return replace(
+        install,
+        sensor_bearings=(),
+        crosstalk=np.zeros((0, install.crosstalk.shape[1])),
+        modes=(),
+        level=nothing,
+        noise=nothing,
+        hum=nothing,
+        adc_range=nothing,
     )

@@ -12,7 +12,9 @@ FloatArray = npt.NDArray[np.float64]
 AMBIENT_PRESSURE = 1.013e5
 
 # random streams (second word of the seed sequence)
-ENGINE_STREAM, INSTALLATION_STREAM, DESCRIPTION_STREAM, OPERATION_STREAM, NOISE_STREAM = range(5)
+ENGINE_STREAM, INSTALLATION_STREAM, DESCRIPTION_STREAM, OPERATION_STREAM, NOISE_STREAM, POINT_STREAM = range(
+    6
+)
 TWIN_WORD = 1  # third word of a healthy twin's noise stream
 
 
