@@ -34,8 +34,9 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.diagnosed import diagnose_as_compare
 from benchmarks.diagnosis_operating import missed_table, operating_sections
-from monitor.diagnosis import calibrate, diagnose
+from monitor.diagnosis import calibrate
 from monitor.diagnosis.findings import MISFIRE_BELOW
 from monitor.errors import MonitorError
 from monitor.model.engine import load_engine
@@ -225,8 +226,8 @@ def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...
         baseline = calibrate(twin.recording, engine, load=twin.load_given)
         stage = "diagnosis"
         for told in ways:
-            diagnosis = diagnose(
-                case.recording, engine, baseline=baseline, load=case.load_given if told else None
+            diagnosis = diagnose_as_compare(
+                case.recording, engine, baseline, case.load_given if told else None, truth
             )
             said = _outcome(seed, duration_s, engine, truth, subject, strength, diagnosis)
             # each way's time: the first's the simulation and calibration too
@@ -540,8 +541,11 @@ def _operating_section(everything: list[Outcome]) -> list[str]:
         "pressure follows one of two laws, drawn per engine (boost falling with load, or held at its "
         "rated value), and a weak cylinder releases 80 % of a healthy one's heat or 50-70 %. Each case "
         "is diagnosed twice against the same baseline: told its load (the true mean load off by up to "
-        "10 %) and not told it (the product takes the baseline's). The load told of a load step is its "
-        "mean over the recording: the product takes one load per recording.",
+        "10 %) and not told it (the product takes the baseline's), as `compare` diagnoses a recording "
+        "(`benchmarks.diagnosed`): at the recording's point, and segment by segment where it crosses "
+        "points. Told the load, a load step is told one load per steady segment found (the load run at "
+        "the segment's middle, off by the same error), as `compare --segment-loads` takes them; not "
+        "told, every segment is judged at the baseline's load.",
         "",
         f"Cases the simulator could not make: {len(failed)}"
         + (

@@ -353,9 +353,7 @@ def diagnose(
     recording, sensor_faults, screen_notes, rms, unrated = _screen(recording, baseline, band, exclude)
     if baseline is not None:
         _check_baseline(recording, engine, baseline)
-    stated = load is not None
-    if load is None:
-        load = baseline.load if baseline is not None else 1.0
+    stated, load = load, load if load is not None else (baseline.load if baseline is not None else 1.0)
     analysis = analyse(
         recording,
         engine,
@@ -382,16 +380,14 @@ def diagnose(
     notes += _transfer_notes(
         transfers, usable, speed_rpm, with_baseline=baseline is not None, unjudged=unjudged
     )
-    bearings = []
-    for channel, b in sensors:
-        bearing, comparison = _bearing_result(channel, b, analysis, engine, transfers, usable, notes)
-        bearings.append(bearing)
-        if comparison is not None:
-            comparisons.append(comparison)
-    bearings = with_elsewhere(bearings, result.high_frequency, engine, baseline)
+    judged = [
+        _bearing_result(channel, b, analysis, engine, transfers, usable, notes) for channel, b in sensors
+    ]
+    comparisons += [comparison for _, comparison in judged if comparison is not None]
+    bearings = with_elsewhere([bearing for bearing, _ in judged], result.high_frequency, engine, baseline)
     findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
     undecided: list[str] = []
-    findings += _cylinder_findings(analysis, engine, baseline, load if stated else None, notes, undecided)
+    findings += _cylinder_findings(analysis, engine, baseline, stated, notes, undecided)
     findings += bearing_findings(
         bearings,
         with_baseline=baseline is not None,

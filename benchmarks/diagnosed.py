@@ -1,0 +1,78 @@
+"""A simulated case diagnosed as ``engine-monitor compare`` diagnoses a recording.
+
+``compare`` (:mod:`monitor.jobs.analyse`) diagnoses a recording against its baseline's calibrated points
+at the recording's own load (:func:`monitor.diagnosis.at_point.diagnose_at_point`), then, when the
+recording crosses operating points, each steady segment at its own
+(:func:`monitor.diagnosis.segments.diagnose_segments`). The validation population holds its recordings in
+memory, so it takes the same two steps here rather than through a file. An operator who knows the loads
+gives one per segment found (``compare --segment-loads``): each segment is told the load the simulator ran
+at its middle, off by the case's own error of the stated load.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from monitor.diagnosis import Baseline, Diagnosis
+from monitor.diagnosis.at_point import diagnose_at_point
+from monitor.diagnosis.findings import Finding, worse
+from monitor.diagnosis.operating_points import OperatingPoints
+from monitor.diagnosis.segments import SegmentedDiagnosis, diagnose_segments, segmentation_of
+from monitor.io.recording import Recording
+from monitor.model.engine import Engine
+
+__all__ = ["diagnose_as_compare"]
+
+
+def diagnose_as_compare(
+    recording: Recording, engine: Engine, baseline: Baseline, load: float | None, truth: dict[str, Any]
+) -> Diagnosis:
+    """The diagnosis ``compare --baseline`` gives, one document's worth.
+
+    Parameters
+    ----------
+    recording : Recording
+    engine : Engine
+    baseline : Baseline
+        The case's healthy twin's calibration.
+    load : float or None
+        The load told (None: not told).
+    truth : dict
+        The case's truth: with a load step, ``step_time_s``, ``segment_loads`` and ``load_given_ratio``.
+
+    Returns
+    -------
+    Diagnosis
+        The whole recording's, or with segments the worst segment's status and every segment's findings
+        (the worst of each subject's), with each segment's notes.
+    """
+    points = OperatingPoints.of([baseline])
+    whole = diagnose_at_point(recording, engine, points=points, load=load)
+    loads: list[float] = []
+    if load is not None and truth.get("step_time_s") is not None:
+        found = segmentation_of(whole, engine)
+        if len(found.segments) >= 2:
+            ratio = float(truth["load_given_ratio"])
+            step, (before, after) = float(truth["step_time_s"]), truth["segment_loads"][:2]
+            loads = [
+                ratio * (before if 0.5 * (s.start_s + s.stop_s) < step else after) for s in found.segments
+            ]
+    segmented = diagnose_segments(recording, engine, whole, baseline=points, load=load, loads=loads)
+    return _as_one(segmented)
+
+
+def _as_one(segmented: SegmentedDiagnosis) -> Diagnosis:
+    """A segmented diagnosis as one: the worst status, each subject's worst finding, all the notes."""
+    if not segmented.segments:
+        return segmented.whole
+    worst: dict[str, Finding] = {}
+    notes: list[str] = []
+    for part in segmented.segments:
+        notes += part.diagnosis.notes
+        for f in part.diagnosis.findings:
+            kept = worst.get(f.subject)
+            if kept is None or worse(f.severity, kept.severity) != kept.severity:
+                worst[f.subject] = f
+    findings = sorted(worst.values(), key=lambda f: (f.severity != "alarm", -f.confidence, f.subject))
+    return replace(segmented.whole, status=segmented.status, findings=findings, notes=notes)
