@@ -42,12 +42,7 @@ SESSION = ROOT / "out" / "mutation-session.sqlite"  # out/ is ignored by git
 COPIED = ("monitor", "tests", "pyproject.toml")
 
 # Surviving mutants that may stay, by the line before and after the mutation (stripped): why, in one line.
-_SINGLE_FLOORS = (
-    "equivalent: a single cylinder's error floors (10 %, 15 %) make it significant only below 60 % or above "
-    "140 %, where the 85 % and 130 % decide alike (docs/diagnosis.md, Findings)"
-)
 _ONE_CYLINDER = "equivalent: a single cylinder's arrays hold one value, index 0 and -1 alike"
-_STRONG = "elif s > CYLINDER_ALARM[1]:  # stronger than the model: only an alarm-sized excess is a finding"
 _WORST = "worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))"
 ACCEPTED: dict[tuple[str, str], str] = {
     (
@@ -55,11 +50,6 @@ ACCEPTED: dict[tuple[str, str], str] = {
         "low = r <= 1.0",
     ): "equivalent: a share of exactly 100 % crosses no limit, so has no finding",
     ("low = s < 1.0", "low = s <= 1.0"): "equivalent: a strength of exactly 100 % crosses no limit",
-    ("if s < CYLINDER_WARNING[0]:", "if s <= CYLINDER_WARNING[0]:"): _SINGLE_FLOORS,
-    ("if s < CYLINDER_WARNING[0]:", "if s < CYLINDER_WARNING[ 1]:"): _SINGLE_FLOORS,
-    ("if s < CYLINDER_WARNING[0]:", "if s < CYLINDER_WARNING[ -1]:"): _SINGLE_FLOORS,
-    (_STRONG, _STRONG.replace("s > ", "s >= ")): _SINGLE_FLOORS,
-    (_STRONG, _STRONG.replace("[1]", "[ 0]")): _SINGLE_FLOORS,
     (
         "return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b",
         "return a if SEVERITIES.index(a) > SEVERITIES.index(b) else b",
