@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 OUT    := out
 
 .PHONY: demo test lint typecheck bench bench-performance bench-service bench-diagnosis samples lock clean \
-	wheelhouse check-container proto bench-kill bench-startup bench-trends bench-load browser screenshots mutation
+	wheelhouse check-container proto bench-kill bench-startup bench-trends bench-load bench-misfire browser screenshots mutation
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python >= 3.11 is required, found " + sys.version)'
@@ -77,6 +77,11 @@ bench-startup: $(STAMP)
 ## its document states the time the run took); rewrites docs/diagnosis-validation.md
 bench-diagnosis: $(STAMP)
 	$(BIN)/python -m benchmarks.diagnosis_validation --cases 540 --off-point-cases 540 --workers 2
+
+## bench-misfire: misfires and healthy runs at 25-100 % load, the charge pressure rising with load and held
+## (the validation simulator; a few minutes); rewrites its table in docs/diagnosis.md
+bench-misfire: $(STAMP)
+	$(BIN)/python -m benchmarks.misfire_loads --engines 30 --workers 2
 
 ## mutation: the decision rules (monitor/diagnosis/findings.py) mutated, each mutant against the limit tests
 ## (cosmic-ray, [tool.cosmic-ray] in pyproject.toml; a few minutes); rewrites docs/mutation-testing.md

@@ -11,9 +11,9 @@ cylinder, cylinders named on healthy runs (false alarms) and, for the record, ho
 missing-impulse pattern (:mod:`monitor.diagnosis.misfire`) made the finding.  It writes the table
 between its markers in docs/diagnosis.md.
 
-The operating point and the charge pressure are set by replacing two of the simulator's functions
-in its case module for the run (its public cases draw their load at random); nothing in the
-simulator is changed.
+The operating point (a load at rated speed) and the charge-pressure law are set by replacing the
+simulator's draw of the operating point in its case module for the run (its public cases draw
+them at random); nothing in the simulator is changed.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from monitor.diagnosis.calibration import calibrate
 from monitor.diagnosis.diagnose import diagnose
 from monitor.model.engine import load_engine
 from validation.simulator import cases
+from validation.simulator.operating import OperatingPoint
 from validation.simulator.shared import SimulationError
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "diagnosis.md"
@@ -52,20 +53,23 @@ HIGHEST_LOAD = 1.1  # the product's model takes loads up to this [-]
 
 @contextmanager
 def _operating(load: float, *, held: bool) -> Iterator[None]:
-    """The simulator's cases drawn at ``load``, their charge pressure at rated when ``held``."""
-    draw, charge = cases.draw_scenario, cases.load_charge_pressure
+    """The simulator's cases drawn at ``load`` at rated speed, the charge held at rated when ``held``."""
+    draw = cases.draw_operating_point
 
-    def at_load(engine: Any, install: Any, seed: int, fault: str | None) -> Any:
-        return dataclasses.replace(draw(engine, install, seed, fault), load=load)
+    def at_load(engine: Any, install: Any, seed: int, fault: str | None, operating: Any) -> Any:
+        _, scenario = draw(engine, install, seed, fault, "baseline point")
+        point = OperatingPoint("constant speed", (load,), charge_law=_law(held))
+        return point, dataclasses.replace(scenario, load=load)
 
-    def pressure(engine: Any, at: float) -> float:
-        return float(charge(engine, 1.0 if held else at))
-
-    cases.draw_scenario, cases.load_charge_pressure = at_load, pressure  # type: ignore[assignment]
+    cases.draw_operating_point = at_load  # type: ignore[assignment]
     try:
         yield
     finally:
-        cases.draw_scenario, cases.load_charge_pressure = draw, charge
+        cases.draw_operating_point = draw
+
+
+def _law(held: bool) -> str:
+    return "held" if held else "turbocharged"
 
 
 def run_case(seed: int, fault: str, held: bool, load: float) -> list[dict[str, Any]]:
@@ -76,8 +80,10 @@ def run_case(seed: int, fault: str, held: bool, load: float) -> list[dict[str, A
     try:
         with _operating(load, held=held):
             case = cases._simulate(seed, seed, twin=False, duration_s=DURATION, fault=fault)
-        with _operating(1.0, held=held):
-            twin = cases._simulate(seed, seed + 1_000_000, twin=True, duration_s=DURATION, fault=None)
+        rated = OperatingPoint("baseline point", (1.0,), charge_law=_law(held))
+        twin = cases._simulate(
+            seed, seed + 1_000_000, twin=True, duration_s=DURATION, fault=None, operating=rated
+        )
     except SimulationError:  # a misfire on a single-cylinder engine
         return []
     with tempfile.TemporaryDirectory() as folder:
