@@ -43,6 +43,7 @@ COPIED = ("monitor", "tests", "pyproject.toml")
 
 # Surviving mutants that may stay, by the line before and after the mutation (stripped): why, in one line.
 _ONE_CYLINDER = "equivalent: a single cylinder's arrays hold one value, index 0 and -1 alike"
+_ONE_EVIDENCE = "equivalent: a cylinder finding holds one piece of evidence, index 0 and -1 alike"
 _WORST = "worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))"
 ACCEPTED: dict[tuple[str, str], str] = {
     (
@@ -54,10 +55,16 @@ ACCEPTED: dict[tuple[str, str], str] = {
         "return a if SEVERITIES.index(a) >= SEVERITIES.index(b) else b",
         "return a if SEVERITIES.index(a) > SEVERITIES.index(b) else b",
     ): "equivalent: of two equal severities either is the same string",
-    (
-        'findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker + 1]',
-        'findings = [f for f in findings if f.evidence[ -1]["cylinder"] == weaker + 1]',
-    ): "equivalent: a cylinder finding holds one piece of evidence, index 0 and -1 alike",
+    **{
+        (line, line.replace("evidence[0]", "evidence[ -1]")): _ONE_EVIDENCE
+        for line in (
+            'findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker]',
+            'weaker = missing.evidence[0]["cylinder"]',
+            'share = max(missing.evidence[0]["measured"], MISFIRE_BELOW)',
+            'same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]',
+            'if not any(f.severity == "alarm" and f.evidence[0]["measured"] < share for f in same):',
+        )
+    },
     (
         "contrast = max(float(balance.contrast_error[c]), 1e-12)",
         "contrast = max(float(balance.contrast_error[c]), -0.999999999999)",

@@ -177,6 +177,8 @@ PATTERN: list[tuple[str, float, float, float, float, float, tuple[str, str, floa
     ("deficit 3.9 errors above nothing", 0.1, 1.0, 1.0 / 3.9, 0.9, 1.0, None),
     ("the pattern explains 51 %", 0.1, 1.0, 0.01, 0.51, 1.0, ("alarm", MISFIRING, 0.5)),
     ("the pattern explains 49 %", 0.1, 1.0, 0.01, 0.49, 1.0, None),
+    ("the pattern explains exactly 50 %", 0.1, 1.0, 0.01, 0.5, 1.0, ("alarm", MISFIRING, 0.5)),
+    ("misfiring, or nearly, at exactly 30 %", 0.3, 1.0, 0.01, 0.9, 1.0, ("alarm", NEARLY_PATTERN, 0.5)),
     # the model's rule already calls it an alarm reading it lower, or misfiring: its finding stands
     ("the model's lower alarm stands", 0.45, 1.0, 0.01, 0.9, 0.44, ("alarm", WEAK, 0.5)),
     ("the model's misfiring stands", 0.05, 1.0, 0.01, 0.9, 0.29, ("alarm", MISFIRING, 0.5)),
@@ -239,6 +241,8 @@ DOUBT: list[tuple[str, float, float, float, float, bool]] = [
     ("lacks most, its pattern explains 51 % (a finding instead)", 0.1, 1.0, 0.01, 0.51, False),
     ("at 50 %, unexplained", 0.5, 1.0, 0.01, 0.1, False),
     ("deficit 3.9 errors, unexplained", 0.1, 1.0, 1.0 / 3.9, 0.1, False),
+    ("deficit exactly 4 errors, unexplained", 0.1, 1.0, 0.25, 0.1, True),
+    ("its pattern explains exactly 50 % (a finding instead)", 0.1, 1.0, 0.01, 0.5, False),
 ]
 
 
@@ -259,6 +263,67 @@ def test_a_deficit_its_pattern_does_not_explain(
     if reason is not None:
         assert reason.startswith("cylinder 2 reads 10 % of the others' firing impulse")
         assert cylinder_findings(balance) == []
+
+
+@pytest.mark.parametrize(
+    ("share", "explained", "reason"),
+    [
+        (
+            0.445,
+            0.445,
+            "cylinder 2 reads 44 % of the others' firing impulse by its pattern, 100 standard "
+            "errors, but the pattern explains only 44 % of the orders",
+        ),
+        (
+            0.455,
+            0.455,
+            "cylinder 2 reads 46 % of the others' firing impulse by its pattern, 100 standard "
+            "errors, but the pattern explains only 46 % of the orders",
+        ),
+    ],
+    ids=["44.5 % rounds down", "45.5 % rounds up"],
+)
+def test_a_deficit_its_pattern_does_not_explain_states_both_shares(
+    share: float, explained: float, reason: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    balance = _balance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 0.01, 0.01)
+    monkeypatch.setattr(findings, "missing_firing", lambda _: _missing(share, 1.0, 0.01, explained))
+    assert (findings.missing_firing_doubt(balance) or "").startswith(reason)
+
+
+@pytest.mark.parametrize(
+    ("share", "share_error", "summary"),
+    [
+        (0.445, 0.13, "cylinder 2 at 44 % +- 25 % of the others' firing impulse (misfiring, or nearly: "),
+        (0.455, 0.12525, "cylinder 2 at 46 % +- 25 % of the others' firing impulse (misfiring, or nearly: "),
+        (0.1, 0.0, "cylinder 2 at 10 % +- 0 % of the others' firing impulse (misfiring; "),
+    ],
+    ids=["44.5 % and 1.96 x 13 % round down", "45.5 % and 1.96 x 12.525 % round up", "no error at all"],
+)
+def test_a_missing_firing_impulse_states_its_share_and_95_interval(
+    share: float, share_error: float, summary: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The pattern's alarm: its share and 95 % interval in the summary, the evidence against 100 %, and
+    its confidence that the share lies below the alarm limit (an error of 0 gives certainty, no error)."""
+    balance = _balance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 0.01, 0.01)
+    given = dataclasses.replace(_missing(share, 1.0, 0.01, 0.9), share_error=np.full(3, share_error))
+    monkeypatch.setattr(findings, "missing_firing", lambda _: given)
+    (found,) = findings.missing_firing_findings(balance)
+    assert found.summary.startswith(summary)
+    assert (found.evidence[0]["predicted"], found.evidence[0]["threshold"]) == (1.0, 0.5)
+    expected = findings.confidence_beyond((0.5 - share) / max(share_error, 1e-12))
+    assert found.confidence == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_missing_firing_impulse_of_unknown_cycle_phase_names_its_partner(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Cylinder 2's partner 360 deg from it is cylinder 3 (index 2): both are named."""
+    balance = _balance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 0.01, 0.01)
+    monkeypatch.setattr(findings, "missing_firing", lambda _: _missing(0.1, 1.0, 0.01, 0.9))
+    (found,) = findings.missing_firing_findings(balance, [None, 2, None])
+    assert found.subject == "cylinder 2 or cylinder 3"
+    assert found.summary.endswith("; the cycle phase is unknown, so either may be it")
 
 
 # (id, strength, its standard error, the baseline's strength (None: none), expected)
@@ -591,12 +656,14 @@ def test_a_cylinder_on_its_limits(
     ("strength", "error", "calibrated", "expected"),
     [
         (0.28, 0.01, 0.3, ("alarm", MISFIRING, 0.5)),
+        (0.6, 0.125, 1.0, None),
         (0.25, 0.125, 1.0, ("warning", MISFIRING, 0.85)),
         (1.55, 0.125, 1.0, None),
         (0.3, 0.01, 1.0, ("warning", WEAK, 0.85)),
     ],
     ids=[
         "a baseline reference of 30 % is no reference",
+        "exactly 2 errors of 12.5 % below 85 %: healthy",
         "exactly 2 errors of 12.5 % below 50 %: a warning",
         "exactly 2 errors of 12.5 % above 130 %: healthy",
         "at 30 %: weak, not misfiring",
