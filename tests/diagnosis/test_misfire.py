@@ -154,20 +154,21 @@ def test_through_diagnose_with_the_charge_pressure_held(
     from monitor.diagnosis.diagnose import diagnose
     from monitor.model.engine import load_engine
     from validation.simulator import cases
+    from validation.simulator.operating import OperatingPoint
 
-    draw, charge = cases.draw_scenario, cases.load_charge_pressure
-    at = {"load": load}
+    draw = cases.draw_operating_point
 
-    def drawn(engine, install, s, f):  # type: ignore[no-untyped-def]
+    def at_load(engine, install, s, f, operating):  # type: ignore[no-untyped-def]
         import dataclasses
 
-        return dataclasses.replace(draw(engine, install, s, f), load=at["load"])
+        _, scenario = draw(engine, install, s, f, "baseline point")
+        point = OperatingPoint("constant speed", (load,), charge_law="held")
+        return point, dataclasses.replace(scenario, load=load)
 
-    monkeypatch.setattr(cases, "draw_scenario", drawn)
-    monkeypatch.setattr(cases, "load_charge_pressure", lambda engine, _: charge(engine, 1.0))
+    monkeypatch.setattr(cases, "draw_operating_point", at_load)
     case = cases._simulate(seed, seed, twin=False, duration_s=10.0, fault=fault)
-    at["load"] = 1.0
-    twin = cases._simulate(seed, seed + 1_000_000, twin=True, duration_s=10.0, fault=None)
+    rated = OperatingPoint("baseline point", (1.0,), charge_law="held")
+    twin = cases._simulate(seed, seed + 1_000_000, twin=True, duration_s=10.0, fault=None, operating=rated)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "engine.toml"
         path.write_text(case.engine_toml)
