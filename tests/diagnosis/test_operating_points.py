@@ -223,3 +223,25 @@ def test_the_interpolation_uncertainty_covers_a_point_left_out(recordings: dict[
         miss = float(np.linalg.norm(guess.transfer - actual.transfer))
         assert miss <= 2 * predicted.relative_uncertainty * float(np.linalg.norm(actual.transfer)), name
         assert miss <= 3 * np.linalg.norm(np.hypot(guess.transfer_error, actual.transfer_error)), name
+
+
+@pytest.mark.parametrize(
+    ("estimated", "disagree"),
+    [(0.5 + 0.99 * 2 * math.hypot(0.10, 0.05), False), (0.5 + 1.01 * 2 * math.hypot(0.10, 0.05), True)],
+    ids=["just within 2 joint errors", "just beyond 2 joint errors"],
+)
+def test_a_stated_and_an_estimated_load_disagree_beyond_2_joint_errors(
+    estimated: float, disagree: bool
+) -> None:
+    """The stated load is uncertain by 10 % of rated (an engine log's reading); it disagrees with an
+    estimate of error 5 % when they lie more than 2 x hypot(10 %, 5 %) apart, and the notes say so."""
+    from monitor.diagnosis.at_point import _load_notes
+    from monitor.diagnosis.load_estimate import LoadEstimate
+
+    notes = _load_notes(0.5, LoadEstimate(estimated, 0.05, "the model's strengths"), 0.5, "stated")
+    said = [n for n in notes if "disagree beyond their uncertainties" in n]
+    assert len(said) == disagree
+    if disagree:
+        assert said[0].startswith(
+            f"the load stated (0.50 +- 0.10) and the load estimated ({estimated:.2f} +- 0.05)"
+        )

@@ -180,3 +180,34 @@ def test_a_keyphasor_alone_gives_the_speed_and_no_load_indicator() -> None:
     )
     assert series.load is None
     np.testing.assert_allclose(series.speed, OMEGA, rtol=1e-9)
+
+
+# (id, relative speed step, relative load-indicator step, cycles before and after, segments expected)
+LIMITS: list[tuple[str, float, float, int, int]] = [
+    ("speed 1.9 %: not split (the whole run drifts: diagnosed whole)", 0.019, 0.0, 40, 0),
+    ("speed 2.1 %: two points", 0.021, 0.0, 40, 2),
+    ("load indicator 9 %: not split (diagnosed whole)", 0.0, 0.09, 40, 0),
+    ("load indicator 11 %: two points", 0.0, 0.11, 40, 2),
+    ("20 cycles on each side of a step (and its guard): two segments", 0.05, 0.0, 21, 2),
+    ("19 cycles on each side of a step: no segment long enough", 0.05, 0.0, 20, 0),
+]
+
+
+@pytest.mark.parametrize(
+    ("speed_step", "load_step", "each", "expected"),
+    [row[1:] for row in LIMITS],
+    ids=[row[0] for row in LIMITS],
+)
+def test_the_finder_on_its_limits(speed_step: float, load_step: float, each: int, expected: int) -> None:
+    """Noise-free series (the noise floor is round-off): a speed step of 2 % and a load-indicator step of
+    10 % are the least that make two points (a smaller one is no split, and the run, not steady either,
+    is diagnosed whole), and a segment needs 20 cycles besides the one-cycle guard either side."""
+    up = np.r_[np.zeros(each), np.ones(each)]
+    found = steady_segments(_series(OMEGA * (1 + speed_step * up), LEVEL * (1 + load_step * up)))
+    assert len(found.segments) == expected
+
+
+def test_the_limits_are_those_documented() -> None:
+    """docs/diagnosis.md, "Recordings that cross operating points": a false split at most 1 % of the
+    time, one guard cycle each side of a change, steps of 2 % in speed and 10 % in load, 20 cycles."""
+    assert (ALPHA, GUARD, SPEED_STEP, LOAD_STEP, MIN_CYCLES) == (0.01, 1, 0.02, 0.10, 20)
