@@ -11,14 +11,12 @@ at its middle, off by the case's own error of the stated load.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 from monitor.diagnosis import Baseline, Diagnosis
 from monitor.diagnosis.at_point import diagnose_at_point
-from monitor.diagnosis.findings import Finding, worse
 from monitor.diagnosis.operating_points import OperatingPoints
-from monitor.diagnosis.segments import SegmentedDiagnosis, diagnose_segments, segmentation_of
+from monitor.diagnosis.segments import diagnose_segments, segmentation_of
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 
@@ -45,7 +43,8 @@ def diagnose_as_compare(
     -------
     Diagnosis
         The whole recording's, or with segments the worst segment's status and every segment's findings
-        (the worst of each subject's), with each segment's notes.
+        (the worst of each subject's), with each segment's notes
+        (:meth:`monitor.diagnosis.segments.SegmentedDiagnosis.as_one`).
     """
     points = OperatingPoints.of([baseline])
     whole = diagnose_at_point(recording, engine, points=points, load=load)
@@ -59,20 +58,4 @@ def diagnose_as_compare(
                 ratio * (before if 0.5 * (s.start_s + s.stop_s) < step else after) for s in found.segments
             ]
     segmented = diagnose_segments(recording, engine, whole, baseline=points, load=load, loads=loads)
-    return _as_one(segmented)
-
-
-def _as_one(segmented: SegmentedDiagnosis) -> Diagnosis:
-    """A segmented diagnosis as one: the worst status, each subject's worst finding, all the notes."""
-    if not segmented.segments:
-        return segmented.whole
-    worst: dict[str, Finding] = {}
-    notes: list[str] = []
-    for part in segmented.segments:
-        notes += part.diagnosis.notes
-        for f in part.diagnosis.findings:
-            kept = worst.get(f.subject)
-            if kept is None or worse(f.severity, kept.severity) != kept.severity:
-                worst[f.subject] = f
-    findings = sorted(worst.values(), key=lambda f: (f.severity != "alarm", -f.confidence, f.subject))
-    return replace(segmented.whole, status=segmented.status, findings=findings, notes=notes)
+    return segmented.as_one()

@@ -17,20 +17,22 @@ the cylinders' contrast still names a misfire, but the balance's errors, relativ
 strengths, can grow until the segment is inconclusive (never healthy for that reason alone).
 
 The overall status is the worst segment's (alarm, warning, inconclusive, healthy in that order);
-a transition is reported as such and is no finding. A recording with one steady segment or none
-(a steady run, a run-up) is the whole recording's diagnosis, unchanged.
+its findings are each subject's worst over the segments (:attr:`SegmentedDiagnosis.findings`, with
+the segments it was found in); a transition is reported as such and is no finding. A recording with
+one steady segment or none (a steady run, a run-up) is the whole recording's diagnosis, unchanged.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.diagnose import Diagnosis
+from monitor.diagnosis.findings import SEVERITIES, Finding
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import DiagnosisError
 from monitor.io.recording import Recording
@@ -49,6 +51,7 @@ __all__ = [
     "STATUS_RANK",
     "SegmentDiagnosis",
     "SegmentedDiagnosis",
+    "SegmentsFinding",
     "diagnose_segments",
     "segmentation_of",
 ]
@@ -75,6 +78,22 @@ class SegmentDiagnosis:
 
 
 @dataclass(frozen=True)
+class SegmentsFinding:
+    """A subject's finding over the segments: its worst, and the segments it was found in.
+
+    Attributes
+    ----------
+    finding : Finding
+        The most severe of the subject's findings (the first of them when equally severe).
+    segments : tuple of int
+        The indexes of the segments it was found in, in their order [-].
+    """
+
+    finding: Finding
+    segments: tuple[int, ...]
+
+
+@dataclass(frozen=True)
 class SegmentedDiagnosis:
     """A recording's diagnosis segment by segment (none: the whole recording's stands alone).
 
@@ -97,6 +116,45 @@ class SegmentedDiagnosis:
         if not self.segments:
             return self.whole.status
         return max((s.diagnosis.status for s in self.segments), key=STATUS_RANK.__getitem__)
+
+    @property
+    def findings(self) -> tuple[SegmentsFinding, ...]:
+        """Each subject's worst finding over the segments, with the segments it was found in.
+
+        A subject is a finding's kind and subject. The subjects are in the order they are first
+        found (segment by segment, each segment's findings in its own order); a finding replaces
+        the one kept only when it is more severe. Empty when the recording is not segmented.
+        """
+        worst: dict[tuple[str, str], Finding] = {}
+        found: dict[tuple[str, str], list[int]] = {}
+        for part in self.segments:
+            for finding in part.diagnosis.findings:
+                key = (finding.kind, finding.subject)
+                kept = worst.get(key)
+                if kept is None or SEVERITIES.index(finding.severity) > SEVERITIES.index(kept.severity):
+                    worst[key] = finding
+                found.setdefault(key, []).append(part.index)
+        return tuple(SegmentsFinding(worst[key], tuple(found[key])) for key in worst)
+
+    def as_one(self) -> Diagnosis:
+        """The segmented diagnosis as one: the worst status, each subject's worst finding, all the notes.
+
+        Returns
+        -------
+        Diagnosis
+            The whole recording's, unchanged when it is not segmented; else the whole recording's
+            with the worst segment's status, :attr:`findings` ordered as :func:`monitor.diagnosis.diagnose`
+            orders a diagnosis' (alarms first, then by falling confidence, then by subject) and every
+            segment's notes in segment order.
+        """
+        if not self.segments:
+            return self.whole
+        findings = sorted(
+            (item.finding for item in self.findings),
+            key=lambda f: (f.severity != "alarm", -f.confidence, f.subject),
+        )
+        notes = [note for part in self.segments for note in part.diagnosis.notes]
+        return replace(self.whole, status=self.status, findings=findings, notes=notes)
 
 
 def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = MIN_CYCLES) -> Segmentation:

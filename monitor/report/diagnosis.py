@@ -17,12 +17,24 @@ from typing import Any
 import numpy as np
 
 from monitor.diagnosis.diagnose import ANALYSIS_VERSION, Diagnosis
-from monitor.diagnosis.findings import SEVERITIES
+from monitor.diagnosis.findings import Finding
 from monitor.diagnosis.segments import SegmentedDiagnosis
 from monitor.report.jsonsafe import json_ready
 from monitor.signal.steady import Segment
 
 __all__ = ["diagnosis_document", "diagnosis_table", "segmented_document", "segmented_table"]
+
+
+def _finding(finding: Finding) -> dict[str, Any]:
+    """A finding as the documents give it."""
+    return {
+        "kind": finding.kind,
+        "subject": finding.subject,
+        "severity": finding.severity,
+        "summary": finding.summary,
+        "confidence": finding.confidence,
+        "evidence": finding.evidence,
+    }
 
 
 def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str, Any]:
@@ -47,17 +59,7 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
         "load": diagnosis.load,
         "baseline": diagnosis.baseline,
         "status": diagnosis.status,
-        "findings": [
-            {
-                "kind": f.kind,
-                "subject": f.subject,
-                "severity": f.severity,
-                "summary": f.summary,
-                "confidence": f.confidence,
-                "evidence": f.evidence,
-            }
-            for f in diagnosis.findings
-        ],
+        "findings": [_finding(f) for f in diagnosis.findings],
         "notes": list(diagnosis.notes),
         "main_bearings": {
             "judged": not diagnosis.bearings_not_judged,
@@ -211,8 +213,9 @@ def segmented_document(segmented: SegmentedDiagnosis, *, recording: str = "") ->
     Without segments it is :func:`diagnosis_document` of the whole recording, unchanged. With them,
     the whole recording's document (its spectra's comparisons and balance) whose ``status`` is the
     worst segment's and whose ``findings`` are the segments' (each named once, at its worst, with
-    the ``segments`` it was found in), and two more entries: ``segments`` (each with its span, its
-    operating point and its own diagnosis document) and ``transitions``.
+    the ``segments`` it was found in: :attr:`monitor.diagnosis.segments.SegmentedDiagnosis.findings`,
+    in its order), and two more entries: ``segments`` (each with its span, its operating point and
+    its own diagnosis document) and ``transitions``.
 
     Parameters
     ----------
@@ -228,19 +231,10 @@ def segmented_document(segmented: SegmentedDiagnosis, *, recording: str = "") ->
     if not segmented.segments:
         return document
     parts = [diagnosis_document(s.diagnosis, recording=recording) for s in segmented.segments]
-    findings: dict[tuple[str, str], dict[str, Any]] = {}
-    for item, part in zip(segmented.segments, parts, strict=True):
-        for finding in part["findings"]:
-            key = (finding["kind"], finding["subject"])
-            kept = findings.get(key)
-            if kept is None:
-                findings[key] = {**finding, "segments": [item.index]}
-                continue
-            kept["segments"].append(item.index)
-            if SEVERITIES.index(finding["severity"]) > SEVERITIES.index(kept["severity"]):
-                findings[key] = {**finding, "segments": kept["segments"]}
     document["status"] = segmented.status
-    document["findings"] = list(findings.values())
+    document["findings"] = [
+        {**_finding(item.finding), "segments": list(item.segments)} for item in segmented.findings
+    ]
     said = (
         f"diagnosed per steady segment: {len(parts)} segments, {len(segmented.transitions)} "
         "transition(s); the status and findings are the segments'"

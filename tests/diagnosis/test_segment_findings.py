@@ -1,0 +1,119 @@
+"""A segmented recording's findings are each subject's worst over its segments, written once
+(:attr:`monitor.diagnosis.segments.SegmentedDiagnosis.findings`) for the report and the benchmarks.
+
+Hand-built segment diagnoses: the merge reads only their findings, statuses and notes.
+"""
+
+from __future__ import annotations
+
+from typing import cast
+
+from monitor.diagnosis.diagnose import Diagnosis
+from monitor.diagnosis.findings import Finding
+from monitor.diagnosis.segments import SegmentDiagnosis, SegmentedDiagnosis
+from monitor.report.diagnosis import segmented_document
+from monitor.signal.measure import SpectrumResult
+from monitor.signal.steady import Segment, Transition
+
+
+def _finding(kind: str, subject: str, severity: str, confidence: float, said: str) -> Finding:
+    return Finding(kind, subject, severity, f"{subject}: {said}", confidence, [{"segment": said}])
+
+
+def _diagnosis(status: str, findings: list[Finding], notes: list[str]) -> Diagnosis:
+    return Diagnosis(
+        engine_id="6L32",
+        speed_rpm=750.0,
+        load=1.0,
+        status=status,
+        findings=findings,
+        balance=None,
+        comparisons=[],
+        bearings=[],
+        velocity={},
+        zone_boundaries_mm_s=(1.4, 2.8, 4.5),
+        notes=notes,
+        spectra=cast(SpectrumResult, None),  # the merge reads no spectra
+    )
+
+
+def _segmented() -> SegmentedDiagnosis:
+    """Cylinder 3 a warning in segment 1 and an alarm in segment 2; main bearing 2 a warning in both
+    (the first more confident); a vibration zone an alarm in segment 2 only."""
+    first = _diagnosis(
+        "warning",
+        [
+            _finding("cylinder", "cylinder 3", "warning", 0.99, "segment 1"),
+            _finding("main bearing", "main bearing 2", "warning", 0.95, "segment 1"),
+        ],
+        ["segment 1 of 2", "first"],
+    )
+    second = _diagnosis(
+        "alarm",
+        [
+            _finding("main bearing", "main bearing 2", "warning", 0.8, "segment 2"),
+            _finding("cylinder", "cylinder 3", "alarm", 0.6, "segment 2"),
+            _finding("vibration zone", "v1", "alarm", 0.9, "segment 2"),
+        ],
+        ["segment 2 of 2"],
+    )
+    spans = [Segment(0, 60, 0.0, 9.6, 78.5, 0.02), Segment(62, 122, 9.9, 19.5, 78.5, 0.01)]
+    return SegmentedDiagnosis(
+        _diagnosis("alarm", [], ["whole"]),
+        (SegmentDiagnosis(1, spans[0], first), SegmentDiagnosis(2, spans[1], second)),
+        (Transition(9.6, 9.9, spans[0], spans[1]),),
+    )
+
+
+def test_a_subject_is_kept_at_its_worst_with_every_segment_it_was_found_in() -> None:
+    merged = {(m.finding.kind, m.finding.subject): m for m in _segmented().findings}
+    cylinder = merged["cylinder", "cylinder 3"]
+    assert cylinder.finding.severity == "alarm" and cylinder.finding.summary.endswith("segment 2")
+    assert cylinder.segments == (1, 2)
+    # equally severe: the first found stands, not the later (less confident) one
+    bearing = merged["main bearing", "main bearing 2"]
+    assert bearing.finding.summary.endswith("segment 1") and bearing.segments == (1, 2)
+    assert merged["vibration zone", "v1"].segments == (2,)
+
+
+def test_the_subjects_are_in_the_order_they_were_first_found() -> None:
+    assert [m.finding.subject for m in _segmented().findings] == ["cylinder 3", "main bearing 2", "v1"]
+
+
+def test_a_recording_not_segmented_has_no_merged_findings_and_is_its_whole_diagnosis() -> None:
+    whole = _diagnosis("warning", [_finding("cylinder", "cylinder 1", "warning", 0.9, "whole")], [])
+    alone = SegmentedDiagnosis(whole)
+    assert alone.findings == () and alone.as_one() is whole
+
+
+def test_as_one_holds_the_worst_status_the_merged_findings_alarms_first_and_every_note() -> None:
+    segmented = _segmented()
+    one = segmented.as_one()
+    assert one.status == "alarm"
+    assert [(f.subject, f.severity) for f in one.findings] == [
+        ("v1", "alarm"),  # the more confident alarm first
+        ("cylinder 3", "alarm"),
+        ("main bearing 2", "warning"),
+    ]
+    assert one.findings[1] is segmented.segments[1].diagnosis.findings[1]
+    assert one.notes == ["segment 1 of 2", "first", "segment 2 of 2"]
+
+
+def test_the_report_gives_the_merged_findings_with_their_segments() -> None:
+    document = segmented_document(_segmented(), recording="step")
+    assert document["status"] == "alarm"
+    assert [(f["subject"], f["severity"], f["segments"]) for f in document["findings"]] == [
+        ("cylinder 3", "alarm", [1, 2]),
+        ("main bearing 2", "warning", [1, 2]),
+        ("v1", "alarm", [2]),
+    ]
+    assert document["findings"][0]["evidence"] == [{"segment": "segment 2"}]
+    assert list(document["findings"][0]) == [
+        "kind",
+        "subject",
+        "severity",
+        "summary",
+        "confidence",
+        "evidence",
+        "segments",
+    ]
