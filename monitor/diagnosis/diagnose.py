@@ -43,7 +43,13 @@ from monitor.diagnosis.analysis import (
 )
 from monitor.diagnosis.balance import CylinderBalance, Transfer
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import SPEED_TOLERANCE, OrderDeviation, impact_score, order_deviations
+from monitor.diagnosis.bearings import (
+    SPEED_TOLERANCE,
+    OrderDeviation,
+    impact_score,
+    order_deviations,
+    reference_profile,
+)
 from monitor.diagnosis.findings import (
     BearingResult,
     Finding,
@@ -52,7 +58,6 @@ from monitor.diagnosis.findings import (
     cylinder_findings,
     missing_firing_doubt,
     missing_firing_findings,
-    reference_profile,
     sensor_finding,
     single_cylinder_findings,
     with_elsewhere,
@@ -530,7 +535,9 @@ def _bearing_result(
             reversals = load_reversals(
                 analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
             )
-            own, reference = reference_profile(calibration, profile)
+            own, reference = reference_profile(
+                calibration.high_frequency if calibration is not None else None, profile, R
+            )
             impacts.append(impact_score(own, reversals, neighbour, R, reference))
     return BearingResult(channel.name, b, deviation, impacts), comparison
 

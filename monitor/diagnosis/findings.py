@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from monitor.diagnosis.balance import CylinderBalance
-from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
+from monitor.diagnosis.baseline import Baseline
+from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, reference_profile, span_score
 from monitor.diagnosis.misfire import MissingFiring, missing_firing
 from monitor.diagnosis.sensors import SensorFault
 from monitor.io.recording import Recording
@@ -32,7 +32,6 @@ __all__ = [
     "cylinder_findings",
     "missing_firing_doubt",
     "missing_firing_findings",
-    "reference_profile",
     "sensor_finding",
     "single_cylinder_findings",
     "with_elsewhere",
@@ -456,39 +455,6 @@ def sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
     )
 
 
-def reference_profile(
-    calibration: SensorBaseline | None, profile: HighFrequencyPower
-) -> tuple[HighFrequencyPower, HighFrequencyPower | None]:
-    """A sensor's profile and its baseline profile on common bins, or the profile and None.
-
-    The baseline serves if it was taken at the same sampling rate and band; the finer of the two is
-    coarsened to the other's bins when one's count divides the other's (a baseline at another speed
-    may have been binned finer or coarser).
-
-    Parameters
-    ----------
-    calibration : SensorBaseline or None
-        The sensor's baseline.
-    profile : HighFrequencyPower
-        The sensor's profile in the recording.
-
-    Returns
-    -------
-    profile, reference : HighFrequencyPower, HighFrequencyPower or None
-    """
-    reference = calibration.high_frequency if calibration is not None else None
-    if (
-        reference is None
-        or reference.sample_rate != profile.sample_rate
-        or reference.band_hz != profile.band_hz
-    ):
-        return profile, None
-    fine, coarse = sorted((reference.mean.size, profile.mean.size), reverse=True)
-    if fine % coarse:
-        return profile, None
-    return profile.coarsened(coarse), reference.coarsened(coarse)
-
-
 def with_elsewhere(
     bearings: list[BearingResult],
     profiles: dict[str, HighFrequencyPower],
@@ -521,7 +487,9 @@ def with_elsewhere(
                 if other.channel == result.channel or profile is None:
                     continue
                 known = baseline.sensors.get(other.channel) if baseline is not None else None
-                theirs, reference = reference_profile(known, profile)
+                theirs, reference = reference_profile(
+                    known.high_frequency if known is not None else None, profile, R
+                )
                 heard.append(span_score(theirs, score.angle_deg, R, reference))
             scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
         own = next((s for s in scored if s.bearing == result.bearing), None)
