@@ -21,9 +21,9 @@ reversal to :data:`WINDOW_AFTER_DEG` after it (the knock rings down after the
 turn) for the knock span that stands out most against the baseline's power in
 the same bins: a span lasts :data:`KNOCK_SPAN_S` at the recording's speed (a
 knock rings the structure for a time set by its damping, not by the crank
-angle).  At another speed than the baseline's the rings that follow the engine's
-own events end at other crank angles, and the baseline's bins are widened by
-the angle they move (:func:`reference_profile`).  Without a baseline the
+angle).  At another speed and load than the baseline's, the baseline's profile
+is first carried to the recording's point
+(:func:`monitor.diagnosis.impact_reference.reference_profile`).  Without a baseline the
 reference is the median of the recording's own profile (weaker, judged more
 strictly by :mod:`monitor.diagnosis.diagnose`).
 A sensor hears its neighbours' bearings too, so the windows of the bearing it
@@ -33,7 +33,7 @@ sits on and of the bearings next to it are scored, and the worst is named.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from statistics import NormalDist
 
 import numpy as np
@@ -50,7 +50,6 @@ __all__ = [
     "OrderDeviation",
     "impact_score",
     "order_deviations",
-    "reference_profile",
     "span_score",
 ]
 
@@ -62,11 +61,6 @@ KNOCK_SPAN_DEG = 2.0  # the span in crank angle for a profile whose speed is not
 FAMILY_FALSE_ALARM = 1e-4  # chance that noise alone lifts one span of a bearing's windows to significance [-]
 RELEVANT_FRACTION = 0.02  # orders predicted below this fraction of the channel's largest carry no evidence
 RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
-#: How long after an event the structure still rings in the impact band [s]: a ring this long after an
-#: event fixed in crank angle moves by ``6 |n - n0| RING_S`` degrees between speeds ``n0`` and ``n``
-#: [rpm] (two amplitude time constants of a 1 kHz resonance, the band's lowest, at 1.6 % of critical
-#: damping: ``2 / (2 pi 1000 0.016)``)
-RING_S = 0.02
 
 
 @dataclass(frozen=True)
@@ -229,75 +223,6 @@ def _reference(
     bins = profile.mean.size
     median_variance = float(np.median(profile.std)) ** 2 / max(profile.cycles * bins, 1)
     return np.full(bins, float(np.median(profile.mean))), np.full(bins, median_variance)
-
-
-def reference_profile(
-    baseline: HighFrequencyPower | None, profile: HighFrequencyPower, cycle_revolutions: int
-) -> tuple[HighFrequencyPower, HighFrequencyPower | None]:
-    """A sensor's profile and its baseline's on common bins, allowing for a speed change (or None).
-
-    The baseline serves if it was taken at the same sampling rate and band; the finer of the two is
-    coarsened to the other's bins when one's count divides the other's (a baseline at another speed
-    may have been binned finer or coarser). The structure rings for a time, not an angle: at another
-    speed than the baseline's, the rings that follow the engine's own events (combustion, valves,
-    piston slap) end at other crank angles, by up to ``6 |n - n0| RING_S`` degrees. Each of the
-    baseline's bins is then the highest within that angle either side (:func:`widened`), so that a
-    ring's edge moved by the speed change is not read as a knock; at the baseline's own speed nothing
-    changes.
-
-    Parameters
-    ----------
-    baseline : HighFrequencyPower or None
-        The sensor's profile on its healthy baseline.
-    profile : HighFrequencyPower
-        The sensor's profile in the recording.
-    cycle_revolutions : int
-        Of the engine's cycle (the profiles' bins span it).
-
-    Returns
-    -------
-    profile, reference : HighFrequencyPower, HighFrequencyPower or None
-    """
-    if baseline is None or baseline.sample_rate != profile.sample_rate or baseline.band_hz != profile.band_hz:
-        return profile, None
-    fine, coarse = sorted((baseline.mean.size, profile.mean.size), reverse=True)
-    if fine % coarse:
-        return profile, None
-    profile, reference = profile.coarsened(coarse), baseline.coarsened(coarse)
-    moved_deg = 6.0 * abs(profile.speed_rpm - reference.speed_rpm) * RING_S
-    if not math.isfinite(moved_deg):
-        return profile, reference
-    return profile, widened(reference, moved_deg, cycle_revolutions)
-
-
-def widened(profile: HighFrequencyPower, angle_deg: float, cycle_revolutions: int) -> HighFrequencyPower:
-    """A profile whose every bin is its highest within ``angle_deg`` either side (with that bin's spread).
-
-    The bins close on themselves over the cycle; a bin is within the angle when its centre is.
-
-    Parameters
-    ----------
-    profile : HighFrequencyPower
-    angle_deg : float
-        Crank angle either side [deg] (>= 0).
-    cycle_revolutions : int
-        Of the engine's cycle (the profile's bins span it).
-
-    Returns
-    -------
-    HighFrequencyPower
-        The profile itself where the angle is under half a bin.
-    """
-    bins = profile.mean.size
-    reach = int(angle_deg / (360.0 * cycle_revolutions / bins) + 0.5)
-    if reach < 1:
-        return profile
-    reach = min(reach, bins // 2)
-    shifts = np.arange(-reach, reach + 1)
-    means = np.stack([np.roll(profile.mean, int(k)) for k in shifts])
-    highest = np.argmax(means, axis=0)
-    source = (np.arange(bins) - shifts[highest]) % bins  # the bin each highest came from
-    return replace(profile, mean=profile.mean[source], std=profile.std[source])
 
 
 def impact_score(

@@ -43,13 +43,7 @@ from monitor.diagnosis.analysis import (
 )
 from monitor.diagnosis.balance import CylinderBalance, Transfer
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import (
-    SPEED_TOLERANCE,
-    OrderDeviation,
-    impact_score,
-    order_deviations,
-    reference_profile,
-)
+from monitor.diagnosis.bearings import SPEED_TOLERANCE, OrderDeviation, impact_score, order_deviations
 from monitor.diagnosis.findings import (
     BearingResult,
     Finding,
@@ -63,6 +57,7 @@ from monitor.diagnosis.findings import (
     with_elsewhere,
     worse,
 )
+from monitor.diagnosis.impact_reference import engine_level, reference_profile
 from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
 from monitor.diagnosis.zones import (
@@ -80,6 +75,7 @@ from monitor.model.predicted import (
     combine_cylinders,
     load_reversals,
 )
+from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult
 from monitor.signal.pitch import PitchCorrection
 from monitor.torsion.shaft_line import tooth_wheel_receptance
@@ -385,11 +381,10 @@ def diagnose(
     notes += _transfer_notes(
         transfers, usable, speed_rpm, with_baseline=baseline is not None, unjudged=unjudged
     )
-    judged = [
-        _bearing_result(channel, b, analysis, engine, transfers, usable, notes) for channel, b in sensors
-    ]
+    level = _engine_level(baseline, sensors, result.high_frequency)
+    judged = [_bearing_result(c, b, analysis, engine, transfers, usable, notes, level) for c, b in sensors]
     comparisons += [comparison for _, comparison in judged if comparison is not None]
-    bearings = with_elsewhere([bearing for bearing, _ in judged], result.high_frequency, engine, baseline)
+    bearings = with_elsewhere([one for one, _ in judged], result.high_frequency, engine, baseline, level)
     findings: list[Finding] = [sensor_finding(f, recording_before) for f in sensor_faults]
     undecided: list[str] = []
     findings += _cylinder_findings(analysis, engine, baseline, stated, notes, undecided)
@@ -504,6 +499,14 @@ def _transfer_notes(
     return notes
 
 
+def _engine_level(
+    baseline: Baseline | None, sensors: list[tuple[Channel, int]], profiles: dict[str, HighFrequencyPower]
+) -> float:
+    """The engine's high-frequency level over its baseline's, from the bearing sensors' profiles [-]."""
+    known = {name: s.high_frequency for name, s in baseline.sensors.items()} if baseline is not None else {}
+    return engine_level((known.get(c.name), profiles[c.name]) for c, _ in sensors if c.name in profiles)
+
+
 def _bearing_result(
     channel: Channel,
     b: int,
@@ -512,6 +515,7 @@ def _bearing_result(
     transfers: Baseline | None,
     usable: bool,
     notes: list[str],
+    level: float,
 ) -> tuple[BearingResult, ChannelComparison | None]:
     """One bearing sensor's orders against the calibrated model (where usable) and its impacts."""
     result = analysis.spectra
@@ -529,16 +533,16 @@ def _bearing_result(
     profile = result.high_frequency.get(channel.name)
     if profile is not None:
         R = engine.cycle_revolutions
+        known = calibration.high_frequency if calibration is not None else None
+        matched = reference_profile(known, profile, R, level)
+        notes += matched.notes(channel.name)
         for neighbour in (b - 1, b, b + 1):
             if not 1 <= neighbour <= engine.bearing_count:
                 continue
             reversals = load_reversals(
                 analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
             )
-            own, reference = reference_profile(
-                calibration.high_frequency if calibration is not None else None, profile, R
-            )
-            impacts.append(impact_score(own, reversals, neighbour, R, reference))
+            impacts.append(impact_score(matched.profile, reversals, neighbour, R, matched.reference))
     return BearingResult(channel.name, b, deviation, impacts), comparison
 
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.baseline import Baseline
-from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, reference_profile, span_score
+from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
+from monitor.diagnosis.impact_reference import reference_profile
 from monitor.diagnosis.misfire import MissingFiring, missing_firing
 from monitor.diagnosis.sensors import SensorFault
 from monitor.io.recording import Recording
@@ -25,6 +26,7 @@ from monitor.model.engine import Engine
 from monitor.signal.impact import HighFrequencyPower
 
 __all__ = [
+    "MISSING_IMPULSE",
     "BearingResult",
     "Finding",
     "bearing_findings",
@@ -38,6 +40,7 @@ __all__ = [
     "worse",
 ]
 
+MISSING_IMPULSE = "share of the others' firing impulse"  # the missing-firing pattern's evidence [-]
 SIGNIFICANCE = 4.0  # standard errors between a finding's estimate and the healthy value [-]
 CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
 CYLINDER_ALARM = (0.5, 1.3)
@@ -238,7 +241,7 @@ def missing_firing_findings(
             confidence=confidence_beyond((CYLINDER_ALARM[0] - share) / e),
             evidence=[
                 {
-                    "quantity": "share of the others' firing impulse",
+                    "quantity": MISSING_IMPULSE,
                     "measured": share,
                     "standard_error": e,
                     "predicted": 1.0,
@@ -460,6 +463,7 @@ def with_elsewhere(
     profiles: dict[str, HighFrequencyPower],
     engine: Engine,
     baseline: Baseline | None,
+    level: float = math.nan,
 ) -> list[BearingResult]:
     """Each impact score with the same knock span's score on the other bearing sensors (the highest).
 
@@ -470,6 +474,9 @@ def with_elsewhere(
         Each bearing sensor's profile in the recording.
     engine : Engine
     baseline : Baseline or None
+    level : float, optional
+        The engine's high-frequency level over the baseline's [-]
+        (:func:`monitor.diagnosis.impact_reference.engine_level`; NaN: each sensor's own).
 
     Returns
     -------
@@ -487,10 +494,9 @@ def with_elsewhere(
                 if other.channel == result.channel or profile is None:
                     continue
                 known = baseline.sensors.get(other.channel) if baseline is not None else None
-                theirs, reference = reference_profile(
-                    known.high_frequency if known is not None else None, profile, R
-                )
-                heard.append(span_score(theirs, score.angle_deg, R, reference))
+                theirs = known.high_frequency if known is not None else None
+                matched = reference_profile(theirs, profile, R, level)
+                heard.append(span_score(matched.profile, score.angle_deg, R, matched.reference))
             scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
         own = next((s for s in scored if s.bearing == result.bearing), None)
         out.append(replace(result, impacts=scored, elsewhere=own.elsewhere if own is not None else math.nan))

@@ -32,7 +32,7 @@ from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.diagnose import Diagnosis
-from monitor.diagnosis.findings import SEVERITIES, Finding
+from monitor.diagnosis.findings import MISSING_IMPULSE, SEVERITIES, Finding, worse
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import DiagnosisError
 from monitor.io.recording import Recording
@@ -58,6 +58,8 @@ __all__ = [
 
 STATUS_RANK = {"healthy": 0, "inconclusive": 1, "warning": 2, "alarm": 3}
 """How bad each status is, for the worst over the segments."""
+#: Cycles a side of a change needs to tell it in a recording too short to cut in segments [-].
+SHORT_SIDE = 3
 
 
 @dataclass(frozen=True)
@@ -260,7 +262,7 @@ def diagnose_segments(
                 f"the loads per segment were not used: the recording has {len(found.segments)} steady "
                 f"segment(s) of {min_cycles} cycles or more, and is diagnosed whole"
             )
-        return SegmentedDiagnosis(whole)
+        return SegmentedDiagnosis(_across_a_change(whole, engine, min_cycles))
     if loads and len(loads) != len(found.segments):
         spans = ", ".join(f"{s.start_s:.2f}-{s.stop_s:.2f} s" for s in found.segments)
         raise DiagnosisError(
@@ -289,3 +291,38 @@ def diagnose_segments(
         part.notes.insert(0, _note(item, i, len(found.segments), part.load, source, mean_indicator))
         diagnosed.append(SegmentDiagnosis(i, item, part))
     return SegmentedDiagnosis(whole, tuple(diagnosed), found.transitions)
+
+
+def _across_a_change(whole: Diagnosis, engine: Engine, min_cycles: int) -> Diagnosis:
+    """The whole recording's diagnosis where its operating point changes too soon to cut segments.
+
+    A change told apart with :data:`SHORT_SIDE` cycles on a side (two short steady spans, or one that
+    does not reach the recording's ends), where no two segments of ``min_cycles`` are: the cylinders'
+    strengths read over the whole recording mix two points (and the change's own transient), so they
+    are no finding, except the pattern of a missing firing impulse, which compares the cylinders with
+    each other within each cycle and stands. Without a finding left, the recording is inconclusive,
+    never healthy.
+    """
+    short = segmentation_of(whole, engine, min_cycles=SHORT_SIDE)
+    if short.at_one_point or not short.segments:  # steady, or no steady span at all (a run-up: noted)
+        return whole
+    kept = [
+        f for f in whole.findings if f.kind != "cylinder" or f.evidence[0].get("quantity") == MISSING_IMPULSE
+    ]
+    dropped = [f.subject for f in whole.findings if f not in kept]
+    at = ", ".join(f"steady {s.start_s:.1f}-{s.stop_s:.1f} s" for s in short.segments)
+    note = (
+        f"the operating point changes inside the recording ({at}) with fewer than {min_cycles} steady "
+        "cycles on a side: the cylinders' strengths, read across the change, are not judged"
+        + (f" (not reported: {', '.join(dropped)})" if dropped else "")
+        + f"; a missing firing impulse still is. Record {min_cycles} steady cycles or more at each point"
+    )
+    status = "healthy"
+    for f in kept:
+        status = worse(f.severity, status)
+    return replace(
+        whole,
+        findings=kept,
+        status="inconclusive" if status == "healthy" else status,
+        notes=[note, *whole.notes],
+    )

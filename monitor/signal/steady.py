@@ -153,10 +153,18 @@ class Segmentation:
     segments : tuple of Segment
     transitions : tuple of Transition
         One between each two consecutive segments.
+    cycles : int
+        The whole cycles of the series segmented [-] (0: not known).
     """
 
     segments: tuple[Segment, ...]
     transitions: tuple[Transition, ...]
+    cycles: int = 0
+
+    @property
+    def at_one_point(self) -> bool:
+        """Whether the series is one steady segment from its first cycle to its last."""
+        return len(self.segments) == 1 and (self.segments[0].first, self.segments[0].stop) == (0, self.cycles)
 
 
 def cycle_series(
@@ -345,4 +353,4 @@ def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Seg
         Transition(before.stop_s, after.start_s, before, after)
         for before, after in itertools.pairwise(segments)
     )
-    return Segmentation(segments, transitions)
+    return Segmentation(segments, transitions, n)

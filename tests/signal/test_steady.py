@@ -211,3 +211,18 @@ def test_the_limits_are_those_documented() -> None:
     """docs/diagnosis.md, "Recordings that cross operating points": a false split at most 1 % of the
     time, one guard cycle each side of a change, steps of 2 % in speed and 10 % in load, 20 cycles."""
     assert (ALPHA, GUARD, SPEED_STEP, LOAD_STEP, MIN_CYCLES) == (0.01, 1, 0.02, 0.10, 20)
+
+
+def test_a_short_recording_with_a_step_near_its_end_is_not_at_one_point(rng: np.random.Generator) -> None:
+    """Fourteen cycles (a slow two-stroke's 10 s), the load indicator up by half and the speed
+    falling over the last three: too short for segments of MIN_CYCLES, but with three cycles a side
+    the steady span does not reach the end, so the recording is not at one point; the same fourteen
+    cycles held steady are one segment from the first cycle to the last."""
+    speed, load = _steady(rng, 14, 0.001, 0.03)
+    assert steady_segments(_series(speed, load), min_cycles=3).at_one_point
+    speed[11:] *= np.array([0.985, 0.95, 0.92])
+    load[11:] *= 1.5
+    short = steady_segments(_series(speed, load), min_cycles=3)
+    assert not short.at_one_point and short.cycles == 14
+    assert len(short.segments) >= 1 and short.segments[0].stop < 14
+    assert steady_segments(_series(speed, load)).segments == ()

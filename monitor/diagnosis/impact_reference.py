@@ -1,0 +1,234 @@
+"""The baseline's high-frequency profile carried to a recording's operating point, for the impact score.
+
+A bearing's knock is judged against the same sensor's high-frequency profile on its healthy baseline
+(:mod:`monitor.diagnosis.bearings`). Between the baseline's operating point and the recording's, two
+things change that are no knock:
+
+Speed.  The structure rings for a time, not an angle: the rings that follow the engine's own events
+(combustion, valves, piston slap) end ``6 n t`` degrees after an event fixed in crank angle, ``t``
+seconds after it. Between the baseline's speed ``n0`` and the recording's ``n`` a ring's tail moves by
+up to ``6 |n - n0| RING_S`` degrees, and a tail that reaches further into a knock window reads as a
+knock. Each of the baseline's bins is taken as the loudest within that angle either side
+(:func:`widened`); at the baseline's own speed nothing changes.
+
+Level.  The engine's own noise grows with its forces, so with the load and the speed: a recording
+above its baseline's point is louder wherever the engine's own events ring, while a sensor's own
+noise floor stays. A sensor's bins are put in classes by the baseline's power (each class twice the
+power of the one below, from the sensor's median up) and each class's level is the median over its
+bins of the recording's power over the baseline's: a knock lifts a few bins, not a class's median.
+No class is raised beyond the engine's level, the median over the bearing sensors of their loudest
+classes' levels (:func:`engine_level`), so that a knock that fills a small class on one sensor cannot
+raise its own reference. A reference bin is raised by its class's level, never lowered: a quieter
+engine is judged against the baseline as it is.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from monitor.signal.impact import HighFrequencyPower
+from monitor.types import FloatArray
+
+__all__ = [
+    "CLASS_BINS",
+    "RING_S",
+    "MatchedProfiles",
+    "class_levels",
+    "engine_level",
+    "reference_profile",
+    "widened",
+]
+
+#: How long after an event the structure still rings in the impact band [s]: an amplitude time
+#: constant of a 1 kHz resonance, the band's lowest, at 1.6 % of critical damping
+#: (``1 / (2 pi 1000 0.016)``; the ring's power has fallen to a seventh). A longer allowance hides
+#: knocks near the engine's own events (tests/diagnosis/test_speed_change_reference.py).
+RING_S = 0.01
+#: Bins a class needs for its median to tell its level (fewer: it takes the class's below) [-].
+CLASS_BINS = 8
+#: The lowest class whose level speaks for the engine's own events: four times the sensor's median.
+EVENT_CLASS = 2
+#: A reference raised by this much or more is noted in the diagnosis [-].
+LOUDER = 1.1
+
+
+@dataclass(frozen=True)
+class MatchedProfiles:
+    """A sensor's profile and the reference it is scored against, on common bins.
+
+    Attributes
+    ----------
+    profile : HighFrequencyPower
+        The recording's.
+    reference : HighFrequencyPower or None
+        The baseline's, widened by ``moved_deg`` and raised class by class up to ``level``; None where
+        the baseline cannot serve (another sampling rate or band, bins that do not divide).
+    level : float
+        The highest a reference bin was raised by [-] (1: not raised).
+    moved_deg : float
+        The crank angle the speed change moves a ring's tail by, either side [deg].
+    """
+
+    profile: HighFrequencyPower
+    reference: HighFrequencyPower | None
+    level: float = 1.0
+    moved_deg: float = 0.0
+
+    def notes(self, channel: str) -> list[str]:
+        """What the diagnosis says of a reference raised by :data:`LOUDER` or more (else nothing)."""
+        if self.level < LOUDER:
+            return []
+        return [
+            f"{channel}: the engine's own high-frequency noise up to {self.level:.2f} x the baseline's "
+            "(its load and speed): impacts judged against the baseline raised to it"
+        ]
+
+
+def _common(
+    baseline: HighFrequencyPower | None, profile: HighFrequencyPower
+) -> tuple[HighFrequencyPower, HighFrequencyPower | None]:
+    """Both on the coarser one's bins, or the profile and None where the baseline cannot serve."""
+    if baseline is None or baseline.sample_rate != profile.sample_rate or baseline.band_hz != profile.band_hz:
+        return profile, None
+    fine, coarse = sorted((baseline.mean.size, profile.mean.size), reverse=True)
+    if fine % coarse:
+        return profile, None
+    return profile.coarsened(coarse), baseline.coarsened(coarse)
+
+
+def class_levels(recording: FloatArray, baseline: FloatArray) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """Each bin's class by the baseline's power, and each class's level (module docstring).
+
+    Parameters
+    ----------
+    recording, baseline : ndarray
+        The two profiles' mean power on common bins [unit^2].
+
+    Returns
+    -------
+    classes : ndarray of int
+        0 for bins at or below the baseline's median, ``k`` for bins ``2**k`` times above it.
+    levels : ndarray
+        Per class (index), the median of the recording's power over the baseline's; a class with
+        fewer than :data:`CLASS_BINS` bins takes the level of the class below [-].
+    """
+    median = float(np.median(baseline))
+    if not median > 0.0:
+        return np.zeros(baseline.size, dtype=np.int64), np.ones(1)
+    classes = np.floor(np.log2(np.maximum(baseline / median, 1.0))).astype(np.int64)
+    levels = np.ones(int(classes.max()) + 1)
+    for k in range(levels.size):
+        here = classes == k
+        if here.sum() >= CLASS_BINS:
+            levels[k] = float(np.median(recording[here] / baseline[here]))
+        elif k > 0:
+            levels[k] = levels[k - 1]
+    return classes, levels
+
+
+def engine_level(pairs: Iterable[tuple[HighFrequencyPower | None, HighFrequencyPower]]) -> float:
+    """How much louder the engine's own events are than on the baseline: the median over the sensors.
+
+    Each sensor that has a class of events (:data:`EVENT_CLASS` or above, with :data:`CLASS_BINS` bins)
+    speaks with its loudest such class's level.
+
+    Parameters
+    ----------
+    pairs : iterable of (HighFrequencyPower or None, HighFrequencyPower)
+        Each bearing sensor's baseline profile (None: none) and recording profile.
+
+    Returns
+    -------
+    float
+        [-]; NaN where no sensor speaks.
+    """
+    said = []
+    for baseline, profile in pairs:
+        recording, reference = _common(baseline, profile)
+        if reference is None:
+            continue
+        classes, levels = class_levels(recording.mean, reference.mean)
+        told = [k for k in range(EVENT_CLASS, levels.size) if (classes == k).sum() >= CLASS_BINS]
+        if told:
+            said.append(levels[max(told)])
+    return float(np.median(said)) if said else math.nan
+
+
+def reference_profile(
+    baseline: HighFrequencyPower | None,
+    profile: HighFrequencyPower,
+    cycle_revolutions: int,
+    engine: float = math.nan,
+) -> MatchedProfiles:
+    """A sensor's profile and its baseline's on common bins, carried to the recording's speed and level.
+
+    The baseline serves if it was taken at the same sampling rate and band; the finer of the two is
+    coarsened to the other's bins when one's count divides the other's (a baseline at another speed
+    may have been binned finer or coarser). Then the module docstring's speed and level.
+
+    Parameters
+    ----------
+    baseline : HighFrequencyPower or None
+        The sensor's profile on its healthy baseline.
+    profile : HighFrequencyPower
+        The sensor's profile in the recording.
+    cycle_revolutions : int
+        Of the engine's cycle (the profiles' bins span it).
+    engine : float, optional
+        The engine's level [-] (:func:`engine_level`); NaN (default): the sensor's own classes alone.
+
+    Returns
+    -------
+    MatchedProfiles
+    """
+    profile, reference = _common(baseline, profile)
+    if reference is None:
+        return MatchedProfiles(profile, None)
+    classes, levels = class_levels(profile.mean, reference.mean)
+    if math.isfinite(engine):
+        # a class as loud as the engine's events: at least the engine's level, at most it in any class
+        levels[EVENT_CLASS:] = np.maximum(levels[EVENT_CLASS:], engine)
+        levels = np.minimum(levels, max(engine, 1.0))
+    raise_by = np.maximum(levels[classes], 1.0)
+    reference = replace(reference, mean=raise_by * reference.mean, std=raise_by * reference.std)
+    moved_deg = 6.0 * abs(profile.speed_rpm - reference.speed_rpm) * RING_S
+    if math.isfinite(moved_deg):
+        reference = widened(reference, moved_deg, cycle_revolutions)
+    else:
+        moved_deg = 0.0
+    return MatchedProfiles(profile, reference, float(raise_by.max()), moved_deg)
+
+
+def widened(profile: HighFrequencyPower, angle_deg: float, cycle_revolutions: int) -> HighFrequencyPower:
+    """A profile whose every bin is its highest within ``angle_deg`` either side (with that bin's spread).
+
+    The bins close on themselves over the cycle; a bin is within the angle when its centre is.
+
+    Parameters
+    ----------
+    profile : HighFrequencyPower
+    angle_deg : float
+        Crank angle either side [deg] (>= 0).
+    cycle_revolutions : int
+        Of the engine's cycle (the profile's bins span it).
+
+    Returns
+    -------
+    HighFrequencyPower
+        The profile itself where the angle is under half a bin.
+    """
+    bins = profile.mean.size
+    reach = int(angle_deg / (360.0 * cycle_revolutions / bins) + 0.5)
+    if reach < 1:
+        return profile
+    reach = min(reach, bins // 2)
+    shifts = np.arange(-reach, reach + 1)
+    means = np.stack([np.roll(profile.mean, int(k)) for k in shifts])
+    highest = np.argmax(means, axis=0)
+    source = (np.arange(bins) - shifts[highest]) % bins  # the bin each highest came from
+    return replace(profile, mean=profile.mean[source], std=profile.std[source])

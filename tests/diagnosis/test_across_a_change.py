@@ -1,0 +1,100 @@
+"""A recording whose operating point changes too soon to cut it in steady segments
+(:func:`monitor.diagnosis.segments.diagnose_segments`): the cylinders' strengths read across the change
+are no finding, a missing firing impulse still is, and without a finding the recording is
+inconclusive, never healthy.
+
+Hand-built diagnoses and segmentations: the rule reads only the findings, the status, the notes and
+where the steady spans lie (:mod:`monitor.signal.steady` is tested on its own series).
+"""
+
+from __future__ import annotations
+
+from typing import cast
+
+import pytest
+
+import monitor.diagnosis.segments as segments
+from monitor.diagnosis.diagnose import Diagnosis
+from monitor.diagnosis.findings import MISSING_IMPULSE, Finding
+from monitor.io.recording import Recording
+from monitor.model.engine import Engine
+from monitor.signal.measure import SpectrumResult
+from monitor.signal.steady import Segment, Segmentation
+
+WEAK = Finding(
+    "cylinder", "cylinder 10", "alarm", "cylinder 10 at 151 %", 0.9, [{"quantity": "relative strength"}]
+)
+MISSING = Finding(
+    "cylinder", "cylinder 4", "alarm", "cylinder 4 misfiring", 0.99, [{"quantity": MISSING_IMPULSE}]
+)
+KNOCK = Finding("main bearing", "main bearing 2", "warning", "knocks", 0.9, [{"quantity": "impact power"}])
+
+
+def _whole(status: str, findings: list[Finding]) -> Diagnosis:
+    return Diagnosis(
+        engine_id="12-cylinder two-stroke",
+        speed_rpm=94.0,
+        load=0.56,
+        status=status,
+        findings=findings,
+        balance=None,
+        comparisons=[],
+        bearings=[],
+        velocity={},
+        zone_boundaries_mm_s=(1.4, 2.8, 4.5),
+        notes=["whole"],
+        spectra=cast(SpectrumResult, None),  # the rule reads no spectra
+    )
+
+
+def _segmented_as(monkeypatch: pytest.MonkeyPatch, short: Segmentation) -> None:
+    """No segment of the minimum's cycles; ``short`` at three cycles a side."""
+
+    def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int) -> Segmentation:
+        return short if min_cycles == segments.SHORT_SIDE else Segmentation((), (), 14)
+
+    monkeypatch.setattr(segments, "segmentation_of", segmentation_of)
+
+
+def _diagnosed(whole: Diagnosis) -> Diagnosis:
+    found = segments.diagnose_segments(cast(Recording, None), cast(Engine, None), whole)
+    assert found.segments == ()
+    return found.whole
+
+
+STEP_AT_THE_END = Segmentation((Segment(0, 10, 0.6, 7.6, 9.95, 0.024),), (), 14)
+
+
+def test_a_cylinder_strength_read_across_a_change_is_no_finding(monkeypatch: pytest.MonkeyPatch) -> None:
+    _segmented_as(monkeypatch, STEP_AT_THE_END)
+    said = _diagnosed(_whole("alarm", [WEAK, KNOCK]))
+    assert said.findings == [KNOCK] and said.status == "warning"
+    assert "the operating point changes inside the recording (steady 0.6-7.6 s)" in said.notes[0]
+    assert "not reported: cylinder 10" in said.notes[0]
+
+
+def test_a_missing_firing_impulse_stands_across_a_change(monkeypatch: pytest.MonkeyPatch) -> None:
+    _segmented_as(monkeypatch, STEP_AT_THE_END)
+    said = _diagnosed(_whole("alarm", [MISSING, WEAK]))
+    assert said.findings == [MISSING] and said.status == "alarm"
+
+
+def test_without_a_finding_left_the_recording_is_inconclusive(monkeypatch: pytest.MonkeyPatch) -> None:
+    _segmented_as(monkeypatch, STEP_AT_THE_END)
+    said = _diagnosed(_whole("alarm", [WEAK]))
+    assert said.findings == [] and said.status == "inconclusive"
+
+
+@pytest.mark.parametrize(
+    "short",
+    [
+        Segmentation((Segment(0, 14, 0.6, 10.0, 9.95, 0.024),), (), 14),  # steady throughout
+        Segmentation((), (), 14),  # no steady span at all: a run-up, judged as before
+    ],
+)
+def test_a_steady_recording_or_a_run_up_is_diagnosed_as_it_was(
+    monkeypatch: pytest.MonkeyPatch, short: Segmentation
+) -> None:
+    _segmented_as(monkeypatch, short)
+    whole = _whole("alarm", [WEAK])
+    assert _diagnosed(whole) is whole
