@@ -83,14 +83,14 @@ async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
         else None
     )
     app.state.worker = worker
-    if worker is not None:
-        worker.start()
-    # What the started service holds (modules, the app, the store) lives as long as it does: set
-    # apart from the garbage collector, a full collection scans only what requests made, in a few
-    # milliseconds, instead of ~100 ms (measured with this app loaded) during which no request
-    # is answered.
-    gc.freeze()
-    try:
+    try:  # a start that fails halfway is stopped all the same: its analysis pool ended, not left
+        if worker is not None:
+            worker.start()
+        # What the started service holds (modules, the app, the store) lives as long as it does: set
+        # apart from the garbage collector, a full collection scans only what requests made, in a few
+        # milliseconds, instead of ~100 ms (measured with this app loaded) during which no request
+        # is answered.
+        gc.freeze()
         yield
     finally:
         if worker is not None:

@@ -44,7 +44,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, TimeoutError
+from concurrent.futures import CancelledError, Future, ProcessPoolExecutor, TimeoutError
 from concurrent.futures.process import BrokenProcessPool
 from datetime import timedelta
 from functools import partial
@@ -55,7 +55,7 @@ from monitor.diagnosis import ANALYSIS_VERSION
 from monitor.errors import MonitorError, OutputFolderError, StoreError
 from monitor.jobs.analyse import diagnose_file
 from monitor.jobs.plots import recording_plot
-from monitor.runtime.processes import NICE, analysis_pool
+from monitor.runtime.processes import NICE, analysis_pool, close_pool
 from monitor.store import RETRY_BACKOFF, Job, Store
 from monitor.store.outage import store_fault
 
@@ -135,13 +135,15 @@ class Worker:
         self._wake = threading.Event()
         self._threads: list[threading.Thread] = []
         self._pool: ProcessPoolExecutor | None = None
+        self._closed = False  # set by stop(), under the lock: no pool is made or used after it
         self._lock = threading.Lock()
 
     def start(self) -> None:
         """Take back the jobs of dead workers, then start the loops."""
         self.store.requeue_stale(ANALYSIS_VERSION, self.lease)
         (self.data_dir / "plots").mkdir(parents=True, exist_ok=True)
-        self._fresh_pool()
+        with self._lock:
+            self._fresh_pool()
         for i in range(self.processes):
             thread = threading.Thread(target=self._loop, name=f"analysis-{i}", daemon=True)
             thread.start()
@@ -152,13 +154,24 @@ class Worker:
         self._wake.set()
 
     def stop(self) -> None:
-        """Stop taking jobs; a job that is running keeps its state and is taken back after the lease."""
+        """Stop taking jobs and end the analysis processes; a job that is running keeps its state and is
+        taken back after the lease.
+
+        The pool is taken from the worker under its lock, after which no thread makes or uses one, and
+        ended here (:func:`~monitor.runtime.processes.close_pool`): its processes, its manager thread and
+        its queues' semaphores are gone when this returns, whenever it is called (the server stopped while
+        it starts, while a job is submitted, mid-analysis), rather than left to a daemon thread that the
+        interpreter's exit may stop halfway. Safe to call more than once, and after a start that failed.
+        """
         self._stop.set()
         self._wake.set()
         for thread in self._threads:
             thread.join(timeout=5)
-        if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
+        with self._lock:
+            self._closed = True
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            close_pool(pool)
 
     def _loop(self) -> None:
         last_sweep = 0.0
@@ -207,12 +220,22 @@ class Worker:
             return found
 
     def _fresh_pool(self) -> ProcessPoolExecutor:
+        """The pool, a new one in place of one that is broken (called with the lock held)."""
+        if self._closed:
+            raise _Stopped
+        if self._pool is None or getattr(self._pool, "_broken", False):
+            if self._pool is not None:
+                close_pool(self._pool)
+            self._pool = None
+            self._pool = analysis_pool(self.processes)
+        return self._pool
+
+    def _submit(self, *args: Any) -> Future[dict[str, tuple[str, dict[str, Any]]]]:
+        """:func:`analyse` of ``args`` submitted to the pool, in one step with respect to :meth:`stop`: a
+        pool made here is the worker's before stop can look for it, and none is made or used after it
+        (:class:`_Stopped`)."""
         with self._lock:
-            if self._pool is None or getattr(self._pool, "_broken", False):
-                if self._pool is not None:
-                    self._pool.shutdown(wait=False, cancel_futures=True)
-                self._pool = analysis_pool(self.processes)
-            return self._pool
+            return self._fresh_pool().submit(analyse, *args)
 
     def _run(self, job: Job) -> None:
         row = self._stored(self.store.recording_by_id, job.recording_id)
@@ -225,20 +248,23 @@ class Worker:
         # named as the batch names it, recorded with the diagnosis
         plot = self._stored(recording_plot, self.store, row.id)
         # a pool broken by an earlier analysis is replaced before this one is submitted
-        future = self._fresh_pool().submit(
-            analyse,
+        future = self._submit(
             row.path,
             engine,
             None if baseline is None else baseline.document,
             str(self.data_dir / plot),
             row.filename,
         )
+        touched = time.monotonic()
         while True:
-            try:
-                documents = future.result(timeout=self.heartbeat)
+            try:  # looks at the stop every IDLE s, touches the job every heartbeat
+                documents = future.result(timeout=min(IDLE, self.heartbeat))
             except TimeoutError:
                 if self._stop.is_set():
                     return  # the lease hands the job to the next worker
+                if time.monotonic() - touched < self.heartbeat:
+                    continue
+                touched = time.monotonic()
                 try:
                     self.store.touch(job)
                 except Exception as error:  # the store down: the analysis runs on, its result waits
@@ -246,9 +272,13 @@ class Worker:
                         raise
                     self.store.outage.failed(error)
                 continue
-            except BrokenProcessPool:  # the analysis process died (killed, out of memory): transient
+            except (BrokenProcessPool, CancelledError):
+                if self._stop.is_set():
+                    return  # the process was ended by stop(): the lease hands the job on
+                # the analysis process died (killed, out of memory): transient
                 self._failed(job, "the analysis process died (killed, or out of memory)", permanent=False)
-                self._fresh_pool()
+                with self._lock:
+                    self._fresh_pool()
                 return
             except Exception as error:  # the input's fault is permanent, any other transient
                 permanent = input_fault(error)

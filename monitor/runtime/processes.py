@@ -21,7 +21,8 @@ port, and a restart fails with "address already in use". So the pools here:
 A new process imports the analysis modules itself, a few seconds once per
 pool (the worker's pool lives as long as the worker). The batch, a command
 that listens on nothing, forks its processes instead, so they start at once;
-they die with it all the same.
+they die with it all the same. The worker ends its pool with
+:func:`close_pool`, never leaving it to end by itself.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-__all__ = ["NICE", "WATCH_S", "analysis_pool", "die_with_parent", "session_processes"]
+__all__ = ["NICE", "WATCH_S", "analysis_pool", "close_pool", "die_with_parent", "session_processes"]
 
 #: The niceness of the service's background processes, validators and analyses (0 is the server's,
 #: 19 the lowest priority): where they and the server want the same core, reads are answered first.
@@ -71,6 +72,30 @@ def analysis_pool(max_workers: int, *, fork: bool = False) -> ProcessPoolExecuto
         initializer=die_with_parent,
         initargs=(os.getpid(),),
     )
+
+
+def close_pool(pool: ProcessPoolExecutor) -> None:
+    """End a pool now: its processes ended, its manager thread joined, its queues closed and released.
+
+    Its running analyses are abandoned (the worker's jobs are taken back after their lease), so this
+    returns within a moment rather than when they end. The pool's queues hold named semaphores, which the
+    resource tracker reports as leaked unless they are unlinked and unregistered before this process
+    ends. ``shutdown(wait=False)`` leaves that to the pool's manager thread, which releases its queues
+    as it ends: a daemon thread when the pool's first submission came from one (it inherits the
+    submitter's kind), which the interpreter's exit does not wait for and stops where it stands, one
+    semaphore unlinked and not unregistered. Here the manager thread is joined first, so the shutdown
+    drops the queues' last references in the caller's thread, which releases them within this call.
+
+    Parameters
+    ----------
+    pool : ProcessPoolExecutor
+        A pool of :func:`analysis_pool`, used or not, broken or not.
+    """
+    # a process that ends makes the pool "broken": its manager thread then fails what was submitted,
+    # closes the queues and joins the processes, and ends
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def die_with_parent(parent: int) -> None:
