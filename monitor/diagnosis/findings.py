@@ -27,6 +27,7 @@ from monitor.signal.impact import HighFrequencyPower
 
 __all__ = [
     "MISSING_IMPULSE",
+    "RELATIVE_STRENGTH",
     "BearingResult",
     "Finding",
     "bearing_findings",
@@ -41,6 +42,7 @@ __all__ = [
 ]
 
 MISSING_IMPULSE = "share of the others' firing impulse"  # the missing-firing pattern's evidence [-]
+RELATIVE_STRENGTH = "relative strength"  # a cylinder's strength against those that fire alike [-]
 SIGNIFICANCE = 4.0  # standard errors between a finding's estimate and the healthy value [-]
 CYLINDER_WARNING = (0.85, 1.15)  # strength against those that fire alike [-]
 CYLINDER_ALARM = (0.5, 1.3)
@@ -302,7 +304,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                 confidence=confidence,
                 evidence=[
                     {
-                        "quantity": "relative strength",
+                        "quantity": RELATIVE_STRENGTH,
                         "measured": r,
                         "standard_error": e,
                         "predicted": 1.0,

@@ -1,7 +1,7 @@
 """A recording whose operating point changes too soon to cut it in steady segments
 (:func:`monitor.diagnosis.segments.diagnose_segments`): the cylinders' strengths read across the change
-are no finding, a missing firing impulse still is, and without a finding the recording is
-inconclusive, never healthy.
+are no finding, a misfire still is, and a recording left without findings is inconclusive, never
+healthy.
 
 Hand-built diagnoses and segmentations: the rule reads only the findings, the status, the notes and
 where the steady spans lie (:mod:`monitor.signal.steady` is tested on its own series).
@@ -15,17 +15,30 @@ import pytest
 
 import monitor.diagnosis.segments as segments
 from monitor.diagnosis.diagnose import Diagnosis
-from monitor.diagnosis.findings import MISSING_IMPULSE, Finding
+from monitor.diagnosis.findings import MISFIRE_BELOW, MISSING_IMPULSE, RELATIVE_STRENGTH, Finding
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 from monitor.signal.measure import SpectrumResult
 from monitor.signal.steady import Segment, Segmentation
 
 WEAK = Finding(
-    "cylinder", "cylinder 10", "alarm", "cylinder 10 at 151 %", 0.9, [{"quantity": "relative strength"}]
+    "cylinder",
+    "cylinder 10",
+    "alarm",
+    "cylinder 10 at 151 %",
+    0.9,
+    [{"quantity": RELATIVE_STRENGTH, "measured": 1.51}],
 )
 MISSING = Finding(
     "cylinder", "cylinder 4", "alarm", "cylinder 4 misfiring", 0.99, [{"quantity": MISSING_IMPULSE}]
+)
+MISFIRING = Finding(
+    "cylinder",
+    "cylinder 5",
+    "alarm",
+    "cylinder 5 at 25 %",
+    0.99,
+    [{"quantity": RELATIVE_STRENGTH, "measured": MISFIRE_BELOW - 0.01}],
 )
 KNOCK = Finding("main bearing", "main bearing 2", "warning", "knocks", 0.9, [{"quantity": "impact power"}])
 
@@ -77,6 +90,33 @@ def test_a_missing_firing_impulse_stands_across_a_change(monkeypatch: pytest.Mon
     _segmented_as(monkeypatch, STEP_AT_THE_END)
     said = _diagnosed(_whole("alarm", [MISSING, WEAK]))
     assert said.findings == [MISSING] and said.status == "alarm"
+
+
+def test_a_misfiring_cylinder_stands_across_a_change_a_weak_one_does_not(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Below MISFIRE_BELOW of the others no load change explains a cylinder: it stands; just above
+    it (a healthy 12-cylinder read 40 % across a 10 s load step) it is left out."""
+    _segmented_as(monkeypatch, STEP_AT_THE_END)
+    assert _diagnosed(_whole("alarm", [MISFIRING])).findings == [MISFIRING]
+    above = Finding(
+        "cylinder",
+        "cylinder 6",
+        "alarm",
+        "at 40 %",
+        0.9,
+        [{"quantity": RELATIVE_STRENGTH, "measured": MISFIRE_BELOW}],
+    )
+    said = _diagnosed(_whole("alarm", [above]))
+    assert said.findings == [] and said.status == "inconclusive"
+
+
+def test_cylinders_that_read_alike_across_a_change_stay_healthy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Nothing left out: the diagnosis stands, with the note that the point changed."""
+    _segmented_as(monkeypatch, STEP_AT_THE_END)
+    said = _diagnosed(_whole("healthy", []))
+    assert said.findings == [] and said.status == "healthy"
+    assert said.notes[0].startswith("the operating point changes inside the recording")
 
 
 def test_without_a_finding_left_the_recording_is_inconclusive(monkeypatch: pytest.MonkeyPatch) -> None:
