@@ -226,6 +226,9 @@ def run_serve(args: argparse.Namespace) -> int:
     """
     import signal
 
+    # Before anything heavy: loading uvicorn and the service takes seconds, during which a SIGTERM
+    # (``docker compose stop`` of a container just started) would kill the process with status -15.
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
     import uvicorn
 
     from api.app import create_app
@@ -247,11 +250,12 @@ def run_serve(args: argparse.Namespace) -> int:
     _check_listening(args.host, args.port)
     app = create_app(settings)
     protocol = _connection_protocol(args)
+    if _sigterm_received:  # a SIGTERM whose exit a library swallowed while loading: stop before serving
+        return 0
     # uvicorn stops on SIGTERM as on Ctrl-C, then raises the signal again: under the default action the
     # process would die of it there, before its exit handlers release what it holds (the analysis
-    # pool's semaphores, which the resource tracker then reports as leaked) and with status -15. A
-    # SIGTERM raised again after the shutdown ends the process as a normal exit, status 0.
-    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    # pool's semaphores, which the resource tracker then reports as leaked) and with status -15. The
+    # handler installed above, which uvicorn puts back after its shutdown, makes it a normal exit.
     try:
         uvicorn.run(
             app,
@@ -272,7 +276,26 @@ def run_serve(args: argparse.Namespace) -> int:
     return 0
 
 
+#: whether serve was sent SIGTERM outside uvicorn's run (:func:`_exit_on_sigterm`)
+_sigterm_received = False
+
+
 def _exit_on_sigterm(*_: object) -> None:
+    """serve's SIGTERM outside uvicorn's run: a normal exit, status 0, and any SIGTERM after it ignored.
+
+    While the service loads, nothing runs yet and the exit has nothing to clean up; after uvicorn's
+    graceful shutdown (uvicorn raises the signal again), the exit handlers still have to run: a second
+    SIGTERM (an impatient ``docker compose stop``, a supervisor sending it again) must neither cut them
+    short with an exception of its own nor kill the process once the interpreter, as it finalizes, puts
+    the default action back for the signals it handled (it leaves an ignored one ignored). Nothing is
+    started after it, so no process inherits the ignored signal. The flag lets serve stop before
+    serving should a library's catch-all swallow the exit while it loads.
+    """
+    import signal
+
+    global _sigterm_received
+    _sigterm_received = True
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise SystemExit(0)
 
 

@@ -11,11 +11,12 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from monitor.cli.arguments import print_json
+
+if TYPE_CHECKING:  # numpy is imported where a subcommand runs: every command's start-up builds this parser
+    import numpy as np
 
 __all__ = ["add_torsion_parser", "run_torsion"]
 
@@ -227,6 +228,8 @@ def run_torsion(args: argparse.Namespace) -> int:
 
 
 def _modes(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.model.engine import load_engine
     from monitor.report.torsion_plots import plot_modes
     from monitor.torsion.shaft_line import shaft_line_of
@@ -256,6 +259,8 @@ def _modes(args: argparse.Namespace) -> None:
 
 
 def _campbell(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.model.engine import load_engine
     from monitor.report.torsion_plots import plot_campbell
     from monitor.torsion.shaft_line import campbell, shaft_line_of
@@ -286,6 +291,8 @@ def _campbell(args: argparse.Namespace) -> None:
 
 
 def _response(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.model.engine import load_engine
     from monitor.report.torsion_plots import plot_response
     from monitor.torsion.shaft_line import engine_forced_response, shaft_line_of
@@ -337,6 +344,8 @@ def _response(args: argparse.Namespace) -> None:
 
 
 def _speed_range(args: argparse.Namespace, rated: float) -> np.ndarray:
+    import numpy as np
+
     from monitor.errors import ModelError
 
     lo = args.rpm_min if args.rpm_min is not None else 0.3 * rated
@@ -358,6 +367,8 @@ def _load(text: str) -> float | str:
 
 
 def _axial(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.model.engine import load_engine
     from monitor.torsion.axial_coupling import AxialTorsionalCrankshaft, engine_axial_response
 
@@ -410,6 +421,8 @@ _PROGRESS_WORK = 1e7
 
 
 def _stability(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.errors import ModelError
     from monitor.report.torsion_plots import plot_stability
     from monitor.runtime.progress import progress_bar
@@ -465,6 +478,8 @@ def _stability(args: argparse.Namespace) -> None:
 
 
 def _simulate(args: argparse.Namespace) -> None:
+    import numpy as np
+
     from monitor.errors import ModelError
     from monitor.report.torsion_plots import plot_time_response
     from monitor.torsion.time_response import Integrator, simulate

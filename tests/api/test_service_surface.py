@@ -7,6 +7,8 @@ import os
 import re
 import signal
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,7 +19,15 @@ import httpx
 import pytest
 
 from monitor.store import open_store
-from tests.api.test_api import SAMPLES, Server, _upload, _upload_and_wait_running, _wait_done
+from tests.api.test_api import (
+    ROOT,
+    SAMPLES,
+    Server,
+    _free_port,
+    _upload,
+    _upload_and_wait_running,
+    _wait_done,
+)
 
 #: reStructuredText that the docs page (Markdown) would show as typed
 _RST = re.compile(r":(mod|attr|func|class|meth|data|obj|exc):`|``")
@@ -134,3 +144,86 @@ def test_a_server_stopped_mid_analysis_exits_cleanly_without_leaked_semaphores(l
     assert "Finished server process" in log, log
     assert "leaked" not in log and "resource_tracker" not in log, log
     assert status == 0, log
+
+
+def _catches_sigterm(pid: int) -> bool:
+    """Whether the process has a handler of its own for SIGTERM (Linux's ``SigCgt`` mask)."""
+    status = Path(f"/proc/{pid}/status").read_text()
+    mask = next(line.split()[1] for line in status.splitlines() if line.startswith("SigCgt:"))
+    return bool(int(mask, 16) >> (signal.SIGTERM - 1) & 1)
+
+
+@pytest.mark.skipif(
+    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
+)
+def test_a_server_stopped_while_it_loads_exits_cleanly(tmp_path: Path) -> None:
+    """SIGTERM as soon as ``serve`` takes it, while it still loads uvicorn and the service (a container
+    stopped right after its start): it must take it before that loading, which lasts seconds, and exit
+    with status 0 without a traceback, never having served. Killed by the signal (status -15) until it
+    did."""
+    log = tmp_path / "server.log"
+    store = f"sqlite:///{tmp_path / 'store.db'}"
+    with open(log, "wb") as out:
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "monitor",
+                "serve",
+                "--port",
+                str(_free_port()),
+                "--store",
+                store,
+                "--data",
+                str(tmp_path / "data"),
+            ],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            cwd=ROOT,
+        )
+    try:
+        deadline = time.monotonic() + 60
+        while process.poll() is None and not _catches_sigterm(process.pid):
+            assert time.monotonic() < deadline, log.read_text()
+            time.sleep(0.01)
+        process.send_signal(signal.SIGTERM)
+        status = process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    said = log.read_text()
+    assert status == 0, said
+    assert "Traceback" not in said and "Exception ignored" not in said, said
+    # stopped while it loaded: before serve says its connection limits, long before uvicorn starts
+    assert "connections:" not in said and "Started server process" not in said, said
+
+
+#: a process with serve's SIGTERM handler, stopped by SIGTERM, whose exit handler is sent SIGTERM again
+_STOPPED_TWICE = """
+import atexit, os, signal, time
+from monitor.cli.service import _exit_on_sigterm
+
+def cleanup():
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(0.1)
+    print("cleaned up; SIGTERM ignored:", signal.getsignal(signal.SIGTERM) == signal.SIG_IGN, flush=True)
+
+atexit.register(cleanup)
+signal.signal(signal.SIGTERM, _exit_on_sigterm)
+signal.raise_signal(signal.SIGTERM)
+print("went on after SIGTERM", flush=True)
+"""
+
+
+def test_a_second_sigterm_while_serve_exits_is_ignored() -> None:
+    """serve's SIGTERM handler: the first SIGTERM is a normal exit (status 0); one more while the exit
+    handlers run (the analysis pool's release among them) neither interrupts them nor, ignored by the
+    system rather than by a handler the interpreter's finalization takes away, kills the process."""
+    done = subprocess.run(
+        [sys.executable, "-c", _STOPPED_TWICE], capture_output=True, text=True, cwd=ROOT, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "cleaned up; SIGTERM ignored: True\n", done.stdout + done.stderr
+    assert "Traceback" not in done.stderr and "ignored" not in done.stderr, done.stderr
