@@ -18,8 +18,8 @@ from monitor.diagnosis.diagnose import Diagnosis
 from monitor.diagnosis.findings import MISFIRE_BELOW, MISSING_IMPULSE, RELATIVE_STRENGTH, Finding
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
-from monitor.signal.measure import SpectrumResult
 from monitor.signal.steady import Segment, Segmentation
+from tests.diagnosis.hand_built import hand_built
 
 WEAK = Finding(
     "cylinder",
@@ -44,20 +44,7 @@ KNOCK = Finding("main bearing", "main bearing 2", "warning", "knocks", 0.9, [{"q
 
 
 def _whole(status: str, findings: list[Finding]) -> Diagnosis:
-    return Diagnosis(
-        engine_id="12-cylinder two-stroke",
-        speed_rpm=94.0,
-        load=0.56,
-        status=status,
-        findings=findings,
-        balance=None,
-        comparisons=[],
-        bearings=[],
-        velocity={},
-        zone_boundaries_mm_s=(1.4, 2.8, 4.5),
-        notes=["whole"],
-        spectra=cast(SpectrumResult, None),  # the rule reads no spectra
-    )
+    return hand_built(status, findings, ["whole"])
 
 
 def _segmented_as(monkeypatch: pytest.MonkeyPatch, short: Segmentation) -> None:

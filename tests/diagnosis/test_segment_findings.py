@@ -6,41 +6,21 @@ Hand-built segment diagnoses: the merge reads only their findings, statuses and 
 
 from __future__ import annotations
 
-from typing import cast
-
-from monitor.diagnosis.diagnose import Diagnosis
 from monitor.diagnosis.findings import Finding
 from monitor.diagnosis.segments import SegmentDiagnosis, SegmentedDiagnosis
 from monitor.report.diagnosis import segmented_document
-from monitor.signal.measure import SpectrumResult
 from monitor.signal.steady import Segment, Transition
+from tests.diagnosis.hand_built import hand_built
 
 
 def _finding(kind: str, subject: str, severity: str, confidence: float, said: str) -> Finding:
     return Finding(kind, subject, severity, f"{subject}: {said}", confidence, [{"segment": said}])
 
 
-def _diagnosis(status: str, findings: list[Finding], notes: list[str]) -> Diagnosis:
-    return Diagnosis(
-        engine_id="6L32",
-        speed_rpm=750.0,
-        load=1.0,
-        status=status,
-        findings=findings,
-        balance=None,
-        comparisons=[],
-        bearings=[],
-        velocity={},
-        zone_boundaries_mm_s=(1.4, 2.8, 4.5),
-        notes=notes,
-        spectra=cast(SpectrumResult, None),  # the merge reads no spectra
-    )
-
-
 def _segmented() -> SegmentedDiagnosis:
     """Cylinder 3 a warning in segment 1 and an alarm in segment 2; main bearing 2 a warning in both
     (the first more confident); a vibration zone an alarm in segment 2 only."""
-    first = _diagnosis(
+    first = hand_built(
         "warning",
         [
             _finding("cylinder", "cylinder 3", "warning", 0.99, "segment 1"),
@@ -48,7 +28,7 @@ def _segmented() -> SegmentedDiagnosis:
         ],
         ["segment 1 of 2", "first"],
     )
-    second = _diagnosis(
+    second = hand_built(
         "alarm",
         [
             _finding("main bearing", "main bearing 2", "warning", 0.8, "segment 2"),
@@ -59,7 +39,7 @@ def _segmented() -> SegmentedDiagnosis:
     )
     spans = [Segment(0, 60, 0.0, 9.6, 78.5, 0.02), Segment(62, 122, 9.9, 19.5, 78.5, 0.01)]
     return SegmentedDiagnosis(
-        _diagnosis("alarm", [], ["whole"]),
+        hand_built("alarm", [], ["whole"]),
         (SegmentDiagnosis(1, spans[0], first), SegmentDiagnosis(2, spans[1], second)),
         (Transition(9.6, 9.9, spans[0], spans[1]),),
     )
@@ -80,8 +60,8 @@ def test_the_subjects_are_in_the_order_they_were_first_found() -> None:
     assert [m.finding.subject for m in _segmented().findings] == ["cylinder 3", "main bearing 2", "v1"]
 
 
-def test_a_recording_not_segmented_has_no_merged_findings_and_is_its_whole_diagnosis() -> None:
-    whole = _diagnosis("warning", [_finding("cylinder", "cylinder 1", "warning", 0.9, "whole")], [])
+def test_a_recording_not_segmented_has_no_merged_findings_and_is_its_wholehand_built() -> None:
+    whole = hand_built("warning", [_finding("cylinder", "cylinder 1", "warning", 0.9, "whole")], [])
     alone = SegmentedDiagnosis(whole)
     assert alone.findings == () and alone.as_one() is whole
 
