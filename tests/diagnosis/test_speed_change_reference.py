@@ -25,7 +25,7 @@ from monitor.diagnosis.bearings import impact_score
 from monitor.diagnosis.findings import IMPACT_WARNING, SIGNIFICANCE
 from monitor.diagnosis.impact_reference import (
     CLASS_BINS,
-    RING_S,
+    MatchedProfiles,
     class_levels,
     engine_level,
     reference_profile,
@@ -96,7 +96,8 @@ def test_the_allowance_is_the_angle_a_ring_moves_in_ring_s() -> None:
     recording = HighFrequencyPower(np.ones(BINS), np.ones(BINS), CYCLES, 25600.0, (1000.0, 10000.0), 1100.0)
     reference = reference_profile(baseline, recording, 2).reference
     assert reference is not None
-    reach = round(6.0 * 100.0 * RING_S / (720.0 / BINS))
+    # 100 rpm apart over 10 ms of ringing: 6 deg, 8.5 bins of 0.70 deg, rounded to 9 either side
+    reach = 9
     assert np.flatnonzero(reference.mean == 10.0).tolist() == list(range(500 - reach, 501 + reach))
 
 
@@ -224,3 +225,40 @@ def test_a_uniformly_louder_profile_has_that_level_in_every_class(
     assert np.all(classes[baseline <= median] == 0)
     assert np.all(baseline[classes >= 1] >= 2 * median * (1 - 1e-12))
     np.testing.assert_allclose(levels, factor, rtol=1e-9)
+
+
+def test_a_class_needs_eight_bins_to_tell_its_level() -> None:
+    """Eight bins at four times the median, twice as loud in the recording: their class's level is 2;
+    with seven, the class takes the level of the one below (1)."""
+    for count, level in ((8, 2.0), (7, 1.0)):
+        baseline = np.ones(BINS)
+        baseline[:count] = 4.0
+        recording = baseline.copy()
+        recording[:count] = 8.0
+        classes, levels = class_levels(recording, baseline)
+        assert levels[classes[0]] == pytest.approx(level), count
+
+
+def test_events_four_times_the_median_speak_for_the_engine_twice_do_not() -> None:
+    """A sensor whose loudest class is four times its median votes for the engine's level; one whose
+    loudest is twice its median does not."""
+
+    def sensor(height: float) -> tuple[HighFrequencyPower, HighFrequencyPower]:
+        base = np.ones(BINS)
+        base[:20] = height
+        now = base.copy()
+        now[:20] = 1.5 * height
+        return (
+            HighFrequencyPower(base, base.copy(), CYCLES, 25600.0, (1000.0, 10000.0), 1000.0),
+            HighFrequencyPower(now, now.copy(), CYCLES, 25600.0, (1000.0, 10000.0), 1000.0),
+        )
+
+    assert engine_level([sensor(4.0)]) == pytest.approx(1.5)
+    assert math.isnan(engine_level([sensor(2.0)]))
+
+
+def test_a_reference_raised_by_a_tenth_is_noted() -> None:
+    quiet = _ringing(1000.0)
+    raised = MatchedProfiles(quiet, quiet, 1.1)
+    assert raised.notes("mb1") and "1.10 x" in raised.notes("mb1")[0]
+    assert MatchedProfiles(quiet, quiet, 1.09).notes("mb1") == []
