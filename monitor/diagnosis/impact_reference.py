@@ -38,6 +38,7 @@ __all__ = [
     "CLASS_BINS",
     "RING_S",
     "MatchedProfiles",
+    "between",
     "class_levels",
     "engine_level",
     "reference_profile",
@@ -157,6 +158,48 @@ def engine_level(pairs: Iterable[tuple[HighFrequencyPower | None, HighFrequencyP
         if told:
             said.append(levels[max(told)])
     return float(np.median(said)) if said else math.nan
+
+
+def between(
+    low: HighFrequencyPower | None, high: HighFrequencyPower | None, weight: float
+) -> HighFrequencyPower | None:
+    """A sensor's profile between two calibrated points: each bin's power interpolated linearly in load.
+
+    The engine's own events grow with the load; a recording between two points is judged against the
+    power its load puts between theirs, at the speed interpolated with it, where one point's profile
+    alone would miss an event that grows towards the other (or expect one that has not yet grown).
+
+    Parameters
+    ----------
+    low, high : HighFrequencyPower or None
+        The sensor's profile at the lower and the higher point.
+    weight : float
+        Where the load lies between them (0 at ``low``, 1 at ``high``) [-].
+
+    Returns
+    -------
+    HighFrequencyPower or None
+        On the coarser one's bins, its spread the cycles' spreads interpolated the same way, its
+        cycles the fewer; the nearer point's profile where the two cannot be compared (another
+        sampling rate or band, bins that do not divide).
+    """
+    nearest = low if weight <= 0.5 else high
+    if low is None or high is None:
+        return nearest
+    high_on, low_on = _common(low, high)
+    if low_on is None:
+        return nearest
+
+    def line(a: FloatArray, b: FloatArray) -> FloatArray:
+        return np.asarray((1.0 - weight) * a + weight * b, dtype=np.float64)
+
+    return replace(
+        high_on,
+        mean=line(low_on.mean, high_on.mean),
+        std=line(low_on.std, high_on.std),
+        cycles=min(low_on.cycles, high_on.cycles),
+        speed_rpm=float(line(np.asarray(low_on.speed_rpm), np.asarray(high_on.speed_rpm))),
+    )
 
 
 def reference_profile(

@@ -40,6 +40,7 @@ import numpy as np
 
 from monitor.diagnosis.balance import CrankCalibration
 from monitor.diagnosis.baseline import BASELINE_FORMAT, Baseline, SensorBaseline
+from monitor.diagnosis.impact_reference import between
 from monitor.errors import DiagnosisError
 
 __all__ = [
@@ -307,7 +308,11 @@ def _blend(
             orders=s.orders,
             transfer=np.asarray(transfer, dtype=np.complex128),
             transfer_error=np.asarray(np.hypot(error, spread), dtype=np.float64),
-            high_frequency=s.high_frequency,  # the nearest point's impact profile: a shape, not a level
+            high_frequency=(
+                s.high_frequency
+                if uncertainty_only
+                else between(lo.high_frequency, hi.high_frequency, weight)
+            ),
             velocity_rms=rms,
         )
     strengths = nearest.strengths
