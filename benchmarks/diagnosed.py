@@ -24,7 +24,11 @@ __all__ = ["diagnose_as_compare"]
 
 
 def diagnose_as_compare(
-    recording: Recording, engine: Engine, baseline: Baseline, load: float | None, truth: dict[str, Any]
+    recording: Recording,
+    engine: Engine,
+    baseline: Baseline | OperatingPoints,
+    load: float | None,
+    truth: dict[str, Any],
 ) -> Diagnosis:
     """The diagnosis ``compare --baseline`` gives, one document's worth.
 
@@ -32,8 +36,8 @@ def diagnose_as_compare(
     ----------
     recording : Recording
     engine : Engine
-    baseline : Baseline
-        The case's healthy twin's calibration.
+    baseline : Baseline or OperatingPoints
+        The case's healthy twin's calibration (or several healthy twins' at their points).
     load : float or None
         The load told (None: not told).
     truth : dict
@@ -46,7 +50,7 @@ def diagnose_as_compare(
         (the worst of each subject's), with each segment's notes
         (:meth:`monitor.diagnosis.segments.SegmentedDiagnosis.as_one`).
     """
-    points = OperatingPoints.of([baseline])
+    points = baseline if isinstance(baseline, OperatingPoints) else OperatingPoints.of([baseline])
     whole = diagnose_at_point(recording, engine, points=points, load=load)
     loads: list[float] = []
     if load is not None and truth.get("step_time_s") is not None:

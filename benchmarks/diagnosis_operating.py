@@ -33,6 +33,7 @@ class Case(Protocol):
     alarm: bool
     operating: str
     load_told: bool
+    points: int
     failed_at: str
     true_load: float
 
@@ -122,23 +123,41 @@ def cell(row: Row, outcomes: Sequence[Case]) -> str:
     return f"{hits}/{len(cases)} ({100 * hits / len(cases):.1f} %): {verdict}"
 
 
+def ways(outcomes: Sequence[Case]) -> list[tuple[str, list[Case]]]:
+    """The ways the cases were diagnosed, each headed: told the load and not, against the one-point
+    baseline and, where the run made them, against the three points across the engine's law."""
+    heads = []
+    for points in sorted({o.points for o in outcomes}):
+        against = "" if points == 1 else ", three points"
+        if points == 1 and len({o.points for o in outcomes}) > 1:
+            against = ", one point"
+        heads += [
+            (f"told the load (+-10 %){against}", [o for o in outcomes if o.load_told and o.points == points]),
+            (f"not told the load{against}", [o for o in outcomes if not o.load_told and o.points == points]),
+        ]
+    return heads
+
+
 def class_table(outcomes: Sequence[Case]) -> list[str]:
-    """One class's acceptance rows, told the load and not (Markdown lines)."""
-    told = [o for o in outcomes if o.load_told]
-    untold = [o for o in outcomes if not o.load_told]
+    """One class's acceptance rows, each way the cases were diagnosed (:func:`ways`; Markdown lines)."""
+    heads = ways(outcomes)
     lines = [
-        "| what | required | told the load (+-10 %) | not told the load |",
-        "|---|---|---|---|",
+        "| what | required | " + " | ".join(head for head, _ in heads) + " |",
+        "|---|---|" + "---|" * len(heads),
     ]
-    lines += [f"| {r.what} | {r.required} | {cell(r, told)} | {cell(r, untold)} |" for r in ROWS]
+    lines += [
+        f"| {r.what} | {r.required} | " + " | ".join(cell(r, group) for _, group in heads) + " |"
+        for r in ROWS
+    ]
     for stage, what in (
         ("simulator", "cases the simulator could not make (left out)"),
         ("calibration", "cases the product refused to calibrate on (left out)"),
         ("diagnosis", "cases the product failed to diagnose (counted as not named)"),
     ):
         lines.append(
-            f"| {what} | - | {sum(o.failed_at == stage for o in told)} of {len(told)} | "
-            f"{sum(o.failed_at == stage for o in untold)} of {len(untold)} |"
+            f"| {what} | - | "
+            + " | ".join(f"{sum(o.failed_at == stage for o in group)} of {len(group)}" for _, group in heads)
+            + " |"
         )
     return lines
 
@@ -150,7 +169,7 @@ def operating_sections(outcomes: Sequence[Case], classes: Sequence[str]) -> list
         group = [o for o in outcomes if o.operating == kind]
         if not group:
             continue
-        told = [o for o in group if o.load_told]
+        told = [o for o in group if o.load_told and o.points == 1]
         faults = ", ".join(
             f"{sum(o.truth == t for o in told)} {t}" for t in sorted({o.truth for o in told if o.truth})
         )
@@ -170,7 +189,7 @@ class Missed(Case, Protocol):
     error: str
 
 
-def missed_table(outcomes: Sequence[Missed], *, limit: int = 150) -> list[str]:
+def missed_table(outcomes: Sequence[Missed], *, limit: int = 250) -> list[str]:
     """The cases off the baseline's point not named, either way (Markdown lines, at most ``limit``)."""
     wrong = [o for o in judged(outcomes) if o.operating != "baseline point" and o.truth and not o.named]
     lines = [
@@ -179,13 +198,13 @@ def missed_table(outcomes: Sequence[Missed], *, limit: int = 150) -> list[str]:
         "Seed, length and class reproduce a case: `validation.simulator.random_case(seed, duration_s=..., "
         'operating="random")`.',
         "",
-        "| seed | length [s] | class | true | subject | load told | status | findings / error |",
-        "|---|---|---|---|---|---|---|---|",
+        "| seed | length [s] | class | true | subject | load told | points | status | findings / error |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
-    for o in sorted(wrong, key=lambda o: (o.operating, o.truth, o.seed, not o.load_told))[:limit]:
+    for o in sorted(wrong, key=lambda o: (o.operating, o.truth, o.seed, o.points, not o.load_told))[:limit]:
         said = (o.error or o.findings or "-").replace("|", "/")
         lines.append(
             f"| {o.seed} | {o.duration_s:g} | {o.operating} | {o.truth} | {o.subject} | "
-            f"{'yes' if o.load_told else 'no'} | {o.status} | {said} |"
+            f"{'yes' if o.load_told else 'no'} | {o.points} | {o.status} | {said} |"
         )
     return lines

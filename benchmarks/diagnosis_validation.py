@@ -36,11 +36,12 @@ import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
 from benchmarks.diagnosis_operating import missed_table, operating_sections
-from monitor.diagnosis import calibrate
+from monitor.diagnosis import Baseline, calibrate
 from monitor.diagnosis.findings import MISFIRE_BELOW
+from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import MonitorError
-from monitor.model.engine import load_engine
-from validation.simulator import healthy_twin, random_case
+from monitor.model.engine import Engine, load_engine
+from validation.simulator import Case, healthy_twin, law_loads, random_case
 from validation.simulator.operating import OPERATING_CLASSES
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -51,6 +52,8 @@ OFF_POINT_DURATIONS = (10.0, 30.0)
 OFF_POINT_FIRST_SEED = 200_000
 CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
+# a healthy twin at an end of the engine's law this close to the baseline's load is the same point [-]
+SAME_POINT = 0.05
 
 
 def case_length(index: int) -> float:
@@ -92,6 +95,7 @@ class Outcome:
     true_load: float = math.nan  # mean IMEP over rated, as run [-]
     load_type: str = ""  # propeller or generator
     charge_law: str = ""  # the simulator's charge pressure against load
+    points: int = 1  # the baseline's calibrated points (3: across the engine's law, law_baseline)
 
 
 def classify(finding: Any) -> tuple[str, str]:
@@ -171,15 +175,22 @@ def run_case(seed: int, duration_s: float) -> Outcome:
     return run_ways(seed, duration_s, "baseline point", (True,))[0]
 
 
-def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...]) -> list[Outcome]:
+def run_ways(
+    seed: int, duration_s: float, operating: str, ways: tuple[bool, ...], *, across_law: bool = False
+) -> list[Outcome]:
     """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case each way.
 
     ``operating`` as :func:`~validation.simulator.random_case` takes it; ``ways`` whether the product
-    is told the load (the true load off by up to 10 %), once per way. A case the simulator cannot
-    make is an outcome of status "error" failed at "simulator"; one the product cannot calibrate on or
-    diagnose fails at "calibration" or "diagnosis".
+    is told the load (the true load off by up to 10 %), once per way. With ``across_law`` a case off
+    its baseline's point is diagnosed each way again against a baseline of three points: the twin and
+    two more healthy twins at the lowest and the highest load of the engine's law
+    (:func:`law_baseline`). A case the simulator cannot make is an outcome of status "error" failed at
+    "simulator"; one the product cannot calibrate on or diagnose fails at "calibration" or "diagnosis".
     """
     start = time.perf_counter()
+    plan = [(told, 1) for told in ways]
+    if across_law and operating != "baseline point":
+        plan += [(told, 3) for told in ways]
     try:
         case = random_case(seed, duration_s=duration_s, operating=operating)
         twin = healthy_twin(case, seed=seed + 1_000_000)
@@ -189,7 +200,7 @@ def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...
             seed, duration_s, 0, "", math.nan, "", "", math.nan, "error", 3, "error", False, False, "", spent
         )
         failed = replace(failed, error=_said(error), failed_at="simulator", operating=operating)
-        return [replace(failed, load_told=told) for told in ways]
+        return [replace(failed, load_told=told, points=points) for told, points in plan]
     truth = case.truth
     # the true cylinder, bearing or channel, as the findings name it
     subject = str(
@@ -203,11 +214,13 @@ def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...
     # a weak cylinder's heat release as a share of the healthy one's (the simulator's "weak_factor")
     strength = float(truth["weak_factor"]) if truth["class"] == "weak" else math.nan
 
-    def about(outcome: Outcome, told: bool) -> Outcome:
-        """The outcome with where the case ran and whether the product was told its load."""
+    def about(outcome: Outcome, told: bool, points: int) -> Outcome:
+        """The outcome with where the case ran, whether the product was told its load, and against how
+        many calibrated points."""
         return replace(
             outcome,
             load_told=told,
+            points=points,
             operating=str(truth["operating_class"]),
             true_load=float(truth["true_load"]),
             load_type=str(truth["load_type"]),
@@ -223,15 +236,18 @@ def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...
             path.write_text(case.engine_toml)
             engine = load_engine(path)
         cylinders = engine.cylinders
-        baseline = calibrate(twin.recording, engine, load=twin.load_given)
-        stage = "diagnosis"
-        for told in ways:
+        baselines = {1: OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])}
+        for told, points in plan:
+            if points not in baselines:
+                stage = "calibration"
+                baselines[points] = law_baseline(case, engine, baselines[1].points[0], seed)
+            stage = "diagnosis"
             diagnosis = diagnose_as_compare(
-                case.recording, engine, baseline, case.load_given if told else None, truth
+                case.recording, engine, baselines[points], case.load_given if told else None, truth
             )
             said = _outcome(seed, duration_s, engine, truth, subject, strength, diagnosis)
             # each way's time: the first's the simulation and calibration too
-            outcomes.append(about(replace(said, seconds=time.perf_counter() - start), told))
+            outcomes.append(about(replace(said, seconds=time.perf_counter() - start), told, points))
             start = time.perf_counter()
     except Exception as error:  # a case the product cannot diagnose is recorded, not fatal
         failed = Outcome(
@@ -253,8 +269,21 @@ def run_ways(seed: int, duration_s: float, operating: str, ways: tuple[bool, ...
             _said(error),
             failed_at=stage,
         )
-        outcomes += [about(failed, told) for told in ways[len(outcomes) :]]
+        outcomes += [about(failed, told, points) for told, points in plan[len(outcomes) :]]
     return outcomes
+
+
+def law_baseline(case: Case, engine: Engine, baseline: Baseline, seed: int) -> OperatingPoints:
+    """The baseline a fleet calibrates across the engine's range: the twin's point, and healthy twins at
+    the lowest and the highest load of the engine's law (propeller curve or generator), each calibrated
+    told its load as the twin is; an end within :data:`SAME_POINT` of the twin's load is left out."""
+    points = [baseline]
+    for k, load in enumerate(law_loads(case), start=2):
+        if abs(load - baseline.load) < SAME_POINT:
+            continue
+        end = healthy_twin(case, seed=seed + k * 1_000_000, load=load)
+        points.append(calibrate(end.recording, engine, load=end.load_given))
+    return OperatingPoints.of(points)
 
 
 def _outcome(
@@ -594,7 +623,8 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         futures = [
-            pool.submit(run_ways, seed, duration, operating, ways) for seed, duration, operating in jobs
+            pool.submit(run_ways, seed, duration, operating, ways, across_law=True)
+            for seed, duration, operating in jobs
         ]
         for done, future in enumerate(as_completed(futures), start=1):
             outcomes += future.result()
@@ -607,7 +637,7 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
     print(file=sys.stderr)
-    outcomes.sort(key=lambda o: (o.seed, not o.load_told))
+    outcomes.sort(key=lambda o: (o.seed, o.points, not o.load_told))
     seconds = time.perf_counter() - start
     args.out.write_text(
         report(

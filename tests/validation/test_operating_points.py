@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from validation.simulator import healthy_twin, random_case, random_engine
+from validation.simulator import healthy_twin, law_loads, random_case, random_engine
 from validation.simulator.operating import OperatingPoint, propeller_load
 
 # Engines of 300 rpm or more (not the slow two-strokes): a few seconds hold tens of cycles each side
@@ -78,6 +78,28 @@ def test_a_propeller_runs_on_its_curve() -> None:
     twin = healthy_twin(case, seed=seed + 1_000_000)
     assert twin.truth["operating_class"] == "baseline point"
     assert twin.truth["true_load"] == pytest.approx(truth["baseline_load"], abs=0.02)
+
+
+@pytest.mark.parametrize("load_type", ["propeller", "generator"])
+def test_twins_at_the_ends_of_the_law_run_there(load_type: str) -> None:
+    """The lowest and highest loads of the engine's law, read back from the twins' own cycles (within
+    the 2 % of the heat release's scatter), and on the propeller curve at 60 % and 100 % speed."""
+    seed = first_seed(load_type)
+    case = random_case(seed, duration_s=LENGTH_S, fault=None, operating="random")
+    lowest, highest = law_loads(case)
+    engine = random_engine(seed)
+    if load_type == "propeller":
+        assert (lowest, highest) == (propeller_load(engine, 0.6), propeller_load(engine, 1.0))
+    else:
+        assert (lowest, highest) == (0.25, 1.0)
+    for k, load in enumerate((lowest, highest), start=2):
+        twin = healthy_twin(case, seed=seed + k * 1_000_000, load=load)
+        assert twin.truth["class"] == "healthy" and twin.truth["operating_class"] == "baseline point"
+        assert twin.truth["true_load"] == pytest.approx(load, abs=0.02)
+        assert twin.recording.engine_id == case.recording.engine_id
+    if load_type == "propeller":  # the speed its curve gives: 60 % of rated at the lowest load
+        low = healthy_twin(case, seed=seed + 2_000_000, load=lowest)
+        assert low.truth["mean_speed_rpm"] / low.truth["rated_speed_rpm"] == pytest.approx(0.6, abs=0.01)
 
 
 def test_a_generator_runs_at_rated_speed_at_any_load() -> None:

@@ -89,7 +89,7 @@ Miyamoto, N. et al., "Description and analysis of diesel engine rate of combusti
 performance using Wiebe's functions", SAE 850107, 1985, doi:10.4271/850107 (double Wiebe).
 """
 
-from validation.simulator.cases import Case, healthy_twin, population, random_case
+from validation.simulator.cases import Case, healthy_twin, law_loads, population, random_case
 from validation.simulator.crank import CrankRun, Load, LoadStep, operating_load, run_crank
 from validation.simulator.description import description_engine, engine_description
 from validation.simulator.engine import DoubleWiebe, SimEngine, random_engine
@@ -152,6 +152,7 @@ __all__ = [
     "gamma",
     "healthy_twin",
     "internal_energy",
+    "law_loads",
     "operating_load",
     "population",
     "random_case",

@@ -35,7 +35,7 @@ from validation.simulator.installation import (
     without_bearing_sensors,
 )
 from validation.simulator.kinematics import bearing_split
-from validation.simulator.operating import OperatingPoint, draw_operating_point
+from validation.simulator.operating import OperatingPoint, draw_operating_point, law_range
 from validation.simulator.scenario import Scenario, draw_scenario
 from validation.simulator.shared import NOISE_STREAM, TWIN_WORD, FloatArray
 
@@ -349,7 +349,7 @@ def random_case(
     return _simulate(seed, seed, twin=False, duration_s=duration_s, fault=fault, operating=operating)
 
 
-def healthy_twin(case: Case, *, seed: int) -> Case:
+def healthy_twin(case: Case, *, seed: int, load: float | None = None) -> Case:
     """The same engine and installation, healthy, with another noise and cycle-variation seed.
 
     Parameters
@@ -358,18 +358,21 @@ def healthy_twin(case: Case, *, seed: int) -> Case:
         A case from :func:`random_case` (or a twin).
     seed : int
         Seed of the twin's noise and cycle-to-cycle variation (>= 0).
+    load : float, optional
+        The twin's load (mean IMEP over rated) [-]; by default the baseline's. A propeller engine
+        runs it at the speed its curve gives (:func:`law_loads` gives the law's range).
 
     Returns
     -------
     Case
         Same description, engine id, installation, charge law and duration as ``case``, healthy,
-        at the baseline's load (the case's own for a case at the baseline's point): the baseline a
-        user would calibrate on.
+        at the load asked (by default the baseline's: the case's own for a case at the baseline's
+        point): the baseline a user would calibrate on.
     """
     truth = case.truth
     point = OperatingPoint(
         "baseline point",
-        (float(truth["baseline_load"]),),
+        (float(truth["baseline_load"]) if load is None else float(load),),
         charge_law=str(truth["charge_law"]),
         crank_only=bool(truth["crank_only"]),
     )
@@ -381,6 +384,21 @@ def healthy_twin(case: Case, *, seed: int) -> Case:
         fault=None,
         operating=point,
     )
+
+
+def law_loads(case: Case) -> tuple[float, float]:
+    """The lowest and highest load of the law the case's engine runs along (propeller or generator).
+
+    Parameters
+    ----------
+    case : Case
+
+    Returns
+    -------
+    tuple of float
+        As :func:`~validation.simulator.operating.law_range` [-].
+    """
+    return law_range(random_engine(int(case.truth["engine_seed"])))
 
 
 def population(

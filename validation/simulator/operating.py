@@ -90,6 +90,24 @@ def propeller_load(engine: SimEngine, speed_fraction: float) -> float:
     return float((speed_fraction**2 * (rated - friction) + friction) / rated)
 
 
+def law_range(engine: SimEngine) -> tuple[float, float]:
+    """The loads the engine's law runs it between: its propeller curve at 60-100 % speed, or 25-100 %.
+
+    Parameters
+    ----------
+    engine : SimEngine
+
+    Returns
+    -------
+    tuple of float
+        The lowest and the highest load (mean IMEP over rated) a case off the baseline's point is
+        drawn at [-] (a misfiring or weak generator engine's may be capped lower).
+    """
+    if engine.load_type == "propeller":
+        return propeller_load(engine, 0.6), propeller_load(engine, 1.0)
+    return 0.25, 1.0
+
+
 def _law_load(engine: SimEngine, rng: np.random.Generator) -> float:
     """A load of the engine's law: on the propeller curve at 60-100 % speed, or 25-100 % at rated speed."""
     if engine.load_type == "propeller":
