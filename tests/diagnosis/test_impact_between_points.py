@@ -2,11 +2,11 @@
 
 An engine calibrated at several loads (:class:`monitor.diagnosis.operating_points.OperatingPoints`)
 has a high-frequency profile at each. An event of the engine's own (a valve closing, piston slap)
-that grows with the load, barely there at the lower point, is quieter at the lower point than at a recording between the points: judged
-against the nearer point alone it reads as a knock. Between two points each bin's power is
-interpolated linearly in load (:func:`monitor.diagnosis.impact_reference.between`); these tests build
-such profiles by hand and check that the event is expected where it is and a knock elsewhere still
-heard.
+that grows with the load, barely there at the lower point, is louder in a recording between the
+points than at the lower one: judged against the nearer point alone it reads as a knock. Between two
+points each bin's power is interpolated linearly in load
+(:func:`monitor.diagnosis.impact_reference.between`); these tests build such profiles by hand and
+check that the event is expected where it is and a knock elsewhere still heard.
 """
 
 from __future__ import annotations
