@@ -354,9 +354,15 @@ def run_worker(args: argparse.Namespace) -> int:
     int
         0.
     """
-    import logging.config
     import signal
     import threading
+
+    # Before anything heavy: loading the store's and the analyses' modules takes a second or more,
+    # during which a SIGTERM (a container stopped right after its start) would kill the process with
+    # status -15. One that comes while loading stops the worker before it claims any job.
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    import logging.config
     from datetime import timedelta
 
     from monitor.jobs.worker import Worker
@@ -365,6 +371,9 @@ def run_worker(args: argparse.Namespace) -> int:
     data = Path(args.data)
     data.mkdir(parents=True, exist_ok=True)
     store = open_store(store_url(args.store, args.data))
+    if stop.is_set():
+        store.close()
+        return 0
     worker = Worker(
         store,
         data.resolve(),
@@ -372,8 +381,6 @@ def run_worker(args: argparse.Namespace) -> int:
         lease=timedelta(seconds=args.lease),
         backoff=timedelta(seconds=args.retry_backoff),
     )
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
     logging.config.dictConfig(_worker_log_config())
     worker.start()
     print(

@@ -200,6 +200,40 @@ def test_a_server_stopped_while_it_loads_exits_cleanly(tmp_path: Path) -> None:
     assert "connections:" not in said and "Started server process" not in said, said
 
 
+@pytest.mark.skipif(
+    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
+)
+def test_a_worker_stopped_while_it_loads_exits_cleanly_without_claiming_a_job(tmp_path: Path) -> None:
+    """SIGTERM as soon as ``worker`` takes it, while it still loads the store and the analyses: status 0,
+    no traceback, and it never started (it says how many processes it runs only once started). Killed
+    by the signal (status -15) while it took SIGTERM only after loading."""
+    log = tmp_path / "worker.log"
+    store = f"sqlite:///{tmp_path / 'store.db'}"
+    with open(log, "wb") as out:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "monitor", "worker", "--store", store, "--data", str(tmp_path / "data")],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            cwd=ROOT,
+        )
+    try:
+        deadline = time.monotonic() + 60
+        while process.poll() is None and not _catches_sigterm(process.pid):
+            assert time.monotonic() < deadline, log.read_text()
+            time.sleep(0.005)
+        process.send_signal(signal.SIGTERM)
+        status = process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    said = log.read_text()
+    assert status == 0, said
+    assert "Traceback" not in said and "Exception ignored" not in said, said
+    assert "process(es) on" not in said, said
+
+
 #: a process with serve's SIGTERM handler, stopped by SIGTERM, whose exit handler is sent SIGTERM again
 _STOPPED_TWICE = """
 import atexit, os, signal, time
