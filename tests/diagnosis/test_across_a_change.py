@@ -9,8 +9,10 @@ where the steady spans lie (:mod:`monitor.signal.steady` is tested on its own se
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import cast
 
+import numpy as np
 import pytest
 
 import monitor.diagnosis.segments as segments
@@ -18,7 +20,7 @@ from monitor.diagnosis.diagnose import Diagnosis
 from monitor.diagnosis.findings import MISFIRE_BELOW, MISSING_IMPULSE, RELATIVE_STRENGTH, Finding
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
-from monitor.signal.steady import Segment, Segmentation
+from monitor.signal.steady import CycleSeries, Segment, Segmentation, steady_segments
 from tests.diagnosis.hand_built import hand_built
 
 WEAK = Finding(
@@ -125,3 +127,43 @@ def test_a_steady_recording_or_a_run_up_is_diagnosed_as_it_was(
     _segmented_as(monkeypatch, short)
     whole = _whole("alarm", [WEAK])
     assert _diagnosed(whole) is whole
+
+
+def _stepped(before: int, after: int) -> CycleSeries:
+    """A noise-free series: ``before`` cycles at 100 rad/s and load indicator 1, then ``after`` at 110
+    and 1.5 (a step of 10 % in speed and 50 % in load, far beyond the same point's limits)."""
+    n = before + after
+    start = 0.1 * np.arange(n, dtype=np.float64)
+    speed = np.where(np.arange(n) < before, 100.0, 110.0)
+    load = np.where(np.arange(n) < before, 1.0, 1.5)
+    return CycleSeries(start, start + 0.1, speed, load)
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "across"),
+    [
+        (2, 4, True),  # three steady cycles after the change (the one next to it is the transition's)
+        (2, 3, False),  # two: no steady span at all, as in a run-up
+    ],
+)
+def test_three_steady_cycles_on_a_side_tell_a_change(
+    monkeypatch: pytest.MonkeyPatch, before: int, after: int, across: bool
+) -> None:
+    """:data:`~monitor.diagnosis.segments.SHORT_SIDE` through the real segmentation of a tiny
+    recording: with three steady cycles on a side the change is told and the weak finding read across
+    it left out (were four needed, the whole recording would stand); with two it is not told, and the
+    whole recording's diagnosis stands as a run-up's (were two enough, it would be read across)."""
+    monkeypatch.setattr(segments, "segmentation_of", _real_segmentation(_stepped(before, after)))
+    whole = _whole("alarm", [WEAK])
+    said = _diagnosed(whole)
+    assert (said.findings == []) is across
+    assert (said is whole) is not across
+
+
+def _real_segmentation(series: CycleSeries) -> Callable[..., Segmentation]:
+    """``segmentation_of`` on a given series: :func:`monitor.signal.steady.steady_segments` itself."""
+
+    def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int) -> Segmentation:
+        return steady_segments(series, min_cycles=min_cycles)
+
+    return segmentation_of
