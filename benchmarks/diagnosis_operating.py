@@ -2,9 +2,11 @@
 
 A case off its baseline's point (:mod:`validation.simulator.operating`) is diagnosed twice against
 the same baseline: told its load (the true one off by up to 10 %) and not told it (the product
-then takes the baseline's). Each class's table holds the acceptance rows, each way, with whether
-each meets its limit; cases the simulator could not make, and cases the product refused to
-calibrate on, are counted in rows of their own and left out of the rates.
+then takes the baseline's); and, where the run asks for it, twice more against a baseline of three
+points across the engine's law (not told, the product estimates the load). Each class's table holds
+the acceptance rows, each way, with whether each meets its limit; cases the simulator could not
+make, and cases the product refused to calibrate on, are counted in rows of their own and left out
+of the rates.
 """
 
 from __future__ import annotations

@@ -574,7 +574,13 @@ def _operating_section(everything: list[Outcome]) -> list[str]:
         "(`benchmarks.diagnosed`): at the recording's point, and segment by segment where it crosses "
         "points. Told the load, a load step is told one load per steady segment found (the load run at "
         "the segment's middle, off by the same error), as `compare --segment-loads` takes them; not "
-        "told, every segment is judged at the baseline's load.",
+        "told, every segment is judged at the baseline's load. Each case off the baseline's point is then "
+        "diagnosed both ways again against a baseline of three points across its engine's law "
+        "(`law_baseline`): the twin and two more healthy twins at the law's lowest and highest load "
+        "(a propeller engine at 60 % and 100 % of rated speed on its curve, a generator at 25 % and "
+        "100 % load), each calibrated told its load, as `engine-monitor calibrate` takes several "
+        "recordings; not told its load, the product then estimates it from the recording against the "
+        'points. The columns "one point" and "three points" say which baseline.',
         "",
         f"Cases the simulator could not make: {len(failed)}"
         + (
