@@ -29,7 +29,12 @@ own noise:
    times its size, so one of two thirds of the floor or more leaves no segment and the recording
    is diagnosed whole, as without segments); neighbours less than
    :data:`MIN_CYCLES` apart that the test of step 2 no longer tells apart are joined again (a
-   glitch split off does not cut a steady run in two). The :data:`GUARD` cycles on each side of a
+   glitch split off does not cut a steady run in two). Last, the cycles of a segment whose speed
+   departs from its median by :data:`SPEED_STEP` or more are a transient the split test does not
+   see (a short dip and recovery has the same mean on both sides: the held speed after a load step,
+   whose load indicator may not tell the step where the inertia torque dominates the firing
+   harmonic, as on many cylinders): they are cut out, and the runs either side are segments of
+   their own. The :data:`GUARD` cycles on each side of a
    change (the cycle in which the load moved holds both) and every piece that is not a segment
    make the transitions.
 
@@ -288,6 +293,19 @@ def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
     return False
 
 
+def _without_excursions(speed: FloatArray, a: int, b: int) -> list[tuple[int, int]]:
+    """Cycles ``a:b`` without those whose speed departs from their median by :data:`SPEED_STEP` or more:
+    the runs between such excursions (a transient too short for the split test to cut out)."""
+    x = speed[a:b]
+    level = float(np.median(x))
+    off = np.abs(x - level) >= SPEED_STEP * abs(level)
+    if not off.any():
+        return [(a, b)]
+    edges = np.flatnonzero(np.diff(np.concatenate([[True], off, [True]]).astype(np.int8)))
+    # the runs of steady cycles: each from a fall of ``off`` to the next rise
+    return [(a + int(start), a + int(stop)) for start, stop in zip(edges[::2], edges[1::2], strict=True)]
+
+
 def _differ(columns: list[tuple[FloatArray, float]], one: tuple[int, int], two: tuple[int, int]) -> bool:
     """Whether two pieces' levels differ by a significant step that the diagnosis would tell apart."""
     for values, floor in columns:
@@ -336,7 +354,8 @@ def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Seg
             joined[-1] = (joined[-1][0], piece[1])
         else:
             joined.append(piece)
-    trimmed = [(a + (GUARD if a > 0 else 0), b - (GUARD if b < n else 0)) for a, b in joined]
+    steady = [part for a, b in joined for part in _without_excursions(series.speed, a, b)]
+    trimmed = [(a + (GUARD if a > 0 else 0), b - (GUARD if b < n else 0)) for a, b in steady]
     segments = tuple(
         Segment(
             first=a,
