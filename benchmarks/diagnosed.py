@@ -55,7 +55,7 @@ def diagnose_as_compare(
     loads: list[float] = []
     if load is not None and truth.get("step_time_s") is not None:
         found = segmentation_of(whole, engine)
-        if len(found.segments) >= 2:
+        if found.segments and not found.at_one_point:
             ratio = float(truth["load_given_ratio"])
             step, (before, after) = float(truth["step_time_s"]), truth["segment_loads"][:2]
             loads = [

@@ -18,8 +18,12 @@ strengths, can grow until the segment is inconclusive (never healthy for that re
 
 The overall status is the worst segment's (alarm, warning, inconclusive, healthy in that order);
 its findings are each subject's worst over the segments (:attr:`SegmentedDiagnosis.findings`, with
-the segments it was found in); a transition is reported as such and is no finding. A recording with
-one steady segment or none (a steady run, a run-up) is the whole recording's diagnosis, unchanged.
+the segments it was found in); a transition is reported as such and is no finding. A recording at one
+steady point throughout, or with no steady span long enough (a run-up), is the whole recording's
+diagnosis, unchanged. One with a single steady segment and the rest of it elsewhere (a load step
+whose other side is too short to diagnose, the speed's dip and recovery after it) is that segment's
+diagnosis, with a note that the rest is not judged: the whole recording's would compare two points'
+mix with the model at one.
 """
 
 from __future__ import annotations
@@ -111,7 +115,8 @@ class SegmentedDiagnosis:
     whole : Diagnosis
         The whole recording's diagnosis (its spectra, its plot).
     segments : tuple of SegmentDiagnosis
-        Two or more when the recording crosses operating points; empty otherwise.
+        One or more when the recording crosses operating points (one: the only steady one, the rest
+        not judged); empty otherwise.
     transitions : tuple of Transition
     """
 
@@ -204,6 +209,8 @@ def _note(
             if source == "segment"
             else f"the reference at the load estimated from this segment ({load:.2f})"
             if source == "estimated"
+            else f"the reference at the load this segment's speed reads on the calibrated points ({load:.2f})"
+            if source == "speed"
             else f"the model at the load given for the recording ({load:.2f}): give each segment's "
             "load (compare --segment-loads) to judge it at its own"
         )
@@ -254,8 +261,9 @@ def diagnose_segments(
     Returns
     -------
     SegmentedDiagnosis
-        Without segments when the recording has fewer than two steady ones (``loads`` then unused:
-        a note on the whole diagnosis says so).
+        Without segments when the recording is at one steady point throughout or has no steady
+        segment (``loads`` then unused: a note on the whole diagnosis says so); with one segment when
+        the rest of the recording is not at one point long enough.
 
     Raises
     ------
@@ -263,11 +271,16 @@ def diagnose_segments(
         When ``loads`` are given and not one per segment.
     """
     found = segmentation_of(whole, engine, min_cycles=min_cycles)
-    if len(found.segments) < 2:
+    if not found.segments or found.at_one_point:
         if loads:
             whole.notes.append(
-                f"the loads per segment were not used: the recording has {len(found.segments)} steady "
-                f"segment(s) of {min_cycles} cycles or more, and is diagnosed whole"
+                "the loads per segment were not used: the recording "
+                + (
+                    "is at one steady point"
+                    if found.segments
+                    else f"has no steady span of {min_cycles} cycles"
+                )
+                + ", and is diagnosed whole"
             )
         return SegmentedDiagnosis(_across_a_change(whole, engine, min_cycles))
     if loads and len(loads) != len(found.segments):
@@ -296,8 +309,19 @@ def diagnose_segments(
         )
         source = "segment" if loads else str(part.operating_point.get("load_used_from", "stated"))
         part.notes.insert(0, _note(item, i, len(found.segments), part.load, source, mean_indicator))
+        if len(found.segments) == 1:
+            part.notes.insert(1, _rest_note(item, min_cycles))
         diagnosed.append(SegmentDiagnosis(i, item, part))
     return SegmentedDiagnosis(whole, tuple(diagnosed), found.transitions)
+
+
+def _rest_note(item: Segment, min_cycles: int) -> str:
+    """What a recording's one steady segment leaves unjudged: the rest, a change or too short a span."""
+    return (
+        f"the recording holds one steady point for {min_cycles} cycles or more, from {item.start_s:.2f} to "
+        f"{item.stop_s:.2f} s: the rest of it (a change of operating point, or too short a span at "
+        "another) is not judged, and the diagnosis is this segment's"
+    )
 
 
 def _across_a_change(whole: Diagnosis, engine: Engine, min_cycles: int) -> Diagnosis:

@@ -236,7 +236,8 @@ def segmented_document(segmented: SegmentedDiagnosis, *, recording: str = "") ->
         {**_finding(item.finding), "segments": list(item.segments)} for item in segmented.findings
     ]
     said = (
-        f"diagnosed per steady segment: {len(parts)} segments, {len(segmented.transitions)} "
+        f"diagnosed per steady segment: {len(parts)} segment{'s' * (len(parts) != 1)}, "
+        f"{len(segmented.transitions)} "
         "transition(s); the status and findings are the segments'"
     )
     document["notes"] = [said, *document["notes"]]
@@ -283,7 +284,7 @@ def segmented_table(segmented: SegmentedDiagnosis, *, recording: str = "", max_r
 
     lines = [
         f"{recording or 'recording'}: {segmented.whole.engine_id}, diagnosed per steady segment "
-        f"({len(segmented.segments)} segments)",
+        f"({len(segmented.segments)} segment{'s' * (len(segmented.segments) != 1)})",
         f"status: {segmented.status.upper()} (the worst segment's)",
     ]
     for t in segmented.transitions:
