@@ -7,9 +7,11 @@ orders (:mod:`monitor.diagnosis.load_estimate`).  The stated load, where there i
 the model and the reference are taken at: the estimate rests on the cylinders' strengths, which a
 fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower load), so
 the estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
-followed.  Without a stated load, against several calibrated points the estimate is used (the
-first pass at the middle point's load, the second at the estimate); against a single point or
-none, as before: the baseline's load, else rated (the estimate reported beside it).
+followed.  Without a stated load, against several calibrated points whose speeds rise with their
+loads (an engine on a propeller curve) the load is read from the recording's speed on theirs; against
+several at one speed the estimate is used (the first pass at the middle point's load, the second at
+the load found); against a single point or none, as before: the baseline's load, else rated (the
+estimate reported beside it).
 """
 
 from __future__ import annotations
@@ -19,8 +21,11 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.balance import Transfer
+from monitor.diagnosis.bearings import SPEED_TOLERANCE
 from monitor.diagnosis.diagnose import Diagnosis, diagnose
 from monitor.diagnosis.load_estimate import LoadEstimate, estimate_load
 from monitor.diagnosis.operating_points import LOAD_UNCERTAINTY, OperatingPoints, Reference
@@ -68,8 +73,10 @@ def diagnose_at_point(
         Its ``operating_point`` says the load stated, estimated and used, and the reference.
     """
 
-    def run(at: float | None) -> tuple[Diagnosis, Reference | None]:
-        reference = points.reference_at(at if at is not None else _middle(points)) if points else None
+    def run(at: float | None, within: tuple[float, float]) -> tuple[Diagnosis, Reference | None]:
+        reference = (
+            points.reference_at(at if at is not None else _middle(points), within=within) if points else None
+        )
         diagnosis = diagnose(
             recording,
             engine,
@@ -84,18 +91,37 @@ def diagnose_at_point(
         return diagnosis, reference
 
     first = load if load is not None else (_middle(points) if points is not None else None)
-    diagnosis, reference = run(first)
+    # the loads the recording may be at, for the impact reference: the stated load's uncertainty, else
+    # any of the calibrated loads (the estimate from the crank-speed orders is not narrowed to: on many
+    # cylinders the inertia torque dominates the orders it reads, and it can miss by half the range)
+    calibrated = points.loads if points is not None else [math.nan]
+    within = (
+        (load - LOAD_UNCERTAINTY, load + LOAD_UNCERTAINTY)
+        if load is not None
+        else (calibrated[0], calibrated[-1])
+    )
+    diagnosis, reference = run(first, within)
     estimate = _estimate(diagnosis, engine, points, transfer, max_order)
     used = "stated"
+    by_speed = _load_from_speed(diagnosis.speed_rpm, points) if load is None else None
     if load is None:
         used = "baseline" if points is not None else "rated"
-        if estimate is not None and len(_calibrated(points)) > 1:
+        if by_speed is not None:
+            used = "speed"
+            if abs(by_speed - diagnosis.load) > 0.01:  # the model and reference at the speed's load
+                diagnosis, reference = run(by_speed, within)
+        elif estimate is not None and len(_calibrated(points)) > 1:
             used = "estimated"
             if abs(estimate.load - diagnosis.load) > 0.01:  # the model and reference at the estimate
-                diagnosis, reference = run(estimate.load)
+                diagnosis, reference = run(estimate.load, within)
     notes = _load_notes(load, estimate, diagnosis.load, used)
     if reference is not None and len(_calibrated(points)) > 1:
         notes.append(reference.note())
+        notes.append(
+            f"the bearings' impacts are judged against the engine's own high-frequency noise at its "
+            f"loudest over the loads {max(min(within), 0.0):.2f} to {max(within):.2f} (the load's "
+            "uncertainty), interpolated between the calibrated points"
+        )
     point: dict[str, Any] = {
         "load_used": diagnosis.load,
         "load_used_from": used,
@@ -137,6 +163,22 @@ def _estimate(
     )
 
 
+def _load_from_speed(speed_rpm: float, points: OperatingPoints | None) -> float | None:
+    """The load the calibrated points' speeds give at the recording's speed, where they tell it.
+
+    Points whose speeds rise with the load by more than the bearings' speed tolerance are an engine
+    whose speed follows its load (a fixed-pitch propeller): the recording's mean speed reads its load
+    off them, linearly between two points, the nearest point's beyond them. Points at one speed (a
+    generator) tell nothing, and None is returned.
+    """
+    if points is None or len(points.points) < 2 or not math.isfinite(speed_rpm):
+        return None
+    speeds = np.array([p.speed_rpm for p in points.points])
+    if not (np.all(np.diff(speeds) > 0) and speeds[-1] > (1 + SPEED_TOLERANCE) * speeds[0]):
+        return None
+    return float(np.interp(speed_rpm, speeds, points.loads))
+
+
 def _load_notes(stated: float | None, estimate: LoadEstimate | None, used: float, source: str) -> list[str]:
     """The loads stated, estimated and used, and a disagreement between the first two."""
     notes = []
@@ -156,4 +198,9 @@ def _load_notes(stated: float | None, estimate: LoadEstimate | None, used: float
             )
     if source == "estimated":
         notes.append(f"no load stated: the estimated load {used:.2f} is used")
+    if source == "speed":
+        notes.append(
+            f"no load stated: the load {used:.2f} is read from the recording's speed on the calibrated "
+            "points' speeds (the engine's speed follows its load, as on a propeller curve)"
+        )
     return notes

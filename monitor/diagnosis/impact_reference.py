@@ -25,7 +25,7 @@ engine is judged against the baseline as it is.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -41,6 +41,7 @@ __all__ = [
     "between",
     "class_levels",
     "engine_level",
+    "loudest",
     "reference_profile",
     "widened",
 ]
@@ -200,6 +201,44 @@ def between(
         cycles=min(low_on.cycles, high_on.cycles),
         speed_rpm=float(line(np.asarray(low_on.speed_rpm), np.asarray(high_on.speed_rpm))),
     )
+
+
+def loudest(profiles: Sequence[HighFrequencyPower | None]) -> HighFrequencyPower | None:
+    """Bin by bin the loudest of a sensor's profiles at several loads (with that bin's spread).
+
+    A recording whose load is known only within a span is judged against the loudest its engine's own
+    events get over the span: an event that grows with the load may be as loud as at the span's top.
+
+    Parameters
+    ----------
+    profiles : sequence of HighFrequencyPower or None
+        The first is the profile at the load used; the others at the span's ends and the calibrated
+        points within it.
+
+    Returns
+    -------
+    HighFrequencyPower or None
+        On the first profile's bins (the others coarsened to them, or left out where they cannot be:
+        another sampling rate or band, bins that do not divide); the first itself where it is None.
+    """
+    first = profiles[0] if profiles else None
+    if first is None:
+        return None
+    means, stds = [first.mean], [first.std]
+    for other in profiles[1:]:
+        if other is None or other.mean.size < first.mean.size:
+            continue
+        mine, theirs = _common(other, first)
+        if theirs is None or mine.mean.size != first.mean.size:
+            continue
+        means.append(theirs.mean)
+        stds.append(theirs.std)
+    if len(means) == 1:
+        return first
+    stacked = np.stack(means)
+    pick = np.argmax(stacked, axis=0)
+    column = np.arange(first.mean.size)
+    return replace(first, mean=stacked[pick, column], std=np.stack(stds)[pick, column])
 
 
 def reference_profile(

@@ -40,7 +40,7 @@ import numpy as np
 
 from monitor.diagnosis.balance import CrankCalibration
 from monitor.diagnosis.baseline import BASELINE_FORMAT, Baseline, SensorBaseline
-from monitor.diagnosis.impact_reference import between
+from monitor.diagnosis.impact_reference import between, loudest
 from monitor.errors import DiagnosisError
 
 __all__ = [
@@ -203,18 +203,41 @@ class OperatingPoints:
             [Baseline.from_document(p, origin=f"{origin}, point {i + 1}") for i, p in enumerate(points)]
         )
 
-    def reference_at(self, load: float) -> Reference:
+    def reference_at(self, load: float, *, within: tuple[float, float] | None = None) -> Reference:
         """The reference at a load: interpolated between the two points around it, else the nearest.
 
         Parameters
         ----------
         load : float
             [-]
+        within : tuple of float, optional
+            The loads the recording may be at, for the impact profiles [-]: each sensor's is then
+            bin by bin the loudest over them (:func:`~monitor.diagnosis.impact_reference.loudest` of
+            the profiles at ``load``, at the span's ends and at the calibrated points inside it).
+            Default: the profile at ``load`` alone.
 
         Returns
         -------
         Reference
         """
+        reference = self._reference_at(load)
+        if within is None or len(self.points) == 1:
+            return reference
+        low, high = sorted(within)
+        loads = [low, high, *(p.load for p in self.points if low < p.load < high)]
+        others = [self._reference_at(at).baseline.sensors for at in loads]
+        sensors = {
+            name: replace(
+                s,
+                high_frequency=loudest(
+                    [s.high_frequency, *(o[name].high_frequency for o in others if name in o)]
+                ),
+            )
+            for name, s in reference.baseline.sensors.items()
+        }
+        return replace(reference, baseline=replace(reference.baseline, sensors=sensors))
+
+    def _reference_at(self, load: float) -> Reference:
         loads = np.asarray(self.loads)
         if len(self.points) == 1:
             only = self.points[0]
