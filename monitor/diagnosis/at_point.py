@@ -32,7 +32,7 @@ from monitor.diagnosis.operating_points import LOAD_UNCERTAINTY, OperatingPoints
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 
-__all__ = ["AGREE", "diagnose_at_point"]
+__all__ = ["AGREE", "diagnose_at_point", "load_from_speed"]
 
 AGREE = 2.0  # a stated and an estimated load further apart than this many joint standard errors disagree
 
@@ -103,7 +103,7 @@ def diagnose_at_point(
     diagnosis, reference = run(first, within)
     estimate = _estimate(diagnosis, engine, points, transfer, max_order)
     used = "stated"
-    by_speed = _load_from_speed(diagnosis.speed_rpm, points) if load is None else None
+    by_speed = load_from_speed(diagnosis.speed_rpm, points) if load is None else None
     if load is None:
         used = "baseline" if points is not None else "rated"
         if by_speed is not None:
@@ -163,13 +163,24 @@ def _estimate(
     )
 
 
-def _load_from_speed(speed_rpm: float, points: OperatingPoints | None) -> float | None:
+def load_from_speed(speed_rpm: float, points: OperatingPoints | None) -> float | None:
     """The load the calibrated points' speeds give at the recording's speed, where they tell it.
 
     Points whose speeds rise with the load by more than the bearings' speed tolerance are an engine
     whose speed follows its load (a fixed-pitch propeller): the recording's mean speed reads its load
-    off them, linearly between two points, the nearest point's beyond them. Points at one speed (a
-    generator) tell nothing, and None is returned.
+    off them, linearly between two points, the nearest point's beyond them.
+
+    Parameters
+    ----------
+    speed_rpm : float
+        The recording's mean speed [rpm].
+    points : OperatingPoints or None
+
+    Returns
+    -------
+    float or None
+        [-]; None for fewer than two points, or points whose speeds do not rise with their loads
+        by more than the tolerance (a generator's, at one speed).
     """
     if points is None or len(points.points) < 2 or not math.isfinite(speed_rpm):
         return None

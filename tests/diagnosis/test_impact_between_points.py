@@ -11,13 +11,16 @@ check that the event is expected where it is and a knock elsewhere still heard.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from monitor.diagnosis import Baseline, SensorBaseline
+from monitor.diagnosis.at_point import load_from_speed
 from monitor.diagnosis.bearings import impact_score
 from monitor.diagnosis.findings import IMPACT_WARNING, SIGNIFICANCE
-from monitor.diagnosis.impact_reference import between, reference_profile
+from monitor.diagnosis.impact_reference import between, loudest, reference_profile
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.signal.impact import HighFrequencyPower
 
@@ -121,3 +124,60 @@ def test_beyond_the_points_the_nearest_profile_is_kept() -> None:
     below = points.reference_at(0.3).baseline.sensors["mb1"].high_frequency
     assert below is not None
     np.testing.assert_array_equal(below.mean, _profile(0.5).mean)
+
+
+def test_a_load_known_within_a_span_is_judged_against_the_loudest_over_it() -> None:
+    """Told 0.75 +- 0.1, the event is expected as loud as at 0.85 (the line's value there); told
+    nothing, as loud as at the loudest calibrated point; a knock at a quiet reversal is heard either
+    way, the loudest being the engine's own events only."""
+    points = OperatingPoints.of([_point(load) for load in LOADS])
+    at_event = int(EVENT_DEG / 720.0 * BINS)
+    told = points.reference_at(BETWEEN, within=(0.65, 0.85)).baseline.sensors["mb1"].high_frequency
+    assert told is not None
+    assert told.mean[at_event] == pytest.approx(1.0 + _event(0.85))
+    anywhere = points.reference_at(BETWEEN, within=LOADS).baseline.sensors["mb1"].high_frequency
+    assert anywhere is not None
+    assert anywhere.mean[at_event] == pytest.approx(1.0 + _event(1.0))
+    assert points.reference_at(BETWEEN).baseline.sensors["mb1"].high_frequency.mean[at_event] == (  # type: ignore[union-attr]
+        pytest.approx(1.0 + _event(BETWEEN))
+    )
+    knocked = _profile(BETWEEN, knock_at_deg=QUIET_DEG + 15.0)
+    assert _heard(knocked, anywhere, QUIET_DEG)
+    assert not _heard(_profile(1.0), anywhere, EVENT_DEG)
+
+
+def test_the_loudest_keeps_the_first_profiles_bins_and_leaves_out_what_cannot_be_compared() -> None:
+    """Bin by bin the largest, with that bin's spread; a finer profile is coarsened to the first's, a
+    coarser one or one of another sampling rate is left out; no first profile, none."""
+    quiet, loud = _profile(0.5), _profile(1.0)
+    both = loudest([quiet, loud])
+    assert both is not None
+    np.testing.assert_array_equal(both.mean, np.maximum(quiet.mean, loud.mean))
+    np.testing.assert_array_equal(both.std, np.where(loud.mean >= quiet.mean, loud.std, quiet.std))
+    coarse_first = loudest([_profile(0.5, bins=512), loud])
+    assert coarse_first is not None and coarse_first.mean.size == 512
+    np.testing.assert_allclose(
+        coarse_first.mean, np.maximum(_profile(0.5, bins=512).mean, loud.coarsened(512).mean)
+    )
+    assert loudest([quiet, _profile(1.0, bins=512)]) is quiet
+    other_rate = HighFrequencyPower(loud.mean, loud.std, CYCLES, 12800.0, BAND, 750.0)
+    assert loudest([quiet, other_rate, None]) is quiet
+    assert loudest([None, loud]) is None
+
+
+def test_points_on_a_propeller_curve_give_the_load_at_the_recordings_speed() -> None:
+    """Points whose speeds rise with the load (100, 154, 166 rpm at 0.41, 0.91, 1.05) read 0.82 at
+    145.8 rpm, linearly between the two around it, and the end point's load beyond them; points at
+    one speed, or one point, tell nothing."""
+    propeller = OperatingPoints.of(
+        [replace(_point(load), speed_rpm=rpm) for load, rpm in ((0.41, 100.0), (0.91, 154.0), (1.05, 166.0))]
+    )
+    assert load_from_speed(145.8, propeller) == pytest.approx(0.41 + 0.5 * 45.8 / 54.0)
+    assert load_from_speed(170.0, propeller) == pytest.approx(1.05)
+    assert load_from_speed(90.0, propeller) == pytest.approx(0.41)
+    generator = OperatingPoints.of([_point(load) for load in LOADS])  # both at 750 rpm
+    assert load_from_speed(700.0, generator) is None
+    assert load_from_speed(145.8, OperatingPoints.of([_point(0.5)])) is None
+    # speeds within the bearings' 5 % of each other are one speed, whatever the load
+    near = OperatingPoints.of([replace(_point(0.5), speed_rpm=750.0), replace(_point(1.0), speed_rpm=780.0)])
+    assert load_from_speed(770.0, near) is None

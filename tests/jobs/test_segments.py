@@ -113,3 +113,29 @@ def test_a_steady_recording_is_diagnosed_as_before(tmp_path: Path) -> None:
     assert analysis.segments == () and analysis.transitions == ()
     assert analysis.diagnosis_document() == diagnosis_document(analysis.diagnosis, recording="steady.h5")
     assert analysis.table() == diagnosis_table(analysis.diagnosis, recording="steady.h5")
+
+
+def test_a_step_too_near_the_end_leaves_one_segment_which_is_the_diagnosis(tmp_path: Path) -> None:
+    """The misfiring 6L32 stepped at 8 s and stopped 1.6 s later (10 cycles at half load, under the 20 a
+    segment needs): the one steady segment before the step is diagnosed at its own load (1, given
+    for it), the misfire named there; the rest is said not to be judged; the document and the table
+    hold that one segment."""
+    scene = load_scene(SCENES / "6l32-load-step.toml")
+    scene = scene.model_copy(
+        update={
+            "duration_s": STEP_S + 10 * CYCLE_S,
+            "effects": {**scene.effects, "misfire": {"cylinders": [3]}},
+        }
+    )
+    path = write_hdf5(simulate(scene).recording, tmp_path / "late-step.h5")
+    analysis = analyse(path, options=AnalysisOptions(segment_loads=(1.0,)))
+    (only,) = analysis.segments
+    assert only.segment.stop_s <= STEP_S and only.segment.cycles >= 20
+    assert only.diagnosis.load == 1.0
+    assert [f.subject for f in only.diagnosis.findings if f.kind == "cylinder"] == ["cylinder 3"]
+    assert analysis.status == "alarm" and analysis.transitions == ()
+    assert any("the rest of it (a change of operating point" in n for n in only.diagnosis.notes)
+    document = analysis.diagnosis_document()
+    assert [s["index"] for s in document["segments"]] == [1]
+    assert document["notes"][0].startswith("diagnosed per steady segment: 1 segment, 0 transition(s)")
+    assert "diagnosed per steady segment (1 segment)" in analysis.table()
