@@ -153,65 +153,12 @@ def _catches_sigterm(pid: int) -> bool:
     return bool(int(mask, 16) >> (signal.SIGTERM - 1) & 1)
 
 
-@pytest.mark.skipif(
-    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
-)
-def test_a_server_stopped_while_it_loads_exits_cleanly(tmp_path: Path) -> None:
-    """SIGTERM as soon as ``serve`` takes it, while it still loads uvicorn and the service (a container
-    stopped right after its start): it must take it before that loading, which lasts seconds, and exit
-    with status 0 without a traceback, never having served. Killed by the signal (status -15) until it
-    did."""
-    log = tmp_path / "server.log"
-    store = f"sqlite:///{tmp_path / 'store.db'}"
+def _stopped_while_loading(command: list[str], log: Path) -> str:
+    """Start ``engine-monitor COMMAND``, send it SIGTERM as soon as it has a handler for it, and return what
+    it said, after checking that it exited with status 0 and without a traceback."""
     with open(log, "wb") as out:
         process = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "monitor",
-                "serve",
-                "--port",
-                str(_free_port()),
-                "--store",
-                store,
-                "--data",
-                str(tmp_path / "data"),
-            ],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
-            cwd=ROOT,
-        )
-    try:
-        deadline = time.monotonic() + 60
-        while process.poll() is None and not _catches_sigterm(process.pid):
-            assert time.monotonic() < deadline, log.read_text()
-            time.sleep(0.01)
-        process.send_signal(signal.SIGTERM)
-        status = process.wait(timeout=30)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    said = log.read_text()
-    assert status == 0, said
-    assert "Traceback" not in said and "Exception ignored" not in said, said
-    # stopped while it loaded: before serve says its connection limits, long before uvicorn starts
-    assert "connections:" not in said and "Started server process" not in said, said
-
-
-@pytest.mark.skipif(
-    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
-)
-def test_a_worker_stopped_while_it_loads_exits_cleanly_without_claiming_a_job(tmp_path: Path) -> None:
-    """SIGTERM as soon as ``worker`` takes it, while it still loads the store and the analyses: status 0,
-    no traceback, and it never started (it says how many processes it runs only once started). Killed
-    by the signal (status -15) while it took SIGTERM only after loading."""
-    log = tmp_path / "worker.log"
-    store = f"sqlite:///{tmp_path / 'store.db'}"
-    with open(log, "wb") as out:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "monitor", "worker", "--store", store, "--data", str(tmp_path / "data")],
+            [sys.executable, "-m", "monitor", *command],
             stdout=out,
             stderr=subprocess.STDOUT,
             start_new_session=True,
@@ -231,6 +178,34 @@ def test_a_worker_stopped_while_it_loads_exits_cleanly_without_claiming_a_job(tm
     said = log.read_text()
     assert status == 0, said
     assert "Traceback" not in said and "Exception ignored" not in said, said
+    return said
+
+
+@pytest.mark.skipif(
+    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
+)
+def test_a_server_stopped_while_it_loads_exits_cleanly(tmp_path: Path) -> None:
+    """SIGTERM as soon as ``serve`` takes it, while it still loads uvicorn and the service (a container
+    stopped right after its start): it must take it before that loading, which lasts seconds, and exit
+    with status 0 without a traceback, never having served. Killed by the signal (status -15) until it
+    did."""
+    store = f"sqlite:///{tmp_path / 'store.db'}"
+    command = ["serve", "--port", str(_free_port()), "--store", store, "--data", str(tmp_path / "data")]
+    said = _stopped_while_loading(command, tmp_path / "server.log")
+    # stopped while it loaded: before serve says its connection limits, long before uvicorn starts
+    assert "connections:" not in said and "Started server process" not in said, said
+
+
+@pytest.mark.skipif(
+    not Path("/proc/self/status").exists() and not os.environ.get("CI"), reason="needs Linux's /proc"
+)
+def test_a_worker_stopped_while_it_loads_exits_cleanly_without_claiming_a_job(tmp_path: Path) -> None:
+    """SIGTERM as soon as ``worker`` takes it, while it still loads the store and the analyses: status 0,
+    no traceback, and it never started (it says how many processes it runs only once started). Killed
+    by the signal (status -15) while it took SIGTERM only after loading."""
+    store = f"sqlite:///{tmp_path / 'store.db'}"
+    command = ["worker", "--store", store, "--data", str(tmp_path / "data")]
+    said = _stopped_while_loading(command, tmp_path / "worker.log")
     assert "process(es) on" not in said, said
 
 
