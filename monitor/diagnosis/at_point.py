@@ -27,7 +27,6 @@ from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.bearings import SPEED_TOLERANCE
 from monitor.diagnosis.diagnose import Diagnosis, diagnose
-from monitor.diagnosis.findings import worse
 from monitor.diagnosis.load_estimate import LoadEstimate, estimate_load
 from monitor.diagnosis.operating_points import LOAD_UNCERTAINTY, OperatingPoints, Reference
 from monitor.io.recording import Recording
@@ -91,7 +90,10 @@ def diagnose_at_point(
         )
         return diagnosis, reference
 
-    first = load if load is not None else (_middle(points) if points is not None else None)
+    # no load stated: the first pass is at the middle point's load, which diagnose takes from the
+    # reference itself, so that it knows that no load was stated (a single cylinder then names no
+    # weakness a lower load explains); a load read from the speed or estimated is told in a second pass
+    first = load
     # the loads the recording may be at, for the impact reference: the stated load's uncertainty, else
     # any of the calibrated loads (the estimate from the crank-speed orders is not narrowed to: on many
     # cylinders the inertia torque dominates the orders it reads, and it can miss by half the range)
@@ -109,14 +111,10 @@ def diagnose_at_point(
         used = "baseline" if points is not None else "rated"
         if by_speed is not None:
             used = "speed"
-            if abs(by_speed - diagnosis.load) > 0.01:  # the model and reference at the speed's load
-                diagnosis, reference = run(by_speed, within)
+            diagnosis, reference = run(by_speed, within)  # the model and reference at the speed's load
         elif estimate is not None and len(_calibrated(points)) > 1:
             used = "estimated"
-            if abs(estimate.load - diagnosis.load) > 0.01:  # the model and reference at the estimate
-                diagnosis, reference = run(estimate.load, within)
-    if used == "baseline" and engine.cylinders == 1:
-        diagnosis = _single_at_an_unknown_load(diagnosis)
+            diagnosis, reference = run(estimate.load, within)  # the model and reference at the estimate
     notes = _load_notes(load, estimate, diagnosis.load, used)
     if reference is not None and len(_calibrated(points)) > 1:
         notes.append(reference.note())
@@ -163,36 +161,6 @@ def _estimate(
 
     return estimate_load(
         diagnosis.spectra, engine, transfer=transfer, max_order=max_order, reference=reference
-    )
-
-
-def _single_at_an_unknown_load(diagnosis: Diagnosis) -> Diagnosis:
-    """A single cylinder judged at its baseline's load, no load stated nor read: a reading low enough for a
-    warning is a lower load as well as a weaker firing, so it is left out, and without another finding
-    the recording is inconclusive (as without a baseline); an alarm, below the alarm limit by its margin,
-    stands."""
-    low = [
-        f
-        for f in diagnosis.findings
-        if f.kind == "cylinder" and f.severity == "warning" and float(f.evidence[0]["measured"]) < 1.0
-    ]
-    if not low:
-        return diagnosis
-    kept = [f for f in diagnosis.findings if f not in low]
-    status = "healthy"
-    for f in kept:
-        status = worse(f.severity, status)
-    share = round(100 * float(low[0].evidence[0]["measured"]))
-    said = (
-        f"cylinder 1 reads {share} % of its baseline's, judged at the baseline's load "
-        f"{diagnosis.load:.2f} with no load stated: a single cylinder's weaker firing and a lower load "
-        "read alike; state the load set (--load)"
-    )
-    return replace(
-        diagnosis,
-        findings=kept,
-        status="inconclusive" if status == "healthy" else status,
-        notes=[*diagnosis.notes, ("inconclusive: " if status == "healthy" else "") + said],
     )
 
 

@@ -609,8 +609,8 @@ def _cylinder_findings(
 ) -> list[Finding]:
     """The cylinders' findings from the balance, where it fits the model (else none: inconclusive).
 
-    ``load`` is the load stated (None: none, rated assumed); a single cylinder reading low (a warning)
-    against the model at a load nobody stated is put in ``undecided``, not named: a lower load reads alike.
+    ``load`` is the load stated (None: none, the baseline's or rated assumed); a single cylinder reading
+    low (a warning) at a load nobody stated is put in ``undecided``, not named: a lower load reads alike.
     """
     balance = analysis.balance
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
@@ -630,14 +630,18 @@ def _cylinder_findings(
             if baseline is not None and len(baseline.strengths) == 1
             else None
         )
-        findings = single_cylinder_findings(balance, 1.0 if load is None else load, single)
+        at = load if load is not None else (baseline.load if baseline is not None else 1.0)
+        findings = single_cylinder_findings(balance, at, single)
         # an alarm (below a fifth of the model's rated firing) is no load a running engine is set to
         low_warning = findings and findings[0].severity == "warning" and float(balance.strength[0]) < 1.0
-        if load is None and single is None and low_warning:
+        if load is None and low_warning:
+            measured = round(100 * float(findings[0].evidence[0]["measured"]))
             undecided.append(
-                f"cylinder 1 reads {round(100 * float(balance.strength[0]))} % of the model's at rated load "
-                "and no load was stated: a single cylinder's weaker firing and a lower load read alike; "
-                "state the load set (--load) or compare against a baseline"
+                f"cylinder 1 reads {measured} % of "
+                + (f"its baseline's at the baseline's load {at:.2f}" if single is not None else "the model's")
+                + " and no load was stated: a single cylinder's weaker firing and a lower load read alike; "
+                "state the load set (--load)"
+                + ("" if single is not None else " or compare against a baseline")
             )
             return []
         notes.append(
