@@ -94,7 +94,8 @@ ANALYSIS_VERSION = "1"
 # the model's uncertainty of the change in a bearing force that the cylinders' estimated strengths make
 # against the baseline's (a changed gas force's high orders are known to tens of per cent) [-]
 CHANGE_UNCERTAINTY = 0.5
-STEADY = 0.10  # revolutions' mean speeds further apart than this (max / min - 1) are not a steady run [-]
+# revolutions' speeds of a relative standard deviation above this are no steady run: the model at their mean
+STEADY = 0.10  # speed misses their mean inertia forces (as the speed squared) by its square, 1 % or more [-]
 RESOLVED = 0.25  # a cylinder balance whose strengths' errors exceed this (relative) names nothing [-]
 MISFIT = 25.0  # reduced chi-square of the cylinder balance above which no cylinder is named (inconclusive)
 
@@ -271,13 +272,13 @@ def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
     first, last = math.ceil(angle_map.angles[0] / cycle), math.floor(angle_map.angles[-1] / cycle)
     if last - first >= 2:
         times = angle_map.time_at(cycle * np.arange(first, last + 1, dtype=np.float64))
-        per_revolution = cycle / np.diff(times)
-        spread = float(per_revolution.max() / per_revolution.min() - 1.0)
-        if spread > STEADY:
-            rpm = per_revolution * 30 / math.pi
+        rpm = (cycle / np.diff(times)) * 30 / math.pi
+        if (spread := float(np.std(rpm) / np.mean(rpm))) > STEADY:
             reasons.append(
-                f"the speed was not steady ({rpm.min():.1f} to {rpm.max():.1f} rpm over the revolutions); "
-                "the diagnosis compares a steady run with the model at its mean speed"
+                f"the speed was not steady ({rpm.min():.1f} to {rpm.max():.1f} rpm over the revolutions, "
+                f"{100 * spread:.0f} % rms); the diagnosis compares the revolutions with the model at their "
+                "mean speed, whose inertia forces (as the speed squared) miss theirs by "
+                f"{100 * spread**2:.0f} %"
             )
     if engine.cylinders > 1:
         balance = analysis.balance

@@ -9,6 +9,16 @@ grid is capped at ``_SPEED_GRID_CAP`` and the speed taken as its mean over each
 grid step, whose sinc is undone order by order.  The angular vibration is the
 crank's angle lead over a uniform rotation at each cycle's own mean speed (see
 :mod:`monitor.signal.measure`).
+
+A speed that drifts (an engine accelerating or slowing after a load step, a run-up) is no periodic
+function of the cycle: taken as one, each cycle jumps back at its end by the drift across it, a
+sawtooth whose orders fall as ``1 / k``. The rigid crank train's torque ``T = (J / 2) d(omega^2)/dtheta``
+turns it into ``2 T_net`` at every torque order, ``T_net`` the net torque that drives the drift: on a
+propeller engine's load step as large as a cylinder's whole contribution. Each cycle's speed is taken
+less a ramp of zero mean that rises across it by the drift, read from its neighbours' mean speeds
+(their difference over two cycles, one-sided at the ends): what is periodic in the cycle is left, to the
+drift's own curvature within a cycle (tests/signal/test_crank_speed_drift.py). On a steady run the
+neighbours differ by the cycles' own scatter, which is no more periodic than the drift.
 """
 
 from __future__ import annotations
@@ -22,6 +32,7 @@ from monitor.errors import SignalError
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.grid import AngleGrid, angle_grid
 from monitor.signal.spectrum import OrderSpectrum, OrderSpectrumStream
+from monitor.types import FloatArray
 
 __all__ = ["crank_speed_spectra"]
 
@@ -105,6 +116,7 @@ def crank_speed_spectra(
     # angular vibration: lead = integral over the cycle of g = 1 - Omega_c / omega, Omega_c the
     # cycle's mean speed (g has zero mean over it); integrated order by order, g_k / (i k). Both
     # spectra are fed a part of the cycles at a time (no hour-long temporaries)
+    speed = _without_drift(speed)
     for c0 in range(0, grid.cycles, _PART_CYCLES):
         part = speed[c0 : c0 + _PART_CYCLES]
         speed_stream.add(part)
@@ -140,3 +152,24 @@ def crank_speed_spectra(
         g.block_cycles,
     )
     return unstepped(speed_stream.result()), lead
+
+
+def _without_drift(speed: FloatArray) -> FloatArray:
+    """Each cycle's speed less the drift across it (module docstring).
+
+    Parameters
+    ----------
+    speed : ndarray, shape (cycles, m)
+        The speed on each whole cycle's grid [rad/s].
+
+    Returns
+    -------
+    ndarray, shape (cycles, m)
+        Each cycle less a ramp of zero mean over its grid, rising by the difference of its neighbours'
+        mean speeds over two cycles (one-sided at the first and the last); unchanged for one cycle.
+    """
+    cycles, m = speed.shape
+    if cycles < 2:
+        return speed
+    rise = np.gradient(speed.mean(axis=1))  # the drift across each cycle [rad/s]
+    return speed - np.multiply.outer(rise, np.arange(m) / m - 0.5 + 0.5 / m)

@@ -358,8 +358,9 @@ def test_the_velocity_zones_come_from_the_engine_file(tmp_path: Path) -> None:
 
 
 def test_a_run_up_is_inconclusive_not_healthy() -> None:
-    """The run-up scene (40 to 60 rpm): the model is compared at one mean speed, so a recording whose
-    revolutions' speeds differ by more than 10 % is not called healthy, and the notes say why."""
+    """The run-up scene (40 to 60 rpm in 40 s, 11 % rms): the model is compared at one mean speed, so a
+    recording whose revolutions' speeds spread by more than 10 % rms is not called healthy, and the notes
+    say why."""
     scene = load_scene(SCENES / "7k98mc-run-up.toml")
     recording = simulate(scene.model_copy(update={"duration_s": min(scene.duration_s, 40.0)})).recording
     diagnosis = diagnose(recording, _engine("7k98mc"))
