@@ -16,13 +16,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from monitor.diagnosis import Baseline, SensorBaseline
+from monitor.diagnosis import Baseline
 from monitor.diagnosis.at_point import load_from_speed
 from monitor.diagnosis.bearings import impact_score
 from monitor.diagnosis.findings import IMPACT_WARNING, SIGNIFICANCE
 from monitor.diagnosis.impact_reference import between, loudest, reference_profile
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.signal.impact import HighFrequencyPower
+from tests.diagnosis.hand_built import one_sensor_point
 
 BINS = 1024  # over a four-stroke's cycle: 0.7 deg a bin
 CYCLES = 300
@@ -54,20 +55,7 @@ def _profile(load: float, *, knock_at_deg: float | None = None, bins: int = BINS
 
 def _point(load: float) -> Baseline:
     """A point of one sensor whose only content is its high-frequency profile at that load."""
-    sensor = SensorBaseline(
-        channel="mb1",
-        kind="acceleration",
-        unit="m/s^2",
-        bearing=1,
-        direction="vertical",
-        sample_rate=SAMPLE_RATE,
-        orders=np.array([1.0]),
-        transfer=np.array([1.0 + 0.0j]),
-        transfer_error=np.array([0.1]),
-        high_frequency=_profile(load),
-        velocity_rms=1.0,
-    )
-    return Baseline("e", 750.0, load, [1.0, 1.0], 64, {"mb1": sensor}, f"at {load}")
+    return one_sensor_point(load, high_frequency=_profile(load), sample_rate=SAMPLE_RATE)
 
 
 def _heard(recording: HighFrequencyPower, reference: HighFrequencyPower | None, at_deg: float) -> bool:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from monitor.cli import main
-from monitor.diagnosis import Baseline, SensorBaseline
+from monitor.diagnosis import Baseline
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.baseline import BASELINE_FORMAT
 from monitor.diagnosis.operating_points import (
@@ -27,6 +27,7 @@ from monitor.diagnosis.operating_points import (
 from monitor.errors import DiagnosisError
 from monitor.io import open_recording
 from monitor.model.engine import bundled_engines, load_engine
+from tests.diagnosis.hand_built import one_sensor_point
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = ROOT / "recordings" / "scenes"
@@ -129,29 +130,13 @@ def test_the_baseline_holds_three_points_and_an_old_single_point_document_still_
         OperatingPoints.from_document({**document, "format": "engine-monitor baseline 9"})
 
 
-def _point(load: float, transfer: complex, error: float, rms: float) -> Baseline:
-    """A hand-made point: one sensor with one order."""
-    sensor = SensorBaseline(
-        channel="mb1",
-        kind="acceleration",
-        unit="m/s^2",
-        bearing=1,
-        direction="vertical",
-        sample_rate=1000.0,
-        orders=np.array([1.0]),
-        transfer=np.array([transfer]),
-        transfer_error=np.array([error]),
-        high_frequency=None,
-        velocity_rms=rms,
-    )
-    return Baseline("e", 750.0, load, [1.0, 1.0], 64, {"mb1": sensor}, f"at {load}")
-
-
 def test_the_interpolation_adds_its_distance_from_the_nearest_point_to_the_errors() -> None:
     """Between points at 0.5 (H = 2) and 1.0 (H = 4), each with error 0.1: at 0.6 the line gives 2.4, the
     nearest point 2, so the error is hypot(0.1, 0.4); at a calibrated point nothing is added; the rms
     velocity is interpolated as the transfer is (worked by hand)."""
-    points = OperatingPoints.of([_point(1.0, 4.0, 0.1, 3.0), _point(0.5, 2.0, 0.1, 1.0)])
+    points = OperatingPoints.of(
+        [one_sensor_point(1.0, transfer=4.0, rms=3.0), one_sensor_point(0.5, transfer=2.0)]
+    )
     assert points.loads == [0.5, 1.0]
     between = points.reference_at(0.6)
     sensor = between.baseline.sensors["mb1"]
@@ -168,7 +153,9 @@ def test_the_interpolation_adds_its_distance_from_the_nearest_point_to_the_error
 def test_beyond_the_calibrated_loads_the_nearest_point_is_used_its_error_widened_and_said() -> None:
     """At 0.3, 0.2 below the point at 0.5: its transfer 2 is kept and the error grows by the line's
     change out there, 0.2 x (4 - 2) / 0.5 = 0.8 (worked by hand); the note says it is an extrapolation."""
-    points = OperatingPoints.of([_point(0.5, 2.0, 0.1, 1.0), _point(1.0, 4.0, 0.1, 3.0)])
+    points = OperatingPoints.of(
+        [one_sensor_point(0.5, transfer=2.0), one_sensor_point(1.0, transfer=4.0, rms=3.0)]
+    )
     below = points.reference_at(0.3)
     sensor = below.baseline.sensors["mb1"]
     assert below.extrapolated
