@@ -54,6 +54,8 @@ CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 EXIT = {"healthy": 0, "warning": 1, "alarm": 2, "inconclusive": 3}
 # a healthy twin at an end of the engine's law this close to the baseline's load is the same point [-]
 SAME_POINT = 0.05
+# the highest load the product's model takes (fraction of rated IMEP), an engine's overload rating [-]
+OVERLOAD = 1.1
 
 
 def case_length(index: int) -> float:
@@ -282,7 +284,8 @@ def law_baseline(case: Case, engine: Engine, baseline: Baseline, seed: int) -> O
         if abs(load - baseline.load) < SAME_POINT:
             continue
         end = healthy_twin(case, seed=seed + k * 1_000_000, load=load)
-        points.append(calibrate(end.recording, engine, load=end.load_given))
+        # an operator reads the load from the engine's log, which shows no more than its overload rating
+        points.append(calibrate(end.recording, engine, load=min(end.load_given, OVERLOAD)))
     return OperatingPoints.of(points)
 
 
