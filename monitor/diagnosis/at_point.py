@@ -96,7 +96,8 @@ def diagnose_at_point(
     first = load
     # the loads the recording may be at, for the impact reference: the stated load's uncertainty, else
     # any of the calibrated loads (the estimate from the crank-speed orders is not narrowed to: on many
-    # cylinders the inertia torque dominates the orders it reads, and it can miss by half the range)
+    # cylinders the inertia torque dominates the orders it reads, and it can miss by half the range),
+    # the load read from the speed's uncertainty where the points' speeds tell it (below)
     calibrated = points.loads if points is not None else [math.nan]
     within = (
         (load - LOAD_UNCERTAINTY, load + LOAD_UNCERTAINTY)
@@ -111,6 +112,8 @@ def diagnose_at_point(
         used = "baseline" if points is not None else "rated"
         if by_speed is not None:
             used = "speed"
+            # a propeller curve reads the load off the speed as well as an operator reads the log
+            within = (by_speed - LOAD_UNCERTAINTY, by_speed + LOAD_UNCERTAINTY)
             diagnosis, reference = run(by_speed, within)  # the model and reference at the speed's load
         elif estimate is not None and len(_calibrated(points)) > 1:
             used = "estimated"

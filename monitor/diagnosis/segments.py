@@ -23,7 +23,8 @@ steady point throughout, or with no steady span long enough (a run-up), is the w
 diagnosis, unchanged. One with a single steady segment and the rest of it elsewhere (a load step
 whose other side is too short to diagnose, the speed's dip and recovery after it) is that segment's
 diagnosis, with a note that the rest is not judged: the whole recording's would compare two points'
-mix with the model at one.
+mix with the model at one. One whose point changes too soon to cut two segments is the whole
+recording's diagnosis, with a note where it changed (:func:`_across_a_change`).
 """
 
 from __future__ import annotations
@@ -36,14 +37,7 @@ from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
 from monitor.diagnosis.diagnose import Diagnosis
-from monitor.diagnosis.findings import (
-    MISFIRE_BELOW,
-    MISSING_IMPULSE,
-    RELATIVE_STRENGTH,
-    SEVERITIES,
-    Finding,
-    worse,
-)
+from monitor.diagnosis.findings import SEVERITIES, Finding
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import DiagnosisError
 from monitor.io.recording import Recording
@@ -325,48 +319,22 @@ def _rest_note(item: Segment, min_cycles: int) -> str:
 
 
 def _across_a_change(whole: Diagnosis, engine: Engine, min_cycles: int) -> Diagnosis:
-    """The whole recording's diagnosis where its operating point changes too soon to cut segments.
+    """The whole recording's diagnosis, noted where its operating point changes too soon to cut segments.
 
     A change told apart with :data:`SHORT_SIDE` cycles on a side (two short steady spans, or one that
     does not reach the recording's ends), where no two segments of ``min_cycles`` are: the cylinders'
-    strengths read over the whole recording mix two points (and the change's own transient), so they
-    are no finding (:func:`_read_across`), except a misfiring cylinder and the pattern of a missing
-    firing impulse, which compares the cylinders with each other within each cycle: those stand.
-    Where a finding was left out and none remains, the recording is inconclusive, never healthy; where
-    none was left out, the diagnosis stands with a note.
+    strengths are read over the whole recording, their mean over both points. Each cycle's speed is
+    taken less the drift across it (:mod:`monitor.signal.crank_speed`), so the change's acceleration is
+    in no order, and the load moves every cylinder's share alike: a cylinder that reads weak across the
+    change is weak (tests/diagnosis/test_unsteady_speed.py). The note says where the point changed.
     """
     short = segmentation_of(whole, engine, min_cycles=SHORT_SIDE)
     if short.at_one_point or not short.segments:  # steady, or no steady span at all (a run-up: noted)
         return whole
-    kept = [f for f in whole.findings if not _read_across(f)]
-    dropped = [f.subject for f in whole.findings if f not in kept]
     at = ", ".join(f"steady {s.start_s:.1f}-{s.stop_s:.1f} s" for s in short.segments)
     note = (
         f"the operating point changes inside the recording ({at}) with fewer than {min_cycles} steady "
-        "cycles on a side: the cylinders' strengths, read across the change, are not judged"
-        + (f" (not reported: {', '.join(dropped)})" if dropped else "")
-        + f"; a misfire still is. Record {min_cycles} steady cycles or more at each point"
+        "cycles on a side: the cylinders' strengths are read over both points, their mean. Record "
+        f"{min_cycles} steady cycles or more at each point to judge each at its own"
     )
-    if not dropped:
-        return replace(whole, notes=[note, *whole.notes])
-    status = "healthy"
-    for f in kept:
-        status = worse(f.severity, status)
-    return replace(
-        whole,
-        findings=kept,
-        status="inconclusive" if status == "healthy" else status,
-        notes=[note, *whole.notes],
-    )
-
-
-def _read_across(finding: Finding) -> bool:
-    """Whether a finding is a cylinder's strength that a change of operating point can make: weak or
-    strong, not misfiring (no load change takes most of one cylinder's impulse from it against the
-    others) and not the missing-impulse pattern."""
-    if finding.kind != "cylinder":
-        return False
-    evidence = finding.evidence[0]
-    if evidence.get("quantity") == MISSING_IMPULSE:
-        return False
-    return not (evidence.get("quantity") == RELATIVE_STRENGTH and evidence["measured"] < MISFIRE_BELOW)
+    return replace(whole, notes=[note, *whole.notes])

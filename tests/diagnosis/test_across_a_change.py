@@ -1,7 +1,6 @@
 """A recording whose operating point changes too soon to cut it in steady segments
-(:func:`monitor.diagnosis.segments.diagnose_segments`): the cylinders' strengths read across the change
-are no finding, a misfire still is, and a recording left without findings is inconclusive, never
-healthy.
+(:func:`monitor.diagnosis.segments.diagnose_segments`): its diagnosis is the whole recording's, the
+cylinders' strengths read over both points, with a note that says where the point changed.
 
 Hand-built diagnoses and segmentations: the rule reads only the findings, the status, the notes and
 where the steady spans lie (:mod:`monitor.signal.steady` is tested on its own series).
@@ -17,7 +16,7 @@ import pytest
 
 import monitor.diagnosis.segments as segments
 from monitor.diagnosis.diagnose import Diagnosis
-from monitor.diagnosis.findings import MISFIRE_BELOW, MISSING_IMPULSE, RELATIVE_STRENGTH, Finding
+from monitor.diagnosis.findings import RELATIVE_STRENGTH, Finding
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 from monitor.signal.steady import CycleSeries, Segment, Segmentation, steady_segments
@@ -30,17 +29,6 @@ WEAK = Finding(
     "cylinder 10 at 151 %",
     0.9,
     [{"quantity": RELATIVE_STRENGTH, "measured": 1.51}],
-)
-MISSING = Finding(
-    "cylinder", "cylinder 4", "alarm", "cylinder 4 misfiring", 0.99, [{"quantity": MISSING_IMPULSE}]
-)
-MISFIRING = Finding(
-    "cylinder",
-    "cylinder 5",
-    "alarm",
-    "cylinder 5 at 25 %",
-    0.99,
-    [{"quantity": RELATIVE_STRENGTH, "measured": MISFIRE_BELOW - 0.01}],
 )
 KNOCK = Finding("main bearing", "main bearing 2", "warning", "knocks", 0.9, [{"quantity": "impact power"}])
 
@@ -67,51 +55,22 @@ def _diagnosed(whole: Diagnosis) -> Diagnosis:
 STEP_AT_THE_END = Segmentation((Segment(0, 10, 0.6, 7.6, 9.95, 0.024),), (), 14)
 
 
-def test_a_cylinder_strength_read_across_a_change_is_no_finding(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_cylinder_strength_read_across_a_change_stands_with_a_note(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each cycle's speed less its drift, every cylinder's share moves alike with the load: a cylinder
+    read weak or strong across the change is reported, with a note where the point changed."""
     _segmented_as(monkeypatch, STEP_AT_THE_END)
-    said = _diagnosed(_whole("alarm", [WEAK, KNOCK]))
-    assert said.findings == [KNOCK] and said.status == "warning"
-    assert "the operating point changes inside the recording (steady 0.6-7.6 s)" in said.notes[0]
-    assert "not reported: cylinder 10" in said.notes[0]
-
-
-def test_a_missing_firing_impulse_stands_across_a_change(monkeypatch: pytest.MonkeyPatch) -> None:
-    _segmented_as(monkeypatch, STEP_AT_THE_END)
-    said = _diagnosed(_whole("alarm", [MISSING, WEAK]))
-    assert said.findings == [MISSING] and said.status == "alarm"
-
-
-def test_a_misfiring_cylinder_stands_across_a_change_a_weak_one_does_not(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """Below MISFIRE_BELOW of the others no load change explains a cylinder: it stands; just above
-    it (a healthy 12-cylinder read 40 % across a 10 s load step) it is left out."""
-    _segmented_as(monkeypatch, STEP_AT_THE_END)
-    assert _diagnosed(_whole("alarm", [MISFIRING])).findings == [MISFIRING]
-    above = Finding(
-        "cylinder",
-        "cylinder 6",
-        "alarm",
-        "at 40 %",
-        0.9,
-        [{"quantity": RELATIVE_STRENGTH, "measured": MISFIRE_BELOW}],
-    )
-    said = _diagnosed(_whole("alarm", [above]))
-    assert said.findings == [] and said.status == "inconclusive"
+    whole = _whole("alarm", [WEAK, KNOCK])
+    said = _diagnosed(whole)
+    assert said.findings == [WEAK, KNOCK] and said.status == "alarm"
+    assert said.notes[0].startswith("the operating point changes inside the recording (steady 0.6-7.6 s)")
+    assert "strengths are read over both points" in said.notes[0] and said.notes[1:] == whole.notes
 
 
 def test_cylinders_that_read_alike_across_a_change_stay_healthy(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Nothing left out: the diagnosis stands, with the note that the point changed."""
     _segmented_as(monkeypatch, STEP_AT_THE_END)
     said = _diagnosed(_whole("healthy", []))
     assert said.findings == [] and said.status == "healthy"
     assert said.notes[0].startswith("the operating point changes inside the recording")
-
-
-def test_without_a_finding_left_the_recording_is_inconclusive(monkeypatch: pytest.MonkeyPatch) -> None:
-    _segmented_as(monkeypatch, STEP_AT_THE_END)
-    said = _diagnosed(_whole("alarm", [WEAK]))
-    assert said.findings == [] and said.status == "inconclusive"
 
 
 @pytest.mark.parametrize(
@@ -150,13 +109,14 @@ def test_three_steady_cycles_on_a_side_tell_a_change(
     monkeypatch: pytest.MonkeyPatch, before: int, after: int, across: bool
 ) -> None:
     """:data:`~monitor.diagnosis.segments.SHORT_SIDE` through the real segmentation of a tiny
-    recording: with three steady cycles on a side the change is told and the weak finding read across
-    it left out (were four needed, the whole recording would stand); with two it is not told, and the
-    whole recording's diagnosis stands as a run-up's (were two enough, it would be read across)."""
+    recording: with three steady cycles on a side the change is told and noted (were four needed, the
+    whole recording would stand unnoted); with two it is not told, and the whole recording's diagnosis
+    stands as a run-up's (were two enough, it would be noted)."""
     monkeypatch.setattr(segments, "segmentation_of", _real_segmentation(_stepped(before, after)))
     whole = _whole("alarm", [WEAK])
     said = _diagnosed(whole)
-    assert (said.findings == []) is across
+    assert said.findings == [WEAK]
+    assert said.notes[0].startswith("the operating point changes inside the recording") is across
     assert (said is whole) is not across
 
 
