@@ -32,7 +32,7 @@ from monitor.errors import SignalError
 from monitor.signal.quintic import QuinticSpline
 from monitor.types import FloatArray
 
-__all__ = ["AngleMap", "cycle_phase_from_cam", "cycle_phase_from_pressure"]
+__all__ = ["AngleMap", "cycle_phase_from_pressure"]
 
 _SPEED_WINDOW = 1 << 14  # pulses per window of the speed spline
 _SPEED_OVERLAP = 64  # pulses added on each side of a window
@@ -595,38 +595,6 @@ def _crossing(spline: QuinticSpline, target: FloatArray, low: FloatArray, high: 
         ahead = spline(middle) >= target
         high, low = np.where(ahead, middle, high), np.where(ahead, low, middle)
     return np.asarray(0.5 * (low + high))
-
-
-def cycle_phase_from_cam(angle_map: AngleMap, cam_times: npt.ArrayLike, *, cam_angle: float) -> float:
-    """The shift (0 or 2 pi) from a once-per-cycle cam pulse at ``cam_angle`` in the cycle.
-
-    Parameters
-    ----------
-    angle_map : AngleMap
-        Map whose angle 0 (mod 2 pi) is a TDC of cylinder 1.
-    cam_times : array_like
-        Cam pulse times [s].
-    cam_angle : float
-        Cycle angle of the cam pulse after cylinder 1's firing TDC, 0..4 pi [rad].
-
-    Returns
-    -------
-    float
-        0 or 2 pi [rad].
-    """
-    angles = angle_map.angle_at(np.asarray(cam_times, dtype=np.float64))
-    angles = angles[np.isfinite(angles)]
-    if angles.size == 0:
-        raise SignalError("cycle phase: no cam pulse inside the mapped span")
-    shift = np.mod(cam_angle - angles, 4 * math.pi)
-    # every pulse must agree on a shift of 0 or 2 pi (within 90 degrees)
-    candidates = np.round(shift / (2 * math.pi)) % 2
-    if not (
-        np.all(candidates == candidates[0])
-        and np.all(np.abs(shift - 2 * math.pi * np.round(shift / (2 * math.pi))) < math.pi / 2)
-    ):
-        raise SignalError("cycle phase: the cam pulses do not fall once per cycle at the stated angle")
-    return float(2 * math.pi * candidates[0])
 
 
 @numba.njit(cache=True, nogil=True)

@@ -50,6 +50,7 @@ from monitor.errors import SignalError
 from monitor.types import FloatArray
 
 __all__ = [
+    "EXTRA_BELOW",
     "EdgeDetection",
     "KeyphasorRepair",
     "detect_edges",
@@ -233,6 +234,8 @@ def _edges_by_blocks(source: Any, n: int, block_edges: Callable[[npt.ArrayLike],
 
 
 NOISE_MARGIN = 8.0  # default hysteresis over the noise's rms [-]
+# a keyphasor interval shorter than this share of the local revolution's closes on an extra pulse [-]
+EXTRA_BELOW = 0.6
 _EDGE_BLOCK = 1 << 20  # samples per block of a long pulse waveform (4 MB of float32)
 
 
@@ -497,6 +500,22 @@ class KeyphasorRepair:
         """True if any pulse was inserted or removed."""
         return bool(self.inserted.size or self.removed.size)
 
+    def note(self, channel: str) -> str | None:
+        """What a user should know of the pulses dropped and inserted (None when none was)."""
+        if not self.repaired:
+            return None
+        said = []
+        if self.removed.size:
+            shown = ", ".join(f"{t:.6f} s" for t in self.removed[:8])
+            more = f" and {self.removed.size - 8} more" if self.removed.size > 8 else ""
+            said.append(
+                f"{self.removed.size} extra pulse(s) dropped (glitches or stray pulses: each closed an "
+                f"interval under {EXTRA_BELOW} of a revolution's, at {shown}{more})"
+            )
+        if self.inserted.size:
+            said.append(f"{self.inserted.size} missing pulse(s) inserted")
+        return f"keyphasor {channel!r}: " + " and ".join(said) + f", of {self.times.size} kept"
+
 
 def repair_keyphasor(
     times: npt.ArrayLike, *, window: int = 9, max_missing: int = 3, max_repaired: float = 0.25
@@ -530,7 +549,7 @@ def repair_keyphasor(
 
     Notes
     -----
-    An interval shorter than 0.6 of the local median period marks an extra
+    An interval shorter than :data:`EXTRA_BELOW` of the local median period marks an extra
     pulse: of the two pulses bounding it, the one whose removal leaves the
     interval nearest the median is dropped.  An interval of about ``m + 1``
     median periods (within +-0.3 of a period) has ``m`` missing pulses, inserted
@@ -554,7 +573,7 @@ def repair_keyphasor(
         arr = np.asarray(kept)
         dt = np.diff(arr)
         ref = median_filter(dt, size=min(window, dt.size), mode="mirror")
-        short = np.flatnonzero(dt < 0.6 * ref)
+        short = np.flatnonzero(dt < EXTRA_BELOW * ref)
         if short.size:
             i = int(short[np.argmin(dt[short] / ref[short])])
             # candidates: drop arr[i] or arr[i + 1]; keep the one whose neighbours' interval fits best

@@ -25,7 +25,8 @@ import numpy.typing as npt
 from monitor.errors import SignalError
 from monitor.io.recording import Channel, Recording
 from monitor.runtime.timing import StageClock, stage
-from monitor.signal.anglemap import AngleMap, cycle_phase_from_cam, cycle_phase_from_pressure
+from monitor.signal.anglemap import AngleMap, cycle_phase_from_pressure
+from monitor.signal.cam import cycle_phase_from_cam
 from monitor.signal.pitch import (
     PitchCorrection,
     correct_pitch,
@@ -269,6 +270,7 @@ def angle_reference(
             repaired.times, pulse_angle=math.radians(float(channel.fields["pulse_angle_deg"]))
         )
         repairs = int(repaired.inserted.size + repaired.removed.size)
+        notes.extend([said] if (said := repaired.note(channel.name)) else [])
         pulses = 1
     else:
         raise SignalError(
@@ -277,16 +279,19 @@ def angle_reference(
     how = ""
     if cycle_revolutions == 2:
         start = time.perf_counter()
-        shift, how = _cycle_phase(recording, angle_map, cycle_phase)
+        shift, how, said = _cycle_phase(recording, angle_map, cycle_phase)
+        notes.extend([said] if said else [])
         angle_map = angle_map.shifted(shift)
         if clock is not None:
             clock.add("angle reference: cycle phase", time.perf_counter() - start)
     return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
 
 
-def _cycle_phase(recording: Recording, angle_map: AngleMap, cycle_phase: float | None) -> tuple[float, str]:
-    """A four-stroke map's shift (0 or 2 pi) [rad] and how it was found: given, the recording's, from
-    a cam channel or from cylinder 1's pressure.
+def _cycle_phase(
+    recording: Recording, angle_map: AngleMap, cycle_phase: float | None
+) -> tuple[float, str, str | None]:
+    """A four-stroke map's shift (0 or 2 pi) [rad], how it was found (given, the recording's, from a cam
+    channel or from cylinder 1's pressure) and a note (cam pulses left out) or None.
 
     Raises
     ------
@@ -295,20 +300,25 @@ def _cycle_phase(recording: Recording, angle_map: AngleMap, cycle_phase: float |
     """
     firing_pressure = [c for c in recording.of_kind("pressure") if int(c.fields.get("cylinder", 0)) == 1]
     if cycle_phase is not None:
-        return float(cycle_phase), "given"
+        return float(cycle_phase), "given", None
     if recording.cycle_phase_deg is not None:
-        return math.radians(recording.cycle_phase_deg), "recording"
+        return math.radians(recording.cycle_phase_deg), "recording", None
     if recording.of_kind("cam"):
         cam = recording.of_kind("cam")[0]
-        shift = cycle_phase_from_cam(
-            angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
-        )
-        return shift, "cam"
+        try:
+            phase = cycle_phase_from_cam(
+                angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
+            )
+        except SignalError as error:
+            raise SignalError(f"cam {cam.name!r}: {error}") from None
+        return phase.shift, "cam", phase.note(cam.name)
     if firing_pressure:
         p = firing_pressure[0]
-        return cycle_phase_from_pressure(
-            angle_map, p.data, waveform_rate(p), start_time=p.start_offset
-        ), "pressure"
+        return (
+            cycle_phase_from_pressure(angle_map, p.data, waveform_rate(p), start_time=p.start_offset),
+            "pressure",
+            None,
+        )
     raise SignalError(
         "four-stroke recording without a cam or cylinder-1 pressure channel: the cycle phase "
         "(which revolution holds cylinder 1's firing TDC) cannot be found; give it with "
