@@ -30,16 +30,17 @@ a mapping key that has no meaning here (a sample rate, a scale, a unit other
 than ``s``).
 
 Two faults of sigrok's own ``csv`` output, found by reading its source
-(libsigrok ``src/output/csv.c``): libsigrok 0.5 (its last release) steps the
-time by the sample period cut to a whole number of the printed unit (41 ns
-for 41.67 ns at 24 MHz: times 1.6 % short); when the file's comments name
-that version and the sample rate, and the times are whole multiples of that
-step, they are put right with a :class:`~monitor.errors.DataQualityWarning`.
-libsigrok built from its repository since August 2020 (version 0.6.0 and its
-nightly builds) counts, with ``dedup``, the rows written instead of the
-samples; when the comments state the sample rate and every row is a sample
-after the one before although the levels change in most rows, the capture is
-refused with that cause named.
+(libsigrok ``src/output/csv.c``; the first also seen in sigrok-cli 0.7.2's
+output).  libsigrok 0.5 (its last release) steps the time by the sample
+period cut to a whole number of the printed unit (41 ns for 41.67 ns at
+24 MHz: times 1.6 % short); when the file's comments name that version and
+the sample rate, and the times are whole multiples of that step, they are
+put right with a :class:`~monitor.errors.DataQualityWarning`.  libsigrok
+built from its repository since August 2020 (version 0.6.0 and its nightly
+builds) counts, with ``dedup``, the rows written instead of the samples;
+when the comments state the sample rate and every row is a sample after the
+one before although the levels change in more than a quarter of the rows,
+the capture is refused with that cause named.
 """
 
 from __future__ import annotations
