@@ -209,9 +209,10 @@ def add_import_parser(sub: Any) -> None:
     """
     imp = sub.add_parser(
         "import",
-        help="convert a test-bench file (MDF4, TDMS, CSV/text) into a recording",
+        help="convert a test-bench file (MDF4, TDMS, CSV/text, logic-analyser capture) into a recording",
         description="Convert an ASAM MDF file, an NI TDMS file or a text export (CSV: a time column and "
-        "one column per channel) into an engine-monitor recording (HDF5 or MCAP), with a "
+        "one column per channel; or a logic analyser's level changes, sigrok or Saleae, whose edges become "
+        "tooth-wheel, cam or keyphasor events) into an engine-monitor recording (HDF5 or MCAP), with a "
         "channel-mapping file (see monitor.io.imports).",
     )
     imp.add_argument("source", metavar="SOURCE", help=".mf4/.mdf/.dat, .tdms or .csv/.txt/.tsv/.dat file")
@@ -246,6 +247,9 @@ def run_import(args: argparse.Namespace) -> int:
     recording = import_file(args.source, mapping, sample_rate_hz=args.rate)
     output = write_recording(recording, args.output)
     for c in recording.channels:
+        if c.sample_rate is None:
+            print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} events")
+            continue
         spans = f", {len(c.quality)} unusable span(s) masked" if c.quality else ""
         rate = f"{c.sample_rate:.10g} Hz"
         print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples at {rate}{spans}")

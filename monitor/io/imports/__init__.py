@@ -28,7 +28,7 @@ more, since a text file carries no start time and no units::
     engine_id = "kluczyk-1cyl-4stroke"
     start_time = "2026-11-22T10:15:00Z"   # required
     time_column = "time"                   # a header name, or a 0-based column number: time_column = 0
-    time_unit = "s"                        # "s" (default), "ms" or "us"
+    time_unit = "s"                        # "s" (default), "ms", "us" or "ns"
     delimiter = "tab"                      # optional: "tab", ",", ";", "whitespace" or another character
     header_rows = 1                        # optional: lines before the first row of numbers
     time_tolerance_s = 5e-7                # optional: largest deviation of a time from the fixed-rate line
@@ -61,11 +61,42 @@ Times with a gap or jitter beyond that are refused with the row named.  When
 the nearest whole number of hertz fits the times as well, that is the rate.
 TDMS waveforms carry their sample interval (``wf_increment``).
 
+Logic analysers' level-change captures (text): a time column and a column of
+levels, 0 or 1, per input, as sigrok-cli's ``csv`` output (a row per sample,
+or with ``dedup`` the rows where a level changed) and Saleae Logic 2's digital
+export (a row per change) write them.  The mapping says so with ``layout``;
+each channel becomes an event channel holding the times of its edges::
+
+    engine_id = "medium-speed-6l32"
+    start_time = "2026-11-22T10:15:00Z"   # required: the time 0 of the capture's time column
+    layout = "level changes"               # default "samples": the columns of samples above
+    time_column = 0                        # optional: default 0; a header name also
+    time_unit = "ns"                       # optional: else the header's unit ("nanoseconds", "Time [s]")
+    [[channel]]
+    source = "D0"                          # a header name, or a 0-based column number
+    name = "tooth"
+    kind = "tooth"                         # tooth, cam or keyphasor: an angle reference's pulses
+    edge = "rising"                        # optional: "rising" (default) or "falling"
+    fields = { teeth = 60, missing_teeth = 2, first_tooth_angle_deg = 117.0 }
+
+An edge is a row whose level differs from the row before it, at that row's
+time; the stated angles (``first_tooth_angle_deg``, ``cam_angle_deg``,
+``pulse_angle_deg``) are those of the chosen edge.  No rate is derived (the
+rows are not samples at a rate); ``sample_rate_hz``, ``--rate``,
+``time_tolerance_s``, ``header_rows``, a ``scale`` and a ``unit`` other than
+``s`` are refused, and so is a kind other than tooth, cam or keyphasor.
+Lines starting with ``;`` before the header are comments; the delimiter is
+found (``,``, tab, ``;`` or whitespace) or given as ``delimiter``.  A level
+other than 0 or 1 (Saleae's ``X``: no data), a time that does not increase,
+or a mapped input without an edge of the kind asked for is refused, naming
+the line or the column (:mod:`~monitor.io.imports.levels`).
+
 The MDF and TDMS readers are an optional extra (``pip install 'engine-monitor[import]'``);
 text files need nothing more.
 
 Modules: :mod:`~monitor.io.imports.mapping` (the channel-mapping file),
 :mod:`~monitor.io.imports.rates` (a fixed rate from written times), one module per format
-(:mod:`~monitor.io.imports.tdms`, :mod:`~monitor.io.imports.mdf`, :mod:`~monitor.io.imports.text`)
-and :mod:`~monitor.io.imports.dispatch` (a file read by its suffix).
+(:mod:`~monitor.io.imports.tdms`, :mod:`~monitor.io.imports.mdf`, :mod:`~monitor.io.imports.text`,
+:mod:`~monitor.io.imports.levels`) and :mod:`~monitor.io.imports.dispatch` (a file read by its
+suffix and the mapping's ``layout``).
 """

@@ -1,11 +1,13 @@
-"""A test-bench file imported by its suffix: MDF, TDMS or a text export."""
+"""A test-bench file imported by its suffix: MDF, TDMS or a text export (samples, or a logic
+analyser's level changes)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from monitor.errors import FormatError
-from monitor.io.imports.mapping import ImportMapping
+from monitor.io.imports.levels import import_levels
+from monitor.io.imports.mapping import LEVEL_CHANGES, ImportMapping
 from monitor.io.imports.mdf import import_mdf, is_mdf
 from monitor.io.imports.tdms import import_tdms
 from monitor.io.imports.text import TEXT_SUFFIXES, import_text
@@ -21,7 +23,9 @@ def import_file(
 
     ``.mf4`` and ``.mdf`` are MDF, ``.tdms`` is TDMS, ``.csv``, ``.txt`` and
     ``.tsv`` are text; ``.dat`` is MDF when it starts like one (MDF 3 files
-    often end in ``.dat``), else text.
+    often end in ``.dat``), else text: a level-change capture when the mapping says
+    ``layout = "level changes"`` (:func:`~monitor.io.imports.levels.import_levels`), else columns of
+    samples (:func:`~monitor.io.imports.text.import_text`).
 
     Parameters
     ----------
@@ -45,6 +49,8 @@ def import_file(
         return import_tdms(source, mapping, sample_rate_hz=sample_rate_hz)
     if suffix in (".mf4", ".mdf") or (suffix == ".dat" and is_mdf(source)):
         return import_mdf(source, mapping, sample_rate_hz=sample_rate_hz)
+    if suffix in TEXT_SUFFIXES and mapping.layout == LEVEL_CHANGES:
+        return import_levels(source, mapping, sample_rate_hz=sample_rate_hz)
     if suffix in TEXT_SUFFIXES:
         return import_text(source, mapping, sample_rate_hz=sample_rate_hz)
     raise FormatError(

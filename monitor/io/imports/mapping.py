@@ -16,6 +16,8 @@ from monitor.errors import FormatError
 from monitor.io.recording import KINDS, Channel
 
 __all__ = [
+    "LEVEL_CHANGES",
+    "TIME_UNITS",
     "ChannelMapping",
     "ImportMapping",
     "load_mapping",
@@ -26,6 +28,10 @@ __all__ = [
 ]
 
 _Rate = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+#: Seconds per unit of a text file's time column (``time_unit``).
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: The ``layout`` of a logic analyser's level-change capture (:mod:`~monitor.io.imports.levels`).
+LEVEL_CHANGES = "level changes"
 
 
 class ChannelMapping(BaseModel):
@@ -41,6 +47,7 @@ class ChannelMapping(BaseModel):
     direction: str = ""
     scale: float = 1.0
     fields: dict[str, float | int] = Field(default_factory=dict)
+    edge: Literal["rising", "falling"] | None = None  # level-change captures: the edge that is the event
 
 
 class ImportMapping(BaseModel):
@@ -55,7 +62,8 @@ class ImportMapping(BaseModel):
     sample_rate_hz: _Rate | None = None
     time_tolerance_s: _Rate | None = None
     time_column: str | NonNegativeInt | None = None
-    time_unit: Literal["s", "ms", "us"] = "s"
+    time_unit: Literal["s", "ms", "us", "ns"] = "s"
+    layout: Literal["samples", "level changes"] = "samples"
     delimiter: str | None = None
     header_rows: NonNegativeInt | None = None
     channels: list[ChannelMapping] = Field(alias="channel", min_length=1)
@@ -216,8 +224,8 @@ def refuse_text_options(mapping: ImportMapping, source: Path, kind: str) -> None
     ----------
     mapping : ImportMapping
         Its text-file options (``time_column``, ``delimiter``, ``header_rows``,
-        ``time_unit``; ``time_tolerance_s`` for TDMS) must be unset, and its
-        channels' sources must be channel names, not column numbers.
+        ``time_unit``, ``layout``; ``time_tolerance_s`` for TDMS) must be unset, and its
+        channels' sources must be channel names, not column numbers, with no ``edge``.
     source : Path
         The file being imported, named in the refusal.
     kind : str
@@ -231,6 +239,8 @@ def refuse_text_options(mapping: ImportMapping, source: Path, kind: str) -> None
     keys = [k for k in ("time_column", "delimiter", "header_rows") if getattr(mapping, k) is not None]
     if mapping.time_unit != "s":
         keys.append("time_unit")
+    if mapping.layout != "samples":
+        keys.append("layout")
     if kind == "TDMS" and mapping.time_tolerance_s is not None:
         keys.append("time_tolerance_s")
     if keys:
@@ -238,6 +248,11 @@ def refuse_text_options(mapping: ImportMapping, source: Path, kind: str) -> None
             f"{source}: {', '.join(keys)} do not apply to a {kind} file (they are for text files)"
         )
     for m in mapping.channels:
+        if m.edge is not None:
+            raise FormatError(
+                f"{source}: channel {m.name!r}: edge applies to a text file that is a level-change capture "
+                f'(layout = "{LEVEL_CHANGES}"), not to a {kind} file'
+            )
         if not isinstance(m.source, str):
             raise FormatError(
                 f"{source}: channel {m.name!r}: source {m.source!r} is a column number, which is for text "

@@ -15,7 +15,13 @@ from typing import Any
 import numpy as np
 
 from monitor.errors import FormatError
-from monitor.io.imports.mapping import ImportMapping, mapped_channel, mapped_start_time
+from monitor.io.imports.mapping import (
+    LEVEL_CHANGES,
+    TIME_UNITS,
+    ImportMapping,
+    mapped_channel,
+    mapped_start_time,
+)
 from monitor.io.imports.rates import BLOCK_ROWS, Rounding, fixed_rate, printed_rounding, significant_digits
 from monitor.io.recording import UNITS, Recording
 
@@ -23,7 +29,6 @@ __all__ = ["TEXT_SUFFIXES", "import_text"]
 
 #: File suffixes read as text exports (``.dat`` only when it is not an MDF file).
 TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
-_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 _SNIFF_BYTES = 1 << 16  # bytes read at each end of a text file to learn its layout
 _SNIFF_LINES = 200
 _FLOAT32_DIGITS = 7  # float32 tells apart all numbers of 7 significant digits
@@ -294,8 +299,18 @@ def import_text(
         Naming the line, the column or the mapping key that is wrong.
     """
     source = Path(path)
+    if mapping.layout == LEVEL_CHANGES:
+        raise FormatError(
+            f"{source}: the mapping says layout = {LEVEL_CHANGES!r}: a level-change capture is read by "
+            "monitor.io.imports.levels.import_levels (engine-monitor import dispatches it)"
+        )
     start = mapped_start_time(mapping, None)
     for m in mapping.channels:
+        if m.edge is not None:
+            raise FormatError(
+                f"{source}: channel {m.name!r}: edge applies to a level-change capture "
+                f'(layout = "{LEVEL_CHANGES}"); expected no edge for a column of samples'
+            )
         if m.unit is None:
             raise FormatError(
                 f"{source}: channel {m.name!r}: a text file carries no units; give unit in the channel "
@@ -319,7 +334,7 @@ def import_text(
     columns, row = _read_columns(source, layout, dtypes)
     offset, rate = 0.0, given or 0.0  # a rate is given, or derived from the time column below
     if time is not None:
-        scale = _TIME_UNITS[mapping.time_unit]
+        scale = TIME_UNITS[mapping.time_unit]
         t = columns[time]
         if scale != 1.0:  # in place, unless the time column is also a channel
             t = t * scale if time in wanted else np.multiply(t, scale, out=t)
