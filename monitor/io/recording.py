@@ -79,6 +79,7 @@ KIND_FIELDS: dict[str, dict[str, bool]] = {
         "first_tooth_angle_deg": True,
         "sensor": False,
         "polarity": False,
+        "pattern": False,
     },
     "encoder": {"pulses_per_revolution": True, "first_pulse_angle_deg": True, "index_channel": False},
     "keyphasor": {"pulse_angle_deg": True},
@@ -91,6 +92,7 @@ WORD_FIELDS: dict[str, tuple[str, ...] | None] = {
     "sensor": ("hall", "vr"),
     "polarity": ("normal", "reversed"),
     "index_channel": None,  # a channel's name
+    "pattern": None,  # a wheel of several gaps: a name or its positions (monitor.signal.wheels)
 }
 #: The most tooth positions a crank tooth wheel has here (one per 0.1 deg), and the most pulses per
 #: revolution of an encoder (2**20, a 20-bit one): beyond them a stated count is a mistake.

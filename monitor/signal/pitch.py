@@ -89,6 +89,14 @@ def _complete(decoding: ToothWheelDecoding, starts: npt.NDArray[np.int64]) -> np
     return starts[decoding.tooth_index[starts + per_rev] == 0]
 
 
+def _one_gap(decoding: ToothWheelDecoding) -> None:
+    """Refuse a wheel of several gaps: the errors are estimated against one gap's evenly spaced teeth."""
+    if decoding.pattern is not None:
+        raise SignalError(
+            f"tooth-pitch errors are estimated on wheels of one gap; this one is {decoding.pattern.name}"
+        )
+
+
 def estimate_pitch_errors(
     decoding: ToothWheelDecoding,
     *,
@@ -145,6 +153,7 @@ def estimate_pitch_errors(
     correction however strong the engine's high orders are; the real wheel's 1.8 and 0.8 deg stand
     far above the bound (about 0.5 deg there).
     """
+    _one_gap(decoding)
     per_rev = decoding.teeth - decoding.missing
     orders = (
         np.arange(1, decoding.teeth // 6 + 1)
@@ -253,6 +262,7 @@ def learn_pitch_over_speed(
     grows with speed (a propeller) puts gas forces in the speed-independent part: learn on a motored
     run or a coast-down then.
     """
+    _one_gap(decoding)
     per_rev = decoding.teeth - decoding.missing
     knots = np.flatnonzero(decoding.tooth_index == 0)
     if knots.size < 10:

@@ -40,6 +40,7 @@ from monitor.signal.toothwheel import (
     decode_tooth_signal,
     decode_tooth_wheel,
 )
+from monitor.signal.wheels import WheelPattern
 from monitor.types import FloatArray
 
 __all__ = [
@@ -113,8 +114,12 @@ def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
     teeth, missing = int(channel.fields["teeth"]), int(channel.fields["missing_teeth"])
     first = math.radians(float(channel.fields["first_tooth_angle_deg"]))
     try:
+        declared = channel.fields.get("pattern")
+        pattern = WheelPattern.parse(str(declared)) if declared is not None else None
         if channel.is_events:
-            return decode_tooth_wheel(_edges(channel), teeth=teeth, missing=missing, first_tooth_angle=first)
+            return decode_tooth_wheel(
+                _edges(channel), teeth=teeth, missing=missing, first_tooth_angle=first, pattern=pattern
+            )
         _refuse_unusable_spans(channel)
         sensor = channel.fields.get("sensor")
         polarity = channel.fields.get("polarity")
@@ -127,6 +132,7 @@ def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
             start_time=channel.start_offset,
             sensor=None if sensor is None else "vr" if sensor == "vr" else "hall",
             polarity=None if polarity is None else "reversed" if polarity == "reversed" else "normal",
+            pattern=pattern,
         )
     except SignalError as error:
         raise SignalError(f"tooth wheel {channel.name!r}: {error}") from None

@@ -41,6 +41,7 @@ from scipy.ndimage import median_filter
 
 from monitor.errors import SignalError
 from monitor.signal.pulses import detect_edges
+from monitor.signal.wheels import WheelPattern, decode_pattern, infer_pattern
 from monitor.types import FloatArray
 
 __all__ = [
@@ -81,6 +82,8 @@ class ToothWheelDecoding:
         True when the waveform was decoded inverted (a VR sensor wired the wrong way round).
     notes : tuple of str
         What a user should know about the decoding (an inferred sensor kind, reversed polarity).
+    pattern : WheelPattern or None
+        A wheel of several gaps (its teeth then at the pattern's positions); None for one gap.
     """
 
     times: FloatArray
@@ -95,6 +98,7 @@ class ToothWheelDecoding:
     sensor: str = ""
     reversed_polarity: bool = False
     notes: tuple[str, ...] = ()
+    pattern: WheelPattern | None = None
 
     @property
     def pitch(self) -> float:
@@ -120,6 +124,7 @@ def decode_tooth_wheel(
     missing: int,
     first_tooth_angle: float = 0.0,
     gap_ratio: float | None = None,
+    pattern: WheelPattern | None = None,
 ) -> ToothWheelDecoding:
     """Crank angles of tooth-wheel edges.
 
@@ -136,6 +141,9 @@ def decode_tooth_wheel(
     gap_ratio : float, optional
         Interval over the running median of nine intervals that marks the gap;
         default ``missing + 0.5`` [-].
+    pattern : WheelPattern, optional
+        A wheel of several gaps, of ``teeth`` positions and ``missing`` teeth in all
+        (:mod:`monitor.signal.wheels`); default: one gap.
 
     Returns
     -------
@@ -145,7 +153,10 @@ def decode_tooth_wheel(
     ------
     SignalError
         Without at least two gaps, or with a revolution that has neither the
-        right number of edges nor one too few or too many.
+        right number of edges nor one too few or too many; or when the edges
+        show another wheel than the one declared (one tooth inserted or removed
+        in half the revolutions or more, or revolutions that do not fit): the
+        message names the wheel they show.
     """
     t = np.asarray(edge_times, dtype=np.float64)
     if teeth < 3 or not 1 <= missing < teeth - 1:
@@ -155,9 +166,21 @@ def decode_tooth_wheel(
             f"{t.size} edge times: expected at least two revolutions ({2 * teeth}) of finite, "
             "increasing times"
         )
+    if pattern is not None and not pattern.same_as(WheelPattern.one_gap(teeth, missing)):
+        return _decoded_pattern(t, pattern, teeth, missing, first_tooth_angle)
     threshold = missing + 0.5 if gap_ratio is None else gap_ratio
     per_rev = teeth - missing
-    arr, gaps, inserted, removed = _repaired(t, threshold, teeth, missing)
+    try:
+        arr, gaps, inserted, removed = _repaired(t, threshold, teeth, missing)
+    except SignalError as error:
+        raise SignalError(f"{error}{_shown(t, WheelPattern.one_gap(teeth, missing))}") from None
+    if 2 * (len(inserted) + len(removed)) >= max(gaps.size - 1, 1) and (
+        shown := _shown(t, WheelPattern.one_gap(teeth, missing))
+    ):
+        raise SignalError(
+            f"tooth wheel {teeth}-{missing}: {len(inserted) + len(removed)} teeth inserted or removed in "
+            f"{gaps.size - 1} revolutions, the same every revolution{shown}"
+        )
     arr, gaps, trimmed = _trim_ends(arr, gaps, per_rev)
     index = np.empty(arr.size, dtype=np.int64)
     revolution = np.empty(arr.size, dtype=np.int64)
@@ -187,6 +210,44 @@ def decode_tooth_wheel(
             if trimmed
             else ()
         ),
+    )
+
+
+def _shown(t: FloatArray, declared: WheelPattern) -> str:
+    """What the edges show where it is another wheel than the one declared (else empty)."""
+    found = infer_pattern(t)
+    if found is None or found.same_as(declared):
+        return ""
+    return (
+        f"; the edges show a {found.name} wheel ({found.spelled}: {found.teeth} teeth, gaps of "
+        f"{', '.join(str(g) for g in found.gaps)}), not the {declared.name} declared: declare the "
+        f"channel's pattern = {found.name!r} (and teeth = {found.positions}, missing_teeth = {found.missing})"
+    )
+
+
+def _decoded_pattern(
+    t: FloatArray, pattern: WheelPattern, teeth: int, missing: int, first_tooth_angle: float
+) -> ToothWheelDecoding:
+    """The decoding of a wheel of several gaps (:func:`monitor.signal.wheels.decode_pattern`)."""
+    if (pattern.positions, pattern.missing) != (teeth, missing):
+        raise SignalError(
+            f"wheel pattern {pattern.name} ({pattern.spelled}) has {pattern.positions} positions and "
+            f"{pattern.missing} missing teeth: the channel states teeth = {teeth}, missing_teeth = {missing}"
+        )
+    try:
+        times, angles, tooth = decode_pattern(t, pattern, first_tooth_angle=first_tooth_angle)
+    except SignalError as error:
+        raise SignalError(f"{error}{_shown(t, pattern)}") from None
+    starts = times[tooth == 0]
+    return ToothWheelDecoding(
+        times=times,
+        angles=angles,
+        tooth_index=tooth,
+        gap_times=starts,
+        teeth=teeth,
+        missing=missing,
+        revolutions=max(int(starts.size) - 1, 0),
+        pattern=pattern,
     )
 
 
@@ -328,6 +389,7 @@ def decode_tooth_signal(
     start_time: float = 0.0,
     sensor: ToothSensor | None = None,
     polarity: Literal["normal", "reversed"] | None = None,
+    pattern: WheelPattern | None = None,
 ) -> ToothWheelDecoding:
     """Crank angles of the teeth in a tooth-wheel waveform, timed as its sensor kind needs.
 
@@ -351,6 +413,8 @@ def decode_tooth_signal(
     polarity : {"normal", "reversed"}, optional
         How the sensor is wired. Default: "normal", and for a VR sensor whose waveform does not
         decode, "reversed" if the inverted waveform does (said in the notes).
+    pattern : WheelPattern, optional
+        A wheel of several gaps (:func:`decode_tooth_wheel`).
 
     Returns
     -------
@@ -386,7 +450,7 @@ def decode_tooth_signal(
                 signal, sample_rate, start_time=start_time, direction="falling" if reversed_ else "rising"
             )
         return decode_tooth_wheel(
-            edges.times, teeth=teeth, missing=missing, first_tooth_angle=first_tooth_angle
+            edges.times, teeth=teeth, missing=missing, first_tooth_angle=first_tooth_angle, pattern=pattern
         )
 
     if polarity is not None:

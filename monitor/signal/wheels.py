@@ -1,0 +1,310 @@
+"""Trigger-wheel patterns: declared by name or position by position, decoded, and read off the edges.
+
+A crank wheel has ``positions`` equally spaced places around it, and a tooth at some of them: a run of
+missing teeth (a gap) marks the revolution. The common wheels have one gap (60-2, 36-1, 24-1); others
+have several of different lengths, so that an engine controller syncs within part of a revolution
+(36-2-1, 36-2-1-1). A name says how many are missing in each gap, not how the teeth between are
+shared out; those are taken as engine controllers build them (rusEFI's trigger definitions:
+36-2-1 has 16 teeth after its two-tooth gap and 17 after the one-tooth gap; 36-2-1-1 has 11, 11 and
+10). Any other wheel is declared position by position: ``"36: 0-15, 18-34"`` is 36 positions with
+teeth at 0 to 15 and 18 to 34. Position 0 is the first tooth after the longest gap (the first of them
+when two are as long): its crank angle is the channel's ``first_tooth_angle_deg``.
+
+Decoding (:func:`decode_pattern`). Each interval between edges is taken in crank angle by the time of
+the revolution around it (the ``T`` intervals of the teeth present): ``x_k = 2 pi dt_k / (t_{k+T} -
+t_k)``, the speed's own change over a revolution aside. The pattern's intervals are laid on them at
+every offset over the first two revolutions; the offset that fits best (least squares in the
+logarithm) names each edge's tooth, and every interval must then lie within :data:`FIT` of its
+tooth's (a lost or a spurious tooth does not, and the message names where). A pattern whose
+intervals repeat within a revolution (two equal gaps half a revolution apart) cannot tell the
+revolution's halves apart and is refused.
+
+Reading a wheel off its edges (:func:`infer_pattern`). Against the running median of the intervals
+(most are one pitch), an interval of ``m + 1`` pitches follows ``m`` missing teeth; the gaps' sequence
+repeats once a revolution. The shortest period over which it repeats in most revolutions gives the
+teeth present, the gaps and the positions. It is what :mod:`monitor.signal.toothwheel` reports when a
+wheel declared with one gap shows another pattern.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.ndimage import median_filter
+
+from monitor.errors import SignalError
+from monitor.types import FloatArray
+
+__all__ = ["FIT", "NAMED", "WheelPattern", "decode_pattern", "infer_pattern"]
+
+FIT = 0.3  # an interval further than this (relative) from its tooth's breaks the pattern [-]
+_MOST = 0.8  # the share of the revolutions a pattern read off the edges must hold in [-]
+
+
+@dataclass(frozen=True)
+class WheelPattern:
+    """A trigger wheel: its positions and the ones with a tooth.
+
+    Attributes
+    ----------
+    positions : int
+        Equally spaced places around the wheel, missing teeth included [-].
+    present : tuple of int
+        The places with a tooth, increasing, from 0 (the first tooth after the longest gap).
+    name : str
+        As declared or found: a name (``"36-2-1"``) or position by position (``"36: 0-15, 18-34"``).
+    """
+
+    positions: int
+    present: tuple[int, ...]
+    name: str
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.present)
+        if (
+            self.positions < 3
+            or p.size < 2
+            or p[0] != 0
+            or np.any(np.diff(p) <= 0)
+            or p[-1] >= self.positions
+            or p.size == self.positions
+        ):
+            raise SignalError(
+                f"wheel {self.name!r}: expected at least 3 positions, teeth at increasing positions from "
+                f"0 (the first tooth after the longest gap) below {self.positions}, and at least one missing"
+            )
+
+    @property
+    def teeth(self) -> int:
+        """The teeth present [-]."""
+        return len(self.present)
+
+    @property
+    def missing(self) -> int:
+        """The positions without a tooth [-]."""
+        return self.positions - self.teeth
+
+    @property
+    def pitch(self) -> float:
+        """The angle between neighbouring positions [rad]."""
+        return 2 * math.pi / self.positions
+
+    @property
+    def intervals(self) -> npt.NDArray[np.int64]:
+        """From each tooth to the next, around the wheel [positions]."""
+        p = np.asarray(self.present, dtype=np.int64)
+        return np.diff(np.append(p, self.positions + p[0]))
+
+    @property
+    def gaps(self) -> tuple[int, ...]:
+        """The runs of missing teeth, in order from position 0 [-]."""
+        return tuple(int(n) - 1 for n in self.intervals if n > 1)
+
+    @property
+    def angles(self) -> FloatArray:
+        """Each tooth's angle after the first tooth [rad]."""
+        return np.asarray(self.present, dtype=np.float64) * self.pitch
+
+    @property
+    def spelled(self) -> str:
+        """Position by position: ``"36: 0-15, 18-34"``."""
+        runs, start = [], self.present[0]
+        for previous, current in zip(self.present, (*self.present[1:], -1), strict=True):
+            if current != previous + 1:
+                runs.append(f"{start}-{previous}" if previous > start else f"{start}")
+                start = current
+        return f"{self.positions}: " + ", ".join(runs)
+
+    def same_as(self, other: WheelPattern) -> bool:
+        """Whether two declarations are one wheel (their positions and teeth alike)."""
+        return (self.positions, self.present) == (other.positions, other.present)
+
+    @classmethod
+    def one_gap(cls, positions: int, missing: int) -> WheelPattern:
+        """The wheel of ``positions`` with one gap of ``missing`` teeth (60-2)."""
+        if not 1 <= missing < positions - 1:
+            raise SignalError(
+                f"tooth wheel {positions}-{missing}: expected 1 <= missing teeth < positions - 1"
+            )
+        return cls(positions, tuple(range(positions - missing)), f"{positions}-{missing}")
+
+    @classmethod
+    def parse(cls, text: str) -> WheelPattern:
+        """A wheel from its declaration: a name (``"60-2"``, ``"36-2-1"``) or ``"N: a-b, c-d, e"``.
+
+        Raises
+        ------
+        SignalError
+            For text that is neither, naming the forms expected.
+        """
+        spelled = text.strip()
+        if spelled in NAMED:
+            return NAMED[spelled]
+        one = re.fullmatch(r"(\d+)-(\d+)", spelled)
+        if one:
+            return cls.one_gap(int(one[1]), int(one[2]))
+        listed = re.fullmatch(r"(\d+)\s*:\s*(.+)", spelled)
+        if listed:
+            present: list[int] = []
+            for part in listed[2].split(","):
+                bounds = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+))?\s*", part)
+                if not bounds:
+                    break
+                low, high = int(bounds[1]), int(bounds[2] if bounds[2] is not None else bounds[1])
+                present.extend(range(low, high + 1))
+            else:
+                return cls(int(listed[1]), tuple(present), spelled)
+        raise SignalError(
+            f"wheel pattern {text!r}: expected a name ({', '.join(NAMED)}, or N-M for one gap of M teeth "
+            "among N positions) or the positions with a tooth, as '36: 0-15, 18-34'"
+        )
+
+
+def _named(name: str, runs: list[tuple[int, int]]) -> WheelPattern:
+    """A named wheel from its stretches, from position 0: (teeth, then missing) each."""
+    present: list[int] = []
+    position = 0
+    for teeth, missing in runs:
+        present.extend(range(position, position + teeth))
+        position += teeth + missing
+    return WheelPattern(position, tuple(present), name)
+
+
+#: Wheels with more than one gap, by the names engine controllers give them (rusEFI's trigger wheels:
+#: 36-2-1 is two missing, 16 teeth, one missing, 17 teeth; 36-2-1-1 two missing, 11, one, 11, one, 10).
+NAMED: dict[str, WheelPattern] = {
+    "36-2-1": _named("36-2-1", [(16, 1), (17, 2)]),
+    "36-2-1-1": _named("36-2-1-1", [(11, 1), (11, 1), (10, 2)]),
+}
+
+
+def decode_pattern(
+    edge_times: npt.ArrayLike, pattern: WheelPattern, *, first_tooth_angle: float = 0.0
+) -> tuple[FloatArray, FloatArray, npt.NDArray[np.int64]]:
+    """Each edge's crank angle on a wheel of the pattern (module docstring).
+
+    Parameters
+    ----------
+    edge_times : array_like
+        One edge per tooth, increasing [s]; at least two revolutions.
+    pattern : WheelPattern
+    first_tooth_angle : float, optional
+        Crank angle of the pattern's position 0, from TDC of cylinder 1 [rad].
+
+    Returns
+    -------
+    times : ndarray
+        The edges from the first whose tooth is known [s].
+    angles : ndarray
+        Their crank angles, increasing [rad].
+    tooth : ndarray of int
+        Each edge's tooth: its index among the teeth present, 0 at position 0.
+
+    Raises
+    ------
+    SignalError
+        For fewer than two revolutions' edges, a pattern that repeats within a revolution, or an
+        interval that does not fit its tooth's (a lost or a spurious tooth: the message gives when).
+    """
+    t = np.asarray(edge_times, dtype=np.float64)
+    n_teeth = pattern.teeth
+    if t.ndim != 1 or t.size < 2 * n_teeth + 1 or np.any(np.diff(t) <= 0):
+        raise SignalError(
+            f"{t.size} edge times: expected at least two revolutions ({2 * n_teeth + 1}) of increasing "
+            f"times for wheel {pattern.name}"
+        )
+    expected = pattern.intervals * pattern.pitch  # [rad], from each tooth to the next
+    if any(np.array_equal(expected, np.roll(expected, s)) for s in range(1, n_teeth)):
+        raise SignalError(
+            f"wheel {pattern.name}: its gaps repeat within a revolution, so its edges cannot tell which "
+            "part of the revolution they are in; use the cam or a wheel with one longest gap"
+        )
+    measured = _in_angle(t, n_teeth)
+    logs = np.log(measured[: 2 * n_teeth])  # synced on the first two revolutions, then checked throughout
+    cost = [
+        float(np.sum((logs - np.log(np.resize(np.roll(expected, -offset), logs.size))) ** 2))
+        for offset in range(n_teeth)
+    ]
+    offset = int(np.argmin(cost))
+    tooth = (np.arange(t.size) + offset) % n_teeth
+    misfit = np.abs(measured / expected[tooth[:-1]] - 1.0)
+    if np.any(misfit > FIT):
+        k = int(np.flatnonzero(misfit > FIT)[0])
+        raise SignalError(
+            f"wheel {pattern.name}: the interval from t = {t[k]:.6g} s is {measured[k] / pattern.pitch:.2f} "
+            f"pitches where the pattern has {expected[tooth[k]] / pattern.pitch:.0f} (a tooth lost or a "
+            "spurious pulse there)"
+        )
+    revolution = np.floor_divide(np.arange(t.size) + offset, n_teeth)
+    angles = first_tooth_angle + 2 * math.pi * revolution + pattern.angles[tooth]
+    return t, angles, tooth.astype(np.int64)
+
+
+def _in_angle(t: FloatArray, n_teeth: int) -> FloatArray:
+    """Each interval in crank angle: over the time of the revolution centred on it [rad]."""
+    dt = np.diff(t)
+    revolution = t[n_teeth:] - t[:-n_teeth]  # from edge k to edge k + n_teeth: one revolution
+    centre = np.clip(np.arange(dt.size) - n_teeth // 2, 0, revolution.size - 1)
+    return 2 * math.pi * dt / revolution[centre]
+
+
+def infer_pattern(edge_times: npt.ArrayLike) -> WheelPattern | None:
+    """The wheel the edges show, where most of their revolutions agree (module docstring).
+
+    Parameters
+    ----------
+    edge_times : array_like
+        One edge per tooth, increasing [s].
+
+    Returns
+    -------
+    WheelPattern or None
+        Named when a known name fits (``"60-2"``, ``"36-2-1"``), else position by position; None
+        when the edges show no gap, teeth between the pitches (an extra tooth), or no pattern that
+        repeats in most of three revolutions or more.
+    """
+    t = np.asarray(edge_times, dtype=np.float64)
+    if t.ndim != 1 or t.size < 16 or np.any(np.diff(t) <= 0):
+        return None
+    dt = np.diff(t)
+    pitches = dt / median_filter(dt, size=min(15, dt.size), mode="mirror")
+    if np.any(pitches < 0.6):
+        return None
+    long = np.flatnonzero(pitches > 1.5)
+    if long.size < 3:
+        return None
+    missing = np.rint(pitches[long]).astype(np.int64) - 1
+    apart = np.diff(long)  # edges from one gap to the next
+    for period in range(1, long.size // 3 + 1):
+        if apart.size < 2 * period:
+            break
+        shape = [(int(a), int(m)) for a, m in zip(apart, missing[1:], strict=True)]
+        repeats = [shape[i] == shape[i - period] for i in range(period, len(shape))]
+        if np.mean(repeats) < _MOST:
+            continue
+        # one revolution from just after the longest gap: the gaps' sizes and the edges between them
+        first = int(np.argmax(missing[: period + 1]))
+        gaps = [int(missing[first + j]) for j in range(period)]
+        teeth = [int(apart[first + j]) for j in range(period)]
+        present: list[int] = []
+        position = 0
+        for j in range(period):
+            present.extend(range(position, position + teeth[j]))
+            position += teeth[j] + gaps[(j + 1) % period]
+        found = WheelPattern(position, tuple(present), "")
+        return _with_name(found)
+    return None
+
+
+def _with_name(found: WheelPattern) -> WheelPattern:
+    """The pattern under its name where one fits, else spelled position by position."""
+    for name, known in NAMED.items():
+        if known.same_as(found):
+            return WheelPattern(found.positions, found.present, name)
+    if len(found.gaps) == 1:
+        return WheelPattern(found.positions, found.present, f"{found.positions}-{found.missing}")
+    return WheelPattern(found.positions, found.present, found.spelled)
