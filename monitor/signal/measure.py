@@ -45,6 +45,7 @@ from monitor.signal.pitch import PitchCorrection
 from monitor.signal.reference import AngleReference, angle_reference, waveform_rate
 from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
 from monitor.signal.spectrum import OrderSpectrum, OrderSpeedMap, order_spectrum, order_speed_map
+from monitor.signal.steady import MIN_CYCLES, cycle_series, steady_segments
 from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 
 __all__ = ["ANGULAR_VIBRATION_CHANNEL", "SPEED_CHANNEL", "SpectrumResult", "spectra"]
@@ -186,7 +187,12 @@ def spectra(
         result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
     profiled = dict(sorted((name, o[2]) for name, o in outcomes.items() if o[2] is not None))
-    reference = replace(reference, notes=reference.notes + tuple(_pressure_peak_notes(recording, reference)))
+    reference = replace(
+        reference,
+        notes=reference.notes
+        + tuple(_pressure_peak_notes(recording, reference))
+        + tuple(_speed_notes(reference, cycle_revolutions)),
+    )
     return SpectrumResult(
         reference,
         result,
@@ -359,6 +365,35 @@ def _crank_spectra(
             max_order=how.max_order,
             known=known,
         )
+
+
+def _speed_notes(reference: AngleReference, cycle_revolutions: int) -> list[str]:
+    """A note when the speed is not at one steady point: the orders are then the mean over the speeds.
+
+    The cycles' mean speeds are segmented as the diagnosis segments them (:mod:`monitor.signal.steady`,
+    the speed alone): a recording that is not one steady segment from its first cycle to its last (a
+    run-up, a coast-down, a load step) is noted, with its speeds and its steady spans.
+    """
+    series = cycle_series(
+        reference.angle_map,
+        cycle_revolutions=cycle_revolutions,
+        firing_harmonic=1,
+        pulses_per_revolution=reference.pulses_per_revolution,
+    )
+    if series.cycles < 4:
+        return []
+    found = steady_segments(replace(series, load=None), min_cycles=min(MIN_CYCLES, series.cycles))
+    if found.at_one_point:
+        return []
+    rpm = series.speed * 30 / math.pi
+    spread = float(rpm.std() / rpm.mean())
+    spans = ", ".join(f"{s.start_s:.1f}-{s.stop_s:.1f} s" for s in found.segments)
+    return [
+        f"the speed is not steady: {rpm[0]:.1f} rpm at the start, {rpm[-1]:.1f} at the end, "
+        f"{rpm.min():.1f} to {rpm.max():.1f} over the cycles ({100 * spread:.0f} % rms; "
+        + (f"steady {spans}" if spans else "no steady span")
+        + "): the orders are their mean; '--speed-map BINS' shows them by speed"
+    ]
 
 
 def _pressure_peak_notes(recording: Recording, reference: AngleReference) -> list[str]:

@@ -297,3 +297,20 @@ def test_spectra_report_progress_and_the_time_of_each_stage(rng: np.random.Gener
     for name in ("angle reference: pulses and decoding", "grid times", "reading", "resampling"):
         assert name in stages and stages[name] >= 0.0, name
     assert "order spectra" in stages
+
+
+@pytest.mark.parametrize(("rise", "noted"), [(0.0, False), (0.3, True)])
+def test_spectra_say_when_the_speed_is_not_steady(rise: float, noted: bool) -> None:
+    """A keyphasor's pulses at a steady 600 rpm, and on a run-up by 30 % over 80 revolutions (times from
+    a speed rising linearly with the angle, integrated exactly: t = ln(w(a) / w0) / k). Only the run-up
+    is noted, with its first and last cycles' speeds."""
+    w0 = 600 * math.pi / 30
+    angle = 2 * math.pi * np.arange(81)
+    k = rise * w0 / angle[-1]  # d(omega)/d(angle) [1/s]
+    times = angle / w0 if rise == 0 else np.log1p(k * angle / w0) / k
+    channel = Channel("kp", "keyphasor", "s", times + 0.01, None, fields={"pulse_angle_deg": 0.0})
+    result = spectra(Recording("man-b-w-7k98mc", "2026-11-22T10:15:00Z", (channel,)), cycle_revolutions=1)
+    said = [n for n in result.reference.notes if n.startswith("the speed is not steady")]
+    assert bool(said) is noted
+    if noted:
+        assert said[0].startswith("the speed is not steady: 601.") and "no steady span" in said[0]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -487,3 +488,21 @@ def test_a_fine_encoders_crank_speed_is_measured_on_a_capped_grid() -> None:
     for k, (a, phase) in orders.items():
         assert abs(measured[int(k)]) == pytest.approx(a, rel=1e-3)
         assert math.degrees(np.angle(measured[int(k)] * np.exp(-1j * phase))) == pytest.approx(0.0, abs=0.1)
+
+
+def test_spectrum_says_when_the_real_fuel_cut_is_no_steady_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """E5FULLOAD4EngineOff is a fuel cut from full load: the engine slows from about 2020 to 1510 rpm.
+    spectrum read it as one steady 1724 rpm without a word; it now says the speed is not steady, from
+    what to what, and that the orders are the mean over it. The steady full-load run gets no such note."""
+    cut = _tue_file("E5FULLOAD4EngineOff", tmp_path, 116.0)
+    assert main(["spectrum", str(cut), "--orders", "0.5"]) == 0
+    said = capsys.readouterr().out
+    (note,) = [line for line in said.splitlines() if "the speed is not steady" in line]
+    start, end = (float(v) for v in re.findall(r"([\d.]+) rpm at the start, ([\d.]+) at the end", note)[0])
+    assert 1950 < start < 2100 and 1450 < end < 1570
+    assert "no steady span" in note and "the orders are their mean" in note
+    steady = _tue_file("E10FULLLOAD1", tmp_path, 116.0)
+    assert main(["spectrum", str(steady), "--orders", "0.5"]) == 0
+    assert "the speed is not steady" not in capsys.readouterr().out
