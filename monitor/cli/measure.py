@@ -178,19 +178,31 @@ def _spectrum_table(result: SpectrumResult, recording: Recording, listed: list[f
     ]
     for name, spectrum in result.spectra.items():
         keep = order_mask(spectrum, listed, mean=False)
+        bounded = spectrum.systematic is not None
         lines += [
             "",
             f"{name} [{result.units[name]}], {spectrum.blocks} blocks of {spectrum.block_cycles} cycle(s):",
-            f"{'order':>6} {'amplitude':>12} {'phase':>8} {'spread':>10}",
+            f"{'order':>6} {'amplitude':>12} {'phase':>8} {'spread':>10}"
+            + (f" {'systematic':>10}" if bounded else ""),
         ]
-        for k, a, ph, sd in zip(
-            spectrum.orders[keep],
-            spectrum.magnitude[keep],
-            spectrum.phase[keep],
-            spectrum.magnitude_std[keep],
-            strict=True,
+        systematic = spectrum.systematic[keep] if spectrum.systematic is not None else None
+        for i, (k, a, ph, sd) in enumerate(
+            zip(
+                spectrum.orders[keep],
+                spectrum.magnitude[keep],
+                spectrum.phase[keep],
+                spectrum.magnitude_std[keep],
+                strict=True,
+            )
         ):
-            lines.append(f"{k:6.1f} {a:12.5g} {math.degrees(ph):8.1f} {sd:10.3g}")
+            line = f"{k:6.1f} {a:12.5g} {math.degrees(ph):8.1f} {sd:10.3g}"
+            lines.append(line + (f" {systematic[i]:10.3g}" if systematic is not None else ""))
+        if bounded:
+            lines.append(
+                "systematic: the most the wheel's unlearned tooth-pitch errors can put in each whole order "
+                "(about 99 % coverage); averaging does not remove it, a run-up calibration does "
+                "(calibrate --pitch-from)"
+            )
     for name, speed_map in result.speed_maps.items():
         lines.append(
             f"{name}: order-speed map over {speed_map.speed.size} speed bins "

@@ -106,6 +106,7 @@ def spectrum_document(
             "amplitude": spectrum.magnitude[keep],
             "phase_deg": np.degrees(spectrum.phase[keep]),
             "standard_error": spectrum.standard_error[keep],
+            "systematic": spectrum.systematic[keep] if spectrum.systematic is not None else None,
         }
     document: dict[str, Any] = {
         "recording": recording,

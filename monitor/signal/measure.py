@@ -42,6 +42,7 @@ from monitor.signal.crank_speed import crank_speed_spectra
 from monitor.signal.grid import AngleGrid, angle_grid
 from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
+from monitor.signal.pitch_uncertainty import systematic_bound
 from monitor.signal.reference import AngleReference, angle_reference, waveform_rate
 from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
 from monitor.signal.spectrum import OrderSpectrum, OrderSpeedMap, order_spectrum, order_speed_map
@@ -184,7 +185,9 @@ def spectra(
     units = {name: jobs[name][0].unit for name in jobs}
     maps = {name: outcome[1] for name, outcome in outcomes.items() if outcome[1] is not None}
     if crank is not None:
-        result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = crank
+        result[SPEED_CHANNEL], result[ANGULAR_VIBRATION_CHANNEL] = _with_systematic(
+            crank, reference, angle_map.mean_speed
+        )
         units[SPEED_CHANNEL], units[ANGULAR_VIBRATION_CHANNEL] = "rad/s", "rad"
     profiled = dict(sorted((name, o[2]) for name, o in outcomes.items() if o[2] is not None))
     reference = replace(
@@ -365,6 +368,26 @@ def _crank_spectra(
             max_order=how.max_order,
             known=known,
         )
+
+
+def _with_systematic(
+    crank: tuple[OrderSpectrum, OrderSpectrum], reference: AngleReference, mean_speed: float
+) -> tuple[OrderSpectrum, OrderSpectrum]:
+    """The crank speed's and angular vibration's spectra with the bound the wheel's pitch errors left in
+    the map put on their integer orders (:mod:`monitor.signal.pitch_uncertainty`), where it is known."""
+    sigma = reference.pitch_scatter
+    if sigma is None:
+        return crank
+    speed, lead = crank
+    teeth = reference.pulses_per_revolution
+
+    def bounded(spectrum: OrderSpectrum, speed_of: float | None) -> OrderSpectrum:
+        bound = systematic_bound(
+            spectrum.orders, sigma, teeth, mean_speed=speed_of, only=reference.pitch_orders
+        )
+        return replace(spectrum, systematic=bound)
+
+    return bounded(speed, mean_speed), bounded(lead, None)
 
 
 def _speed_notes(reference: AngleReference, cycle_revolutions: int) -> list[str]:

@@ -33,6 +33,7 @@ from monitor.signal.pitch import (
     estimate_pitch_errors,
     learn_pitch_over_speed,
 )
+from monitor.signal.pitch_uncertainty import pitch_scatter
 from monitor.signal.pulses import detect_edges, detect_pulses, repair_keyphasor
 from monitor.signal.toothwheel import (
     ToothWheelDecoding,
@@ -80,6 +81,13 @@ class AngleReference:
     notes : tuple of str
         What a user should know about the reference (an inferred sensor kind, reversed polarity,
         a correction skipped).
+    pitch_scatter : float or None
+        The standard deviation of the wheel's tooth-position errors left in the map
+        (:mod:`monitor.signal.pitch_uncertainty`) [rad]; 0 when all were learned at every order; None
+        where not known (a keyphasor, a wheel of several gaps, too short a recording).
+    pitch_orders : tuple of int or None
+        The integer orders those errors are left in: None every one, else only these (the orders a
+        baseline's correction left to the engine).
     """
 
     angle_map: AngleMap
@@ -89,6 +97,8 @@ class AngleReference:
     pulses_per_revolution: int
     pitch_correction: PitchCorrection | None = None
     notes: tuple[str, ...] = ()
+    pitch_scatter: float | None = None
+    pitch_orders: tuple[int, ...] | None = None
 
 
 def _edges(channel: Channel, *, alike: bool = False) -> np.ndarray:
@@ -252,11 +262,13 @@ def angle_reference(
                     correction = _plausible(estimate, decoding)
                 except SignalError as why:
                     notes.append(f"{channel.name}: no tooth-pitch correction ({why})")
+            raw = decoding
             if correction is not None:
                 try:
                     decoding = correct_pitch(decoding, correction)
                 except SignalError as error:
                     raise SignalError(f"{channel.name}: {error}") from None
+            scatter, left_in = _left_errors(raw, decoding, correction)
         # the wheel's gap: the speed's shape inside it from the cycle's shape elsewhere (orders the
         # pulses determine, below half the pulses per cycle)
         with stage(clock, "angle reference: gap filling"):
@@ -266,6 +278,7 @@ def angle_reference(
         repairs = int(decoding.inserted.size + decoding.removed.size)
         pulses = decoding.teeth - decoding.missing
     elif keyphasors:
+        scatter, left_in = None, None
         channel = keyphasors[0]
         try:
             with stage(clock, "angle reference: pulses and decoding"):
@@ -290,7 +303,28 @@ def angle_reference(
         angle_map = angle_map.shifted(shift)
         if clock is not None:
             clock.add("angle reference: cycle phase", time.perf_counter() - start)
-    return AngleReference(angle_map, channel.name, repairs, how, pulses, correction, tuple(notes))
+    return AngleReference(
+        angle_map, channel.name, repairs, how, pulses, correction, tuple(notes), scatter, left_in
+    )
+
+
+def _left_errors(
+    raw: ToothWheelDecoding, corrected: ToothWheelDecoding, correction: PitchCorrection | None
+) -> tuple[float | None, tuple[int, ...] | None]:
+    """The scatter of the tooth-position errors left in the map, and the orders they are left in.
+
+    Uncorrected, or only beside the gap: every tooth's but those corrected, at every integer order.
+    Learned on a baseline (every tooth, the kept orders left to the engine): the raw wheel's, at the
+    kept orders only. Learned over speed (nothing kept): none. None where the scatter cannot be read.
+    """
+    try:
+        if correction is None or correction.scope != "all":
+            return pitch_scatter(corrected), None
+        if not correction.kept_orders:
+            return 0.0, ()
+        return pitch_scatter(raw), tuple(int(k) for k in correction.kept_orders)
+    except SignalError:
+        return None, None
 
 
 def _cycle_phase(

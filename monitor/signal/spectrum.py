@@ -45,6 +45,10 @@ class OrderSpectrum:
         Blocks averaged.
     block_cycles : int
         Cycles per block.
+    systematic : ndarray or None
+        A bound on each order's systematic error that averaging does not remove (the crank speed's
+        integer orders: a wheel's unlearned pitch errors, :mod:`monitor.signal.pitch_uncertainty`),
+        in the channel's unit; None where none is known.
     """
 
     orders: FloatArray
@@ -54,6 +58,7 @@ class OrderSpectrum:
     scatter: FloatArray
     blocks: int
     block_cycles: int
+    systematic: FloatArray | None = None
 
     @property
     def standard_error(self) -> FloatArray:
