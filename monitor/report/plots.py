@@ -178,6 +178,9 @@ def plot_model_orders(result: ModelOrders, model: EngineModel, path: str | Path)
 def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
     """Order spectra of a recording: one panel per channel, amplitude on a log scale.
 
+    Each bar is an order's amplitude, its whisker the blocks' spread; a red tick marks the bound a
+    wheel's unlearned pitch errors put on a whole order of the crank speed (``systematic``).
+
     Parameters
     ----------
     result : monitor.signal.measure.SpectrumResult
@@ -191,6 +194,7 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
     """
     names = list(result.spectra)
     fig, axes, out = new_figure(path, rows=len(names), size=(11, 2.6 * len(names) + 0.8), squeeze=False)
+    marked = False
     for ax, name in zip(axes[:, 0], names, strict=True):
         spectrum = result.spectra[name]
         orders, amplitude = spectrum.orders[1:], spectrum.magnitude[1:]
@@ -204,6 +208,12 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
             elinewidth=0.6,
             capsize=1.5,
         )
+        systematic = spectrum.systematic[1:] if spectrum.systematic is not None else None
+        if systematic is not None and np.any(systematic > 0):
+            # the wheel's unlearned pitch errors: what an order may owe them, whatever the averaging
+            bounded = systematic > 0
+            ax.scatter(orders[bounded], systematic[bounded], marker="_", s=120, color="tab:red")
+            marked = True
         ax.set_yscale("log")
         top = float(amplitude.max(initial=1e-12))
         ax.set_ylim(max(top * 1e-6, 1e-12), top * 3)
@@ -211,6 +221,12 @@ def plot_spectra(result: Any, path: str | Path, *, title: str = "") -> Path:
         ax.grid(alpha=0.3, axis="y", which="both")
     axes[-1, 0].set_xlabel("order")
     fig.suptitle(title or "Order spectra")
+    if marked:  # below the axes, in the space the constrained layout keeps for it
+        fig.supxlabel(
+            "whiskers: the blocks' spread; red ticks: the most the wheel's unlearned tooth-pitch errors can "
+            "put in a whole order (systematic, not reduced by averaging)",
+            fontsize="small",
+        )
     return save_figure(fig, out, dpi=100)
 
 
