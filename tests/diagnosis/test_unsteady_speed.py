@@ -101,7 +101,7 @@ def test_a_speed_spread_beyond_the_steady_limit_is_inconclusive_and_says_by_how_
     monkeypatch.setattr(sys.modules["monitor.diagnosis.diagnose"], "STEADY", 0.05)
     diagnosis = diagnose_at_point(case.recording, engine, points=points)
     assert diagnosis.status == "inconclusive"
-    (said,) = [n for n in diagnosis.notes if "not steady" in n]
+    (said,) = [n for n in diagnosis.notes if n.startswith("inconclusive: the speed was not steady")]
     assert "9 % rms" in said and "miss theirs by 1 %" in said
 
 
