@@ -45,7 +45,6 @@ the capture is refused with that cause named.
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 import re
@@ -56,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from monitor.errors import DataQualityWarning, FormatError
+from monitor.io.imports.columns import is_number, numbered_column, split_fields
 from monitor.io.imports.mapping import (
     LEVEL_CHANGES,
     TIME_UNITS,
@@ -108,23 +108,6 @@ class _Edges:
     last_levels: FloatArray | None = None
 
 
-def _fields(line: str, delimiter: str | None) -> list[str]:
-    if delimiter is None:
-        return [f.strip('"') for f in line.split()]
-    fields = [f.strip().strip('"') for f in next(csv.reader([line], delimiter=delimiter), [])]
-    if len(fields) > 1 and fields[-1] == "":  # a delimiter ending the line
-        fields.pop()
-    return fields
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _is_data(line: str) -> bool:
     text = line.strip()
     return bool(text) and not text.startswith(_COMMENT)
@@ -163,7 +146,7 @@ def _head(source: Path, mapping: ImportMapping) -> _Head:
         )
     else:
         candidates = _DELIMITERS
-    split = [[_fields(lines[i], d) for i in found] for d in candidates]
+    split = [[split_fields(lines[i], d) for i in found] for d in candidates]
     chosen = next(
         (
             k
@@ -180,7 +163,7 @@ def _head(source: Path, mapping: ImportMapping) -> _Head:
             "is another character)"
         )
     first = split[chosen][0]
-    has_header = any(not _is_number(f) and f != "X" for f in first)
+    has_header = any(not is_number(f) and f != "X" for f in first)
     if has_header and len(found) < 2:
         raise FormatError(f"{source}: no rows after the header line {found[0] + 1}")
     return _Head(
@@ -196,12 +179,7 @@ def _head(source: Path, mapping: ImportMapping) -> _Head:
 def _column(spec: str | int, head: _Head, source: Path, what: str) -> int:
     """The 0-based column that a mapping's ``source`` or ``time_column`` names."""
     if isinstance(spec, int):
-        if spec >= head.columns:
-            raise FormatError(
-                f"{source}: {what}: there is no column {spec}; the rows have {head.columns} columns "
-                f"(0 to {head.columns - 1})"
-            )
-        return spec
+        return numbered_column(spec, head.columns, source, what)
     if not head.header:
         raise FormatError(
             f"{source}: {what}: no column {spec!r}: the file has no header row; expected a 0-based column "
@@ -332,16 +310,16 @@ class _Where:
             if not _is_data(text):
                 continue
             where = f"line {self.first_line + i + 1}"
-            fields = _fields(text, self.head.delimiter)
+            fields = split_fields(text, self.head.delimiter)
             if len(fields) <= max(columns):
                 return (
                     f"{self.source}: {where} has {len(fields)} columns; expected at least {max(columns) + 1}"
                 )
-            if not _is_number(fields[columns[0]]):
+            if not is_number(fields[columns[0]]):
                 return f"{self.source}: {where}: time {fields[columns[0]]!r} is not a number"
             for j, column in enumerate(columns[1:]):
                 value = fields[column]
-                if not (_is_number(value) and float(value) in (0.0, 1.0)):
+                if not (is_number(value) and float(value) in (0.0, 1.0)):
                     return self._level(where, j, value)
         return (
             f"{self.source}: lines {self.first_line + 1} to {self.first_line + len(self.block)}: unreadable"

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import itertools
 import os
 import re
@@ -15,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from monitor.errors import FormatError
+from monitor.io.imports.columns import is_number, numbered_column, split_fields
 from monitor.io.imports.mapping import (
     LEVEL_CHANGES,
     TIME_UNITS,
@@ -45,23 +45,6 @@ class _TextLayout:
     header: tuple[tuple[str, ...], ...]  # the header lines, split
     columns: int
     sample: tuple[tuple[str, ...], ...]  # rows of numbers from the head and the tail, split
-
-
-def _fields(line: str, delimiter: str | None) -> list[str]:
-    if delimiter is None:
-        return [f.strip('"') for f in line.split()]
-    fields = [f.strip().strip('"') for f in next(csv.reader([line], delimiter=delimiter), [])]
-    if len(fields) > 1 and fields[-1] == "":  # a delimiter ending the line
-        fields.pop()
-    return fields
-
-
-def _is_number(text: str, decimal_comma: bool) -> bool:
-    try:
-        float(text.replace(",", ".") if decimal_comma else text)
-    except ValueError:
-        return False
-    return True
 
 
 def _delimiter_name(delimiter: str | None) -> str:
@@ -103,13 +86,13 @@ def _sniff(source: Path, mapping: ImportMapping) -> _TextLayout:
     found: tuple[str | None, bool, int] | None = None
     for least in (2, 1):  # rather several columns than one column of numbers with a decimal comma
         for candidate in candidates:
-            rows = [_fields(line, candidate) for line in probe]
+            rows = [split_fields(line, candidate) for line in probe]
             columns = len(rows[0])
             comma = candidate != "," and any("," in f for r in rows for f in r)
             if (
                 columns >= least
                 and all(len(r) == columns for r in rows)
-                and all(_is_number(f, comma) for r in rows for f in r)
+                and all(is_number(f, comma) for r in rows for f in r)
             ):
                 found = candidate, comma, columns
                 break
@@ -131,8 +114,8 @@ def _sniff(source: Path, mapping: ImportMapping) -> _TextLayout:
     delimiter, decimal_comma, columns = found
 
     def numbers(line: str) -> tuple[str, ...] | None:
-        fields = _fields(line, delimiter)
-        if len(fields) == columns and all(_is_number(f, decimal_comma) for f in fields):
+        fields = split_fields(line, delimiter)
+        if len(fields) == columns and all(is_number(f, decimal_comma) for f in fields):
             return tuple(f.replace(",", ".") for f in fields) if decimal_comma else tuple(fields)
         return None
 
@@ -151,7 +134,7 @@ def _sniff(source: Path, mapping: ImportMapping) -> _TextLayout:
         delimiter=delimiter,
         decimal_comma=decimal_comma,
         header_rows=header_rows,
-        header=tuple(tuple(_fields(line, delimiter)) for line in head_lines[:header_rows]),
+        header=tuple(tuple(split_fields(line, delimiter)) for line in head_lines[:header_rows]),
         columns=columns,
         sample=tuple(r for r in sample if r is not None),
     )
@@ -160,12 +143,7 @@ def _sniff(source: Path, mapping: ImportMapping) -> _TextLayout:
 def _column(spec: str | int, layout: _TextLayout, source: Path, what: str) -> int:
     """The 0-based column that a mapping's source or time_column names."""
     if isinstance(spec, int):
-        if spec >= layout.columns:
-            raise FormatError(
-                f"{source}: {what}: there is no column {spec}; the rows have {layout.columns} columns "
-                f"(0 to {layout.columns - 1})"
-            )
-        return spec
+        return numbered_column(spec, layout.columns, source, what)
     for names in layout.header:
         if spec in names:
             index = names.index(spec)
