@@ -15,14 +15,16 @@ function of the cycle: taken as one, each cycle jumps back at its end by the dri
 sawtooth whose orders fall as ``1 / k``. The rigid crank train's torque ``T = (J / 2) d(omega^2)/dtheta``
 turns it into ``2 T_net`` at every torque order, ``T_net`` the net torque that drives the drift: on a
 propeller engine's load step as large as a cylinder's whole contribution. Each cycle's speed is taken
-less a ramp of zero mean that rises across it by the drift: the slope of a least-squares line through
-the mean speeds of the :data:`DRIFT_CYCLES` cycles around it (Savitzky-Golay), what is periodic in the
-cycle left to the drift's own curvature within a cycle (tests/signal/test_crank_speed_drift.py). The
-line follows a drift that builds over cycles and not the scatter of single cycles' work (a single
-cylinder's cycles differ by several per cent), whose jumps are no ramp: read from the next cycle
-alone, it doubled the standard errors of the real 4GB10's order 0.5; through five cycles they grow by
-about half, and the order's agreement with the pressure's prediction improved (from up to 2.3 standard
-errors to under 1, docs/load-response.md).
+less a ramp of zero mean that rises across it by the drift, read from its neighbours' mean speeds
+(their difference over two cycles, one-sided at the ends): what is periodic in the cycle is left, to the
+drift's own curvature within a cycle (tests/signal/test_crank_speed_drift.py). On a steady run the
+neighbours differ by the cycles' own scatter, which is no more periodic than the drift; where single
+cycles' work scatters by several per cent (the real 4GB10's one cylinder) the standard errors of the
+half orders about double (docs/load-response.md), and the half orders' agreement with the cylinder
+pressure's prediction improves. A line through five cycles widened them by about half instead, but
+missed the fast part of a slow engine's load step: weak cylinders at 80 % on the validation
+population's load steps were named 14 and 15 times of 18 instead of 16 (make bench-diagnosis, both
+ways).
 """
 
 from __future__ import annotations
@@ -31,7 +33,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from monitor.errors import SignalError
 from monitor.signal.anglemap import AngleMap
@@ -43,7 +44,6 @@ __all__ = ["crank_speed_spectra"]
 
 _SPEED_GRID_CAP = 2048  # most crank-speed grid points a cycle
 _PART_CYCLES = 4096  # cycles transformed at a time
-DRIFT_CYCLES = 5  # cycles a line is fitted through to read the drift across the one amid them [-]
 
 
 def crank_speed_spectra(
@@ -171,16 +171,11 @@ def _without_drift(speed: FloatArray) -> FloatArray:
     Returns
     -------
     ndarray, shape (cycles, m)
-        Each cycle less a ramp of zero mean over its grid, rising by the slope of a line through the
-        mean speeds of the cycles around it (fewer than :data:`DRIFT_CYCLES`: their differences over
-        two cycles); unchanged for one cycle.
+        Each cycle less a ramp of zero mean over its grid, rising by the difference of its neighbours'
+        mean speeds over two cycles (one-sided at the first and the last); unchanged for one cycle.
     """
     cycles, m = speed.shape
     if cycles < 2:
         return speed
-    means = speed.mean(axis=1)
-    if cycles >= DRIFT_CYCLES:  # the slope of a line through the cycles around each [rad/s per cycle]
-        rise = savgol_filter(means, DRIFT_CYCLES, 1, deriv=1, mode="interp")
-    else:
-        rise = np.gradient(means)
+    rise = np.gradient(speed.mean(axis=1))  # the drift across each cycle [rad/s]
     return speed - np.multiply.outer(rise, np.arange(m) / m - 0.5 + 0.5 / m)
