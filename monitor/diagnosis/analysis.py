@@ -26,6 +26,7 @@ from monitor.model.inertia import engine_side_inertia
 from monitor.model.predicted import CombinedOrders, CylinderParts, combine_cylinders, cylinder_parts
 from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult, spectra
 from monitor.signal.pitch import PitchCorrection
+from monitor.signal.spectrum import OrderSpectrum
 from monitor.types import FloatArray
 
 __all__ = [
@@ -295,6 +296,8 @@ def _balance(
                     f"{balance.chi2_reduced:.3g}; the strengths' errors are widened by it): near a torsional "
                     f"resonance try the {other} transfer"
                 )
+            said = _unlearned_orders(speed, balance)
+            notes.extend([said] if said else [])
             if balance.separable:
                 strengths = balance.strength
             else:
@@ -303,6 +306,28 @@ def _balance(
                     f"{balance.condition:.3g}): no cylinder is named"
                 )
     return balance, strengths
+
+
+def _unlearned_orders(speed: OrderSpectrum, balance: CylinderBalance) -> str | None:
+    """A note where the balance leans on whole orders that the wheel's unlearned pitch errors can move
+    by more than their standard error (:mod:`monitor.signal.pitch_uncertainty`); None where none does.
+
+    An order the baseline calibrated is left out: the same wheel's errors are in the baseline's.
+    """
+    if speed.systematic is None:
+        return None
+    used = np.isin(speed.orders, balance.orders[~balance.calibrated])
+    over = used & (speed.systematic > np.maximum(speed.standard_error, 1e-300))
+    if not over.any():
+        return None
+    ratio = float(np.max(speed.systematic[over] / np.maximum(speed.standard_error[over], 1e-300)))
+    orders = ", ".join(f"{k:g}" for k in speed.orders[over])
+    return (
+        f"the cylinder balance uses crank-speed orders {orders}, which the wheel's unlearned tooth-pitch "
+        f"errors can move by more than their standard error (up to {ratio:.0f} times; spectrum's "
+        "'systematic'): the strengths there lean on what a run-up or coast-down calibration of the wheel "
+        "would clean (calibrate --pitch-from)"
+    )
 
 
 def _rigid_inertia(engine: Engine, notes: list[str]) -> float:
