@@ -279,15 +279,18 @@ class Channel:
                 )
         if self.kind == "tooth":
             teeth, missing = self.fields["teeth"], self.fields["missing_teeth"]
+            # a wheel with an extra tooth and no gap (12+1) states its pattern, and no tooth missing
+            fewest = 0 if "pattern" in self.fields else 1
             if not (
                 isinstance(teeth, int | np.integer)
                 and isinstance(missing, int | np.integer)
                 and 3 <= teeth <= MAX_TEETH
-                and 1 <= missing < teeth - 1
+                and fewest <= missing < teeth - 1
             ):
                 raise FormatError(
                     f"{where}: teeth = {teeth!r}, missing_teeth = {missing!r}: expected integers, "
-                    f"3 <= teeth <= {MAX_TEETH} and 1 <= missing_teeth < teeth - 1"
+                    f"3 <= teeth <= {MAX_TEETH} and {fewest} <= missing_teeth < teeth - 1"
+                    + (" (0 only for a wheel whose pattern has an extra tooth)" if fewest else "")
                 )
 
     @property

@@ -276,7 +276,7 @@ def angle_reference(
                 2 * math.pi * cycle_revolutions, harmonics=decoding.teeth * cycle_revolutions
             )
         repairs = int(decoding.inserted.size + decoding.removed.size)
-        pulses = decoding.teeth - decoding.missing
+        pulses = decoding.pattern.teeth if decoding.pattern is not None else decoding.teeth - decoding.missing
     elif keyphasors:
         scatter, left_in = None, None
         channel = keyphasors[0]

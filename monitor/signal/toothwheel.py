@@ -159,6 +159,10 @@ def decode_tooth_wheel(
         message names the wheel they show.
     """
     t = np.asarray(edge_times, dtype=np.float64)
+    if pattern is not None and (
+        pattern.extra or len(pattern.gaps) > 1 or (pattern.positions, pattern.missing) != (teeth, missing)
+    ):  # a wheel one gap does not describe (or a declaration at odds with itself: refused there)
+        return _decoded_pattern(t, pattern, teeth, missing, first_tooth_angle)
     if teeth < 3 or not 1 <= missing < teeth - 1:
         raise SignalError(f"tooth wheel {teeth}-{missing}: expected teeth >= 3 and 1 <= missing < teeth - 1")
     if t.ndim != 1 or t.size < 2 * teeth or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)):
@@ -166,8 +170,6 @@ def decode_tooth_wheel(
             f"{t.size} edge times: expected at least two revolutions ({2 * teeth}) of finite, "
             "increasing times"
         )
-    if pattern is not None and not pattern.same_as(WheelPattern.one_gap(teeth, missing)):
-        return _decoded_pattern(t, pattern, teeth, missing, first_tooth_angle)
     threshold = missing + 0.5 if gap_ratio is None else gap_ratio
     per_rev = teeth - missing
     try:

@@ -3,12 +3,16 @@
 A crank wheel has ``positions`` equally spaced places around it, and a tooth at some of them: a run of
 missing teeth (a gap) marks the revolution. The common wheels have one gap (60-2, 36-1, 24-1); others
 have several of different lengths, so that an engine controller syncs within part of a revolution
-(36-2-1, 36-2-1-1). A name says how many are missing in each gap, not how the teeth between are
-shared out; those are taken as engine controllers build them (rusEFI's trigger definitions:
+(36-2-1, 36-2-1-1); others have a tooth more, between two places (Honda's 12+1: 12 teeth 30 deg
+apart and one 10 deg after one of them). A name says how many are missing in each gap, not how the
+teeth between are shared out; those are taken as engine controllers build them (rusEFI's trigger
+definitions:
 36-2-1 has 16 teeth after its two-tooth gap and 17 after the one-tooth gap; 36-2-1-1 has 11, 11 and
 10). Any other wheel is declared position by position: ``"36: 0-15, 18-34"`` is 36 positions with
-teeth at 0 to 15 and 18 to 34. Position 0 is the first tooth after the longest gap (the first of them
-when two are as long): its crank angle is the channel's ``first_tooth_angle_deg``.
+teeth at 0 to 15 and 18 to 34; extra teeth follow a plus, at fractional places: 12+1 is
+``"12: 0-11 + 0.333"``. Position 0 is the first tooth after the longest gap (the first of them
+when two are as long; on a wheel without a gap, the tooth the extra one follows): its crank angle is
+the channel's ``first_tooth_angle_deg``.
 
 Decoding (:func:`decode_pattern`). Each interval between edges is taken in crank angle by the time of
 the revolution around it (the ``T`` intervals of the teeth present): ``x_k = 2 pi dt_k / (t_{k+T} -
@@ -57,36 +61,47 @@ class WheelPattern:
         The places with a tooth, increasing, from 0 (the first tooth after the longest gap).
     name : str
         As declared or found: a name (``"36-2-1"``) or position by position (``"36: 0-15, 18-34"``).
+    extra : tuple of float
+        Teeth between the places, at fractional places (12+1: one a third of a pitch after place 0).
     """
 
     positions: int
     present: tuple[int, ...]
     name: str
+    extra: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         p = np.asarray(self.present)
+        x = np.asarray(self.extra, dtype=np.float64)
         if (
             self.positions < 3
             or p.size < 2
             or p[0] != 0
             or np.any(np.diff(p) <= 0)
             or p[-1] >= self.positions
-            or p.size == self.positions
+            or (p.size == self.positions and x.size == 0)
+            or np.any((x <= 0) | (x >= self.positions) | np.isclose(x, np.round(x)))
         ):
             raise SignalError(
                 f"wheel {self.name!r}: expected at least 3 positions, teeth at increasing positions from "
-                f"0 (the first tooth after the longest gap) below {self.positions}, and at least one missing"
+                f"0 (the first tooth after the longest gap) below {self.positions}, at least one missing "
+                "or an extra tooth, and extra teeth between the positions"
             )
 
     @property
     def teeth(self) -> int:
-        """The teeth present [-]."""
-        return len(self.present)
+        """The teeth present, extra ones included [-]."""
+        return len(self.present) + len(self.extra)
 
     @property
     def missing(self) -> int:
         """The positions without a tooth [-]."""
-        return self.positions - self.teeth
+        return self.positions - len(self.present)
+
+    @property
+    def places(self) -> FloatArray:
+        """Every tooth's place around the wheel, extra ones included, increasing [positions]."""
+        return np.sort(np.concatenate([np.asarray(self.present, dtype=np.float64), self.extra]))
 
     @property
     def pitch(self) -> float:
@@ -94,34 +109,42 @@ class WheelPattern:
         return 2 * math.pi / self.positions
 
     @property
-    def intervals(self) -> npt.NDArray[np.int64]:
-        """From each tooth to the next, around the wheel [positions]."""
-        p = np.asarray(self.present, dtype=np.int64)
+    def intervals(self) -> FloatArray:
+        """From each tooth to the next, around the wheel, extra teeth included [positions]."""
+        p = self.places
         return np.diff(np.append(p, self.positions + p[0]))
 
     @property
     def gaps(self) -> tuple[int, ...]:
         """The runs of missing teeth, in order from position 0 [-]."""
-        return tuple(int(n) - 1 for n in self.intervals if n > 1)
+        p = np.asarray(self.present, dtype=np.int64)
+        return tuple(int(n) - 1 for n in np.diff(np.append(p, self.positions + p[0])) if n > 1)
 
     @property
     def angles(self) -> FloatArray:
-        """Each tooth's angle after the first tooth [rad]."""
-        return np.asarray(self.present, dtype=np.float64) * self.pitch
+        """Each tooth's angle after the first tooth, extra teeth included [rad]."""
+        return self.places * self.pitch
 
     @property
     def spelled(self) -> str:
-        """Position by position: ``"36: 0-15, 18-34"``."""
+        """Position by position: ``"36: 0-15, 18-34"``, extra teeth after a plus: ``"12: 0-11 + 0.333"``."""
         runs, start = [], self.present[0]
         for previous, current in zip(self.present, (*self.present[1:], -1), strict=True):
             if current != previous + 1:
                 runs.append(f"{start}-{previous}" if previous > start else f"{start}")
                 start = current
-        return f"{self.positions}: " + ", ".join(runs)
+        extra = (" + " + ", ".join(f"{x:.3f}" for x in self.extra)) if self.extra else ""
+        return f"{self.positions}: " + ", ".join(runs) + extra
 
     def same_as(self, other: WheelPattern) -> bool:
         """Whether two declarations are one wheel (their positions and teeth alike)."""
-        return (self.positions, self.present) == (other.positions, other.present)
+        if (self.positions, self.present, len(self.extra)) != (
+            other.positions,
+            other.present,
+            len(other.extra),
+        ):
+            return False
+        return bool(np.allclose(np.sort(self.extra), np.sort(other.extra), atol=1e-3))
 
     @classmethod
     def one_gap(cls, positions: int, missing: int) -> WheelPattern:
@@ -147,9 +170,13 @@ class WheelPattern:
         one = re.fullmatch(r"(\d+)-(\d+)", spelled)
         if one:
             return cls.one_gap(int(one[1]), int(one[2]))
-        listed = re.fullmatch(r"(\d+)\s*:\s*(.+)", spelled)
+        listed = re.fullmatch(r"(\d+)\s*:\s*([^+]+?)\s*(?:\+\s*(.+))?", spelled)
         if listed:
             present: list[int] = []
+            try:
+                extra = tuple(float(x) for x in listed[3].split(",")) if listed[3] else ()
+            except ValueError:
+                extra = (math.nan,)
             for part in listed[2].split(","):
                 bounds = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+))?\s*", part)
                 if not bounds:
@@ -157,10 +184,12 @@ class WheelPattern:
                 low, high = int(bounds[1]), int(bounds[2] if bounds[2] is not None else bounds[1])
                 present.extend(range(low, high + 1))
             else:
-                return cls(int(listed[1]), tuple(present), spelled)
+                if all(math.isfinite(x) for x in extra):
+                    return cls(int(listed[1]), tuple(present), spelled, extra)
         raise SignalError(
             f"wheel pattern {text!r}: expected a name ({', '.join(NAMED)}, or N-M for one gap of M teeth "
-            "among N positions) or the positions with a tooth, as '36: 0-15, 18-34'"
+            "among N positions) or the positions with a tooth, as '36: 0-15, 18-34', extra teeth between "
+            "them after a plus, as '12: 0-11 + 0.333' (a third of a pitch after position 0)"
         )
 
 
@@ -179,6 +208,9 @@ def _named(name: str, runs: list[tuple[int, int]]) -> WheelPattern:
 NAMED: dict[str, WheelPattern] = {
     "36-2-1": _named("36-2-1", [(16, 1), (17, 2)]),
     "36-2-1-1": _named("36-2-1-1", [(11, 1), (11, 1), (10, 2)]),
+    # Honda's 12+1 crank wheel as engine controllers describe it: 12 teeth 30 deg apart and one more
+    # 10 deg after one of them, which is position 0
+    "12+1": WheelPattern(12, tuple(range(12)), "12+1", (1.0 / 3.0,)),
 }
 
 
@@ -236,7 +268,7 @@ def decode_pattern(
         k = int(np.flatnonzero(misfit > FIT)[0])
         raise SignalError(
             f"wheel {pattern.name}: the interval from t = {t[k]:.6g} s is {measured[k] / pattern.pitch:.2f} "
-            f"pitches where the pattern has {expected[tooth[k]] / pattern.pitch:.0f} (a tooth lost or a "
+            f"pitches where the pattern has {expected[tooth[k]] / pattern.pitch:.3g} (a tooth lost or a "
             "spurious pulse there)"
         )
     revolution = np.floor_divide(np.arange(t.size) + offset, n_teeth)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_simpson
 
-from monitor.errors import SignalError
+from monitor.errors import FormatError, SignalError
 from monitor.signal.toothwheel import decode_tooth_wheel
 from monitor.signal.wheels import WheelPattern, infer_pattern
 
@@ -142,3 +142,43 @@ def test_a_lost_tooth_on_a_two_gap_wheel_is_named_by_its_time() -> None:
 def test_a_declaration_that_is_no_wheel_is_refused_saying_what_is_expected(text: str) -> None:
     with pytest.raises(SignalError, match="expected"):
         WheelPattern.parse(text)
+
+
+def _extra_tooth_capture(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Honda's 12+1 as written here: 12 teeth 30 deg apart and one 10 deg after the first of them."""
+    per_revolution = np.sort(np.append(np.arange(12) * 30.0, 10.0))  # [deg]
+    angle = FIRST_TOOTH + np.radians((np.arange(REVOLUTIONS)[:, None] * 360.0 + per_revolution).ravel())[3:]
+    fine = np.linspace(0.0, angle[-1] + 1.0, 200_000)
+    omega = SPEED * (1 + 0.03 * np.cos(0.5 * fine + 0.3) + 0.02 * np.cos(2 * fine - 1.0))
+    times = np.interp(angle, fine, cumulative_simpson(1 / omega, x=fine, initial=0.0))
+    return times + np.random.default_rng(seed).normal(0.0, 1e-6, times.size), angle
+
+
+@pytest.mark.parametrize("declared", ["12+1", "12: 0-11 + 0.333"])
+def test_a_wheel_with_an_extra_tooth_decodes_by_name_and_position_by_position(declared: str) -> None:
+    times, truth = _extra_tooth_capture()
+    pattern = WheelPattern.parse(declared)
+    assert pattern.teeth == 13 and pattern.missing == 0
+    decoded = decode_tooth_wheel(times, teeth=12, missing=0, first_tooth_angle=FIRST_TOOTH, pattern=pattern)
+    shift = decoded.angles - truth[np.isin(times, decoded.times)]
+    # "0.333" places the tooth at 9.99 deg, not 10: a thousandth of a pitch, as declared
+    assert np.allclose(shift, shift[0], atol=math.radians(0.011))
+    assert math.remainder(shift[0], 2 * math.pi) == pytest.approx(0, abs=math.radians(0.011))
+
+
+def test_an_extra_tooth_wheel_runs_through_the_angle_reference_as_a_recording_states_it() -> None:
+    from monitor.io.recording import Channel, Recording
+    from monitor.signal.reference import angle_reference
+
+    times, _ = _extra_tooth_capture()
+    fields = {"teeth": 12, "missing_teeth": 0, "first_tooth_angle_deg": 84.0, "pattern": "12+1"}
+    wheel = Channel("crank", "tooth", "s", times, None, fields=fields)
+    reference = angle_reference(Recording("e", "2026-11-22T10:15:00Z", (wheel,)), cycle_revolutions=1)
+    assert reference.pulses_per_revolution == 13
+    mean = (reference.angle_map.angles[-1] - reference.angle_map.angles[0]) / (
+        reference.angle_map.times[-1] - reference.angle_map.times[0]
+    )
+    assert mean == pytest.approx(SPEED, rel=0.02)  # the 3 % half-order fluctuation over whole turns
+    without = {k: v for k, v in fields.items() if k != "pattern"}  # no tooth missing, and no pattern
+    with pytest.raises(FormatError, match=r"0 only for a wheel whose pattern has an extra tooth"):
+        Channel("crank", "tooth", "s", times, None, fields=without)
