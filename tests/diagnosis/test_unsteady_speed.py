@@ -74,8 +74,9 @@ def test_its_cylinders_are_resolved_and_it_is_healthy(judged: Judged) -> None:
     _, _, _, diagnosis = judged
     assert diagnosis.status == "healthy" and diagnosis.findings == []
     assert diagnosis.balance is not None
-    # the balance's own errors: 5 % here; with each cycle's drift left in, 22 %
-    assert float(np.max(diagnosis.balance.contrast_error)) < 0.1
+    # the balance's own errors: 5 % here (docs/diagnosis.md quotes it); with each cycle's drift left in,
+    # 22 %. The limit leaves room for a per cent of change in the simulation and none for the old reading
+    assert float(np.max(diagnosis.balance.contrast_error)) < 0.07
 
 
 def test_its_impacts_are_judged_over_the_load_its_speed_reads_not_every_calibrated_load(
