@@ -15,7 +15,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from monitor.cli.arguments import ENGINE_MISSING, add_cycle_phase, positive_float, print_json
 from monitor.cli.simulate import write_recording
@@ -23,7 +23,9 @@ from monitor.runtime.progress import progress_bar
 
 if TYPE_CHECKING:
     from monitor.io.recording import Recording
+    from monitor.model.engine import Engine
     from monitor.signal.measure import SpectrumResult
+    from monitor.signal.pitch import PitchCorrection
 
 __all__ = [
     "add_import_parser",
@@ -77,6 +79,13 @@ def add_spectrum_parser(sub: Any) -> None:
     spectrum.add_argument(
         "--map-plot", metavar="FILE.png", help="draw the order-speed maps (needs --speed-map)"
     )
+    spectrum.add_argument(
+        "--pitch-from",
+        metavar="RUN",
+        help="correct the tooth wheel's pitch errors at every order with those learned on this run of "
+        "the same wheel whose speed changes by a quarter or more (a motored run-up, a coast-down, a "
+        "fuel cut); the systematic column then gives what that learning leaves",
+    )
     add_cycle_phase(spectrum)
     spectrum.set_defaults(run=run_spectrum)
 
@@ -101,13 +110,16 @@ def run_spectrum(args: argparse.Namespace) -> int:
     from monitor.signal.measure import spectra
 
     with open_recording(args.recording) as recording:
+        engine = None
         if args.cycle:
             revolutions = 1 if args.cycle == "two-stroke" else 2
         else:
             missing = "is not bundled: give --engine FILE.toml or --cycle"
-            revolutions = recording_engine(recording, args.engine, missing=missing).cycle_revolutions
+            engine = recording_engine(recording, args.engine, missing=missing)
+            revolutions = engine.cycle_revolutions
         if args.map_plot and not args.speed_map:
             raise ModelError("--map-plot needs --speed-map BINS")
+        correction = _pitch_from(args.pitch_from, engine)
         with progress_bar(1.0, "resampling", unit="recording") as report:
             result = spectra(
                 recording,
@@ -118,6 +130,7 @@ def run_spectrum(args: argparse.Namespace) -> int:
                 max_order=args.max_order,
                 block_cycles=args.block_cycles,
                 cycle_phase=args.cycle_phase,
+                pitch_correction=correction,
                 progress=report,
             )
     listed = None
@@ -150,6 +163,31 @@ def run_spectrum(args: argparse.Namespace) -> int:
         path = plot_spectra(result, args.plot, title=f"{recording.engine_id}, {rpm:.1f} rpm")
         print(f"plot written to {path}", file=sys.stderr)
     return 0
+
+
+def _pitch_from(run: str | None, engine: Engine | None) -> PitchCorrection | Literal["estimate"]:
+    """The pitch errors learned on ``--pitch-from RUN`` (said on stderr), else the recording's own
+    estimate."""
+    if run is None:
+        return "estimate"
+    from monitor.diagnosis.calibration import pitch_over_speed
+    from monitor.errors import SignalError
+    from monitor.io import open_recording
+
+    with open_recording(run) as taught:
+        try:
+            correction = pitch_over_speed(taught, engine)
+        except SignalError as error:
+            raise SignalError(f"--pitch-from {run}: {error}") from None
+    first = [] if correction.order_errors is None else [math.degrees(e) for e in correction.order_errors[:3]]
+    print(
+        f"tooth-pitch errors learned on {run} ({correction.revolutions} revolutions): rms "
+        f"{math.degrees(correction.rms):.3f} deg, standard error "
+        f"{math.degrees(correction.standard_error):.2g} deg a tooth"
+        + (f" and {', '.join(f'{e:.2g}' for e in first)} deg at orders 1 to {len(first)}" if first else ""),
+        file=sys.stderr,
+    )
+    return correction
 
 
 def _spectrum_table(result: SpectrumResult, recording: Recording, listed: list[float] | None) -> str:
@@ -197,11 +235,17 @@ def _spectrum_table(result: SpectrumResult, recording: Recording, listed: list[f
         ):
             line = f"{k:6.1f} {a:12.5g} {math.degrees(ph):8.1f} {sd:10.3g}"
             lines.append(line + (f" {systematic[i]:10.3g}" if systematic is not None else ""))
-        if bounded:
+        if bounded and correction is not None and correction.order_errors is not None:
+            lines.append(
+                "systematic: the most the error of the tooth-pitch errors learned on the run can put in "
+                "each whole order (3 times its standard error); averaging does not remove it, a longer "
+                "run or one of wider speed does"
+            )
+        elif bounded:
             lines.append(
                 "systematic: the most the wheel's unlearned tooth-pitch errors can put in each whole order "
-                "(about 99 % coverage); averaging does not remove it, a run-up calibration does "
-                "(calibrate --pitch-from)"
+                "(3 times their scatter's share of it); averaging does not remove it, a run-up, coast-down "
+                "or fuel cut does (--pitch-from)"
             )
     for name, speed_map in result.speed_maps.items():
         lines.append(

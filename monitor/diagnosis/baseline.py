@@ -131,6 +131,9 @@ class Baseline:
                 "revolutions": self.pitch.revolutions,
                 "scope": self.pitch.scope,
                 "learned_on": "run-up" if self.pitch.source == "run-up" else "baseline",
+                "order_errors_deg": None
+                if self.pitch.order_errors is None
+                else np.degrees(self.pitch.order_errors).tolist(),
             },
             "crank_speed_model": None
             if self.crank is None
@@ -256,6 +259,9 @@ class Baseline:
                     int(stored["revolutions"]),
                     source="run-up" if stored.get("learned_on") == "run-up" else "baseline",
                     scope=str(stored["scope"]),
+                    order_errors=None
+                    if stored.get("order_errors_deg") is None  # absent before they were stated
+                    else np.radians(np.asarray(stored["order_errors_deg"], dtype=np.float64)),
                 )
                 if stored
                 else None

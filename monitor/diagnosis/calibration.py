@@ -27,7 +27,7 @@ from monitor.model.predicted import inertia_angle_fluctuation
 from monitor.signal.pitch import PitchCorrection
 from monitor.signal.reference import learn_pitch_errors, learn_pitch_errors_over_speed
 
-__all__ = ["calibrate"]
+__all__ = ["calibrate", "pitch_over_speed"]
 
 
 def calibrate(
@@ -151,13 +151,40 @@ def _velocity_or_nan(channel: Channel) -> float:
         return math.nan
 
 
+def pitch_over_speed(run: Recording, engine: Engine | None) -> PitchCorrection:
+    """The wheel's pitch errors at every order, learned on a run whose speed changes by a quarter.
+
+    Parameters
+    ----------
+    run : Recording
+        A motored run-up, a coast-down or a fuel cut of the same wheel.
+    engine : Engine or None
+        With a ``[shaft_line]``, its reciprocating parts' inertia fluctuation (the same at every
+        speed, like the wheel's errors) is taken out of what is learned; without one, or None, those
+        orders stay in (:func:`monitor.signal.reference.learn_pitch_errors_over_speed`).
+
+    Returns
+    -------
+    PitchCorrection
+        With each whole order's standard error.
+
+    Raises
+    ------
+    SignalError
+        For a run without a tooth wheel or encoder, or whose speed changes too little.
+    """
+    inertia = None
+    if engine is not None and engine.shaft_line is not None:
+        inertia = inertia_angle_fluctuation(engine)
+    return learn_pitch_errors_over_speed(run, inertia)
+
+
 def _learn_pitch(
     recording: Recording, engine: Engine, pitch_from: Recording | None
 ) -> PitchCorrection | None:
     """The wheel's pitch errors: over a run of changing speed if given, else on the steady recording."""
     if pitch_from is not None:
-        inertia = inertia_angle_fluctuation(engine) if engine.shaft_line is not None else None
-        return learn_pitch_errors_over_speed(pitch_from, inertia)
+        return pitch_over_speed(pitch_from, engine)
     harmonics = engine_orders(engine, recording, firing_only=True)
     return learn_pitch_errors(recording, engine_orders=harmonics) if harmonics is not None else None
 

@@ -125,6 +125,7 @@ def spectrum_document(
                 "revolutions": correction.revolutions,
                 "rms_deg": math.degrees(correction.rms),
                 "largest_deg": math.degrees(correction.largest),
+                "standard_error_deg": math.degrees(correction.standard_error),
             },
             "notes": list(reference.notes),
         },

@@ -34,6 +34,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
+import numpy as np
+
 from monitor.errors import SignalError
 from monitor.io.recording import Channel, Recording
 from monitor.runtime.timing import StageClock
@@ -42,7 +44,7 @@ from monitor.signal.crank_speed import crank_speed_spectra
 from monitor.signal.grid import AngleGrid, angle_grid
 from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
-from monitor.signal.pitch_uncertainty import systematic_bound
+from monitor.signal.pitch_uncertainty import learned_bound, systematic_bound
 from monitor.signal.reference import AngleReference, angle_reference, waveform_rate
 from monitor.signal.resample import angle_domain_spectrum, to_angle_domain
 from monitor.signal.spectrum import OrderSpectrum, OrderSpeedMap, order_spectrum, order_speed_map
@@ -374,17 +376,24 @@ def _with_systematic(
     crank: tuple[OrderSpectrum, OrderSpectrum], reference: AngleReference, mean_speed: float
 ) -> tuple[OrderSpectrum, OrderSpectrum]:
     """The crank speed's and angular vibration's spectra with the bound the wheel's pitch errors left in
-    the map put on their integer orders (:mod:`monitor.signal.pitch_uncertainty`), where it is known."""
+    the map put on their integer orders (:mod:`monitor.signal.pitch_uncertainty`), where it is known:
+    the unlearned errors' and a correction learned over speed's own."""
     sigma = reference.pitch_scatter
-    if sigma is None:
+    correction = reference.pitch_correction
+    learned = correction is not None and correction.order_errors is not None
+    if sigma is None and not learned:
         return crank
     speed, lead = crank
     teeth = reference.pulses_per_revolution
 
     def bounded(spectrum: OrderSpectrum, speed_of: float | None) -> OrderSpectrum:
-        bound = systematic_bound(
-            spectrum.orders, sigma, teeth, mean_speed=speed_of, only=reference.pitch_orders
-        )
+        bound = np.zeros(spectrum.orders.shape)
+        if sigma is not None:
+            bound += systematic_bound(
+                spectrum.orders, sigma, teeth, mean_speed=speed_of, only=reference.pitch_orders
+            )
+        if correction is not None:  # a correction learned over speed: its own error, order by order
+            bound += learned_bound(spectrum.orders, correction, mean_speed=speed_of)
         return replace(spectrum, systematic=bound)
 
     return bounded(speed, mean_speed), bounded(lead, None)

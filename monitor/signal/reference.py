@@ -266,6 +266,9 @@ def angle_reference(
             if correction is not None:
                 try:
                     decoding = correct_pitch(decoding, correction)
+                    if isinstance(pitch_correction, PitchCorrection):
+                        decoding, correction, regapped = _gap_here(decoding, pitch_correction)
+                        notes.extend([f"{channel.name}: {regapped}"] if regapped else [])
                 except SignalError as error:
                     raise SignalError(f"{channel.name}: {error}") from None
             scatter, left_in = _left_errors(raw, decoding, correction)
@@ -305,6 +308,35 @@ def angle_reference(
             clock.add("angle reference: cycle phase", time.perf_counter() - start)
     return AngleReference(
         angle_map, channel.name, repairs, how, pulses, correction, tuple(notes), scatter, left_in
+    )
+
+
+def _gap_here(
+    decoding: ToothWheelDecoding, correction: PitchCorrection
+) -> tuple[ToothWheelDecoding, PitchCorrection, str]:
+    """A stored correction's gap teeth re-estimated on this recording, where it shows them elsewhere.
+
+    A gap's neighbour is read where the sensor's field bends, and a weak tooth's edge lags by a time
+    rather than an angle: its error moves with the speed (the tooth after the gap of the real 4GB10
+    wheel: +1.26 deg at 1340 rpm, +1.44 at 1790, +2.06 to 2.11 at 2940 to 3200 rpm, about 0.45 deg per
+    1000 rpm, tests/signal/test_pitch_from_a_fuel_cut.py). A correction learned at other speeds (a
+    baseline, a run-up, a fuel cut) is right for the other teeth; the gap's are estimated again on
+    the corrected decoding (:func:`estimate_pitch_errors`, ``scope="gap"``), and moved where what is
+    left stands out.
+    """
+    try:
+        left = estimate_pitch_errors(decoding, scope="gap")
+    except SignalError:
+        return decoding, correction, ""
+    moved = np.flatnonzero(left.errors)
+    if moved.size == 0:
+        return decoding, correction, ""
+    said = ", ".join(f"tooth {i} {math.degrees(left.errors[i]):+.2f} deg" for i in moved)
+    return (
+        correct_pitch(decoding, left),
+        replace(correction, errors=correction.errors + left.errors),
+        f"the gap's neighbours' errors change with speed: re-estimated on this recording ({said} "
+        f"beyond the {correction.source}'s correction)",
     )
 
 
