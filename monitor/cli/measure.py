@@ -300,7 +300,7 @@ def run_import(args: argparse.Namespace) -> int:
     from monitor.io.imports.mapping import load_mapping
 
     mapping = load_mapping(args.map)
-    recording = import_file(args.source, mapping, sample_rate_hz=args.rate)
+    recording = _wheels_read(import_file(args.source, mapping, sample_rate_hz=args.rate))
     output = write_recording(recording, args.output)
     for c in recording.channels:
         if c.sample_rate is None:
@@ -311,6 +311,33 @@ def run_import(args: argparse.Namespace) -> int:
         print(f"{c.name:24s} {c.kind:13s} {c.unit:6s} {c.data.size:10d} samples at {rate}{spans}")
     print(f"recording written to {output}", file=sys.stderr)
     return 0
+
+
+def _wheels_read(recording: Recording) -> Recording:
+    """The recording with each tooth wheel mapped as ``pattern = "infer"`` read off its edges and
+    written as found (teeth, missing_teeth, pattern), said on stderr."""
+    from dataclasses import replace
+
+    from monitor.io.recording import INFER_PATTERN
+    from monitor.signal.reference import read_wheel
+
+    channels = []
+    for channel in recording.channels:
+        if channel.kind == "tooth" and channel.fields.get("pattern") == INFER_PATTERN:
+            found = read_wheel(channel)
+            wheel: dict[str, float | int | str] = {
+                "teeth": found.positions,
+                "missing_teeth": found.missing,
+                "pattern": found.name,
+            }
+            channel = replace(channel, fields=channel.fields | wheel)
+            print(
+                f"{channel.name}: wheel read off its edges: {found.name} ({found.spelled}), written as "
+                f"teeth = {found.positions}, missing_teeth = {found.missing}, pattern = {found.name!r}",
+                file=sys.stderr,
+            )
+        channels.append(channel)
+    return replace(recording, channels=tuple(channels))
 
 
 def add_tdc_parser(sub: Any) -> None:

@@ -35,6 +35,7 @@ from monitor.names import name_problem
 from monitor.types import FloatArray
 
 __all__ = [
+    "INFER_PATTERN",
     "INTEGER_FIELDS",
     "KINDS",
     "UNITS",
@@ -83,16 +84,18 @@ KIND_FIELDS: dict[str, dict[str, bool]] = {
     },
     "encoder": {"pulses_per_revolution": True, "first_pulse_angle_deg": True, "index_channel": False},
     "keyphasor": {"pulse_angle_deg": True},
-    "cam": {"cam_angle_deg": True},
+    "cam": {"cam_angle_deg": True, "pattern": False},
     "pressure": {"cylinder": True},
 }
+#: A tooth channel's ``pattern`` that has the wheel read off its edges (its teeth then not stated).
+INFER_PATTERN = "infer"
 #: Kind-specific attributes that are integers, and those that are one of a few words (any other is a float).
 INTEGER_FIELDS: tuple[str, ...] = ("teeth", "missing_teeth", "cylinder", "pulses_per_revolution")
 WORD_FIELDS: dict[str, tuple[str, ...] | None] = {
     "sensor": ("hall", "vr"),
     "polarity": ("normal", "reversed"),
     "index_channel": None,  # a channel's name
-    "pattern": None,  # a wheel of several gaps: a name or its positions (monitor.signal.wheels)
+    "pattern": None,  # a wheel of several gaps or teeth: a name or its positions (monitor.signal.wheels)
 }
 #: The most tooth positions a crank tooth wheel has here (one per 0.1 deg), and the most pulses per
 #: revolution of an encoder (2**20, a 20-bit one): beyond them a stated count is a mistake.
@@ -262,7 +265,15 @@ class Channel:
         problem = time_problem(self.start_offset)
         if problem is not None:
             raise FormatError(f"{where}: start_offset_s = {self.start_offset!r}: {problem}")
+        read_off = self.kind == "tooth" and self.fields.get("pattern") == INFER_PATTERN
         for name, required in KIND_FIELDS.get(self.kind, {}).items():
+            if read_off and name in ("teeth", "missing_teeth"):
+                if name in self.fields:
+                    raise FormatError(
+                        f"{where}: {name} = {self.fields[name]!r} with pattern = {INFER_PATTERN!r}: state "
+                        "the wheel (teeth, missing_teeth, pattern) or have it read off its edges, not both"
+                    )
+                continue
             if required and name not in self.fields:
                 raise FormatError(f"{where}: a {self.kind} channel needs the attribute {name!r}")
         for name, value in self.fields.items():
@@ -277,7 +288,7 @@ class Channel:
                 raise FormatError(
                     f"{where}: pulses_per_revolution = {pulses!r}: expected an integer from 2 to {MAX_PULSES}"
                 )
-        if self.kind == "tooth":
+        if self.kind == "tooth" and not read_off:
             teeth, missing = self.fields["teeth"], self.fields["missing_teeth"]
             # a wheel with an extra tooth and no gap (12+1) states its pattern, and no tooth missing
             fewest = 0 if "pattern" in self.fields else 1

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import SignalError
-from monitor.io.recording import Channel, Recording
+from monitor.io.recording import INFER_PATTERN, Channel, Recording
 from monitor.runtime.timing import StageClock, stage
 from monitor.signal.anglemap import AngleMap, cycle_phase_from_pressure
 from monitor.signal.cam import cycle_phase_from_cam
@@ -40,8 +40,10 @@ from monitor.signal.toothwheel import (
     decode_encoder,
     decode_tooth_signal,
     decode_tooth_wheel,
+    infer_tooth_sensor,
+    tooth_edges,
 )
-from monitor.signal.wheels import WheelPattern
+from monitor.signal.wheels import WheelPattern, decode_pattern, infer_pattern
 from monitor.types import FloatArray
 
 __all__ = [
@@ -50,6 +52,7 @@ __all__ = [
     "angle_reference",
     "learn_pitch_errors",
     "learn_pitch_errors_over_speed",
+    "read_wheel",
     "waveform_rate",
 ]
 
@@ -120,7 +123,63 @@ def _refuse_unusable_spans(channel: Channel) -> None:
         )
 
 
+def read_wheel(channel: Channel) -> WheelPattern:
+    """The wheel a tooth channel's edges show (for ``pattern = "infer"``: teeth and gaps read off them).
+
+    Parameters
+    ----------
+    channel : Channel
+        A tooth channel: edge times, or a waveform (timed as its ``sensor`` and ``polarity`` state, or
+        as the waveform shows the sensor, wired the normal way).
+
+    Returns
+    -------
+    WheelPattern
+        By name where one fits (:func:`monitor.signal.wheels.infer_pattern`).
+
+    Raises
+    ------
+    SignalError
+        Where the edges show no pattern that repeats in most revolutions (no gap, fewer than three
+        revolutions, a tooth between the pitches): the wheel must then be declared.
+    """
+    if channel.is_events:
+        edges = _edges(channel)
+    else:
+        _refuse_unusable_spans(channel)
+        stated = channel.fields.get("sensor")
+        sensor = infer_tooth_sensor(np.asarray(channel.data[: 1 << 20])) if stated is None else stated
+        edges = tooth_edges(
+            channel.data,
+            waveform_rate(channel),
+            "vr" if sensor == "vr" else "hall",
+            reversed_=channel.fields.get("polarity") == "reversed",
+            start_time=channel.start_offset,
+        )
+    found = infer_pattern(edges)
+    if found is None:
+        raise SignalError(
+            f"tooth wheel {channel.name!r}: pattern = {INFER_PATTERN!r}, but its {edges.size} edges show no "
+            "wheel whose gaps repeat in most revolutions (three or more revolutions, at least one gap, no "
+            "tooth between the pitches): declare teeth, missing_teeth and the pattern"
+        )
+    return found
+
+
 def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
+    if channel.fields.get("pattern") == INFER_PATTERN:
+        found = read_wheel(channel)
+        wheel: dict[str, float | int | str] = {
+            "teeth": found.positions,
+            "missing_teeth": found.missing,
+            "pattern": found.name,
+        }
+        decoding = _tooth_decoding(replace(channel, fields=channel.fields | wheel))
+        said = (
+            f"wheel read off the edges: {found.name} ({found.spelled}); declare teeth = {found.positions}, "
+            f"missing_teeth = {found.missing}, pattern = {found.name!r} to have it checked instead"
+        )
+        return replace(decoding, notes=(*decoding.notes, said))
     teeth, missing = int(channel.fields["teeth"]), int(channel.fields["missing_teeth"])
     first = math.radians(float(channel.fields["first_tooth_angle_deg"]))
     try:
@@ -359,6 +418,18 @@ def _left_errors(
         return None, None
 
 
+def _cam_marks(cam: Channel) -> FloatArray:
+    """The cam's pulses that mark the cycle: every one, or on a cam wheel of several teeth (a
+    ``pattern``, as 4+1) those of its position 0, the wheel decoded over the cam's turns; its
+    ``cam_angle_deg`` is then that tooth's."""
+    edges = _edges(cam, alike=True)
+    if "pattern" not in cam.fields:
+        return edges
+    wheel = WheelPattern.parse(str(cam.fields["pattern"]))
+    times, _, tooth = decode_pattern(edges, wheel)
+    return np.asarray(times[tooth == 0], dtype=np.float64)
+
+
 def _cycle_phase(
     recording: Recording, angle_map: AngleMap, cycle_phase: float | None
 ) -> tuple[float, str, str | None]:
@@ -379,7 +450,7 @@ def _cycle_phase(
         cam = recording.of_kind("cam")[0]
         try:
             phase = cycle_phase_from_cam(
-                angle_map, _edges(cam, alike=True), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
+                angle_map, _cam_marks(cam), cam_angle=math.radians(float(cam.fields["cam_angle_deg"]))
             )
         except SignalError as error:
             raise SignalError(f"cam {cam.name!r}: {error}") from None

@@ -51,6 +51,7 @@ __all__ = [
     "decode_tooth_signal",
     "decode_tooth_wheel",
     "infer_tooth_sensor",
+    "tooth_edges",
 ]
 
 ToothSensor = Literal["hall", "vr"]
@@ -438,21 +439,9 @@ def decode_tooth_signal(
         raise SignalError(f"tooth-wheel sensor {sensor!r}: expected 'hall' or 'vr'")
 
     def attempt(reversed_: bool) -> ToothWheelDecoding:
-        if sensor == "vr":
-            # reversed wiring inverts the voltage: the tooth centres are its upward zero crossings
-            edges = detect_edges(
-                signal,
-                sample_rate,
-                start_time=start_time,
-                timing="zero-crossing",
-                direction="rising" if reversed_ else "falling",
-            )
-        else:
-            edges = detect_edges(
-                signal, sample_rate, start_time=start_time, direction="falling" if reversed_ else "rising"
-            )
+        edges = tooth_edges(signal, sample_rate, sensor, reversed_=reversed_, start_time=start_time)
         return decode_tooth_wheel(
-            edges.times, teeth=teeth, missing=missing, first_tooth_angle=first_tooth_angle, pattern=pattern
+            edges, teeth=teeth, missing=missing, first_tooth_angle=first_tooth_angle, pattern=pattern
         )
 
     if polarity is not None:
@@ -473,6 +462,45 @@ def decode_tooth_signal(
         )
         return replace(decoding, sensor=sensor, reversed_polarity=True, notes=tuple(notes))
     return replace(decoding, sensor=sensor, notes=tuple(notes))
+
+
+def tooth_edges(
+    signal: Any, sample_rate: float, sensor: ToothSensor, *, reversed_: bool = False, start_time: float = 0.0
+) -> FloatArray:
+    """Each tooth's time at its sensor's timing point (see :func:`decode_tooth_signal`).
+
+    Parameters
+    ----------
+    signal : array_like or sliceable, shape (n,)
+        The sensor's waveform [V].
+    sample_rate : float
+        [Hz].
+    sensor : {"hall", "vr"}
+        "hall": the mid level of each rising edge; "vr": each downward zero crossing.
+    reversed_ : bool, optional
+        The sensor wired the other way round: the opposite edges or crossings.
+    start_time : float, optional
+        Time of the first sample [s].
+
+    Returns
+    -------
+    ndarray
+        The times, increasing [s].
+    """
+    if sensor == "vr":
+        # reversed wiring inverts the voltage: the tooth centres are its upward zero crossings
+        edges = detect_edges(
+            signal,
+            sample_rate,
+            start_time=start_time,
+            timing="zero-crossing",
+            direction="rising" if reversed_ else "falling",
+        )
+    else:
+        edges = detect_edges(
+            signal, sample_rate, start_time=start_time, direction="falling" if reversed_ else "rising"
+        )
+    return np.asarray(edges.times, dtype=np.float64)
 
 
 def _find_gaps(times: FloatArray, threshold: float) -> npt.NDArray[np.int64]:

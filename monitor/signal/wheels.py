@@ -1,14 +1,15 @@
 """Trigger-wheel patterns: declared by name or position by position, decoded, and read off the edges.
 
-A crank wheel has ``positions`` equally spaced places around it, and a tooth at some of them: a run of
-missing teeth (a gap) marks the revolution. The common wheels have one gap (60-2, 36-1, 24-1); others
-have several of different lengths, so that an engine controller syncs within part of a revolution
-(36-2-1, 36-2-1-1); others have a tooth more, between two places (Honda's 12+1: 12 teeth 30 deg
-apart and one 10 deg after one of them). A name says how many are missing in each gap, not how the
-teeth between are shared out; those are taken as engine controllers build them (rusEFI's trigger
-definitions:
-36-2-1 has 16 teeth after its two-tooth gap and 17 after the one-tooth gap; 36-2-1-1 has 11, 11 and
-10). Any other wheel is declared position by position: ``"36: 0-15, 18-34"`` is 36 positions with
+A crank wheel has ``positions`` equally spaced places around it, and a tooth at some of them: a run
+of missing teeth (a gap) marks the revolution. The common wheels have one gap (60-2, 36-1, 24-1);
+others have several of different lengths, so that an engine controller syncs within part of a
+revolution (36-2-1, 36-2-1-1); others have a tooth more, between two places (Honda's 12+1: 12 teeth
+30 deg apart and one 10 deg after one of them; its 4+1 cam wheel). A cam wheel's positions are
+around the cam, once a cycle: a cam channel that states a ``pattern`` marks the cycle with its
+position 0. A name says how many are missing in each gap, not how the teeth between are shared out;
+those are taken as engine controllers build them (rusEFI's trigger definitions: 36-2-1 has 16 teeth
+after its two-tooth gap and 17 after the one-tooth gap; 36-2-1-1 has 11, 11 and 10).
+Any other wheel is declared position by position: ``"36: 0-15, 18-34"`` is 36 positions with
 teeth at 0 to 15 and 18 to 34; extra teeth follow a plus, at fractional places: 12+1 is
 ``"12: 0-11 + 0.333"``. Position 0 is the first tooth after the longest gap (the first of them
 when two are as long; on a wheel without a gap, the tooth the extra one follows): its crank angle is
@@ -24,16 +25,20 @@ intervals repeat within a revolution (two equal gaps half a revolution apart) ca
 revolution's halves apart and is refused.
 
 Reading a wheel off its edges (:func:`infer_pattern`). Against the running median of the intervals
-(most are one pitch), an interval of ``m + 1`` pitches follows ``m`` missing teeth; the gaps' sequence
-repeats once a revolution. The shortest period over which it repeats in most revolutions gives the
-teeth present, the gaps and the positions. It is what :mod:`monitor.signal.toothwheel` reports when a
-wheel declared with one gap shows another pattern.
+(most are one pitch), an interval of ``m + 1`` pitches follows ``m`` missing teeth. For each number of
+gaps a revolution may hold, shortest first: the wheel's longest gap is the longest seen in most of
+the revolutions; a revolution runs from one such gap to the next; the revolution most of them show,
+teeth and gaps, is the wheel. A lost or a spurious tooth changes the revolution it falls in, not the
+others; a revolution that is a shorter one repeated is no wheel (lost teeth broke the shorter one).
+It is what :mod:`monitor.signal.toothwheel` reports when a wheel declared with one gap shows another
+pattern, and what a channel's ``pattern = "infer"`` decodes with.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +51,9 @@ from monitor.types import FloatArray
 __all__ = ["FIT", "NAMED", "WheelPattern", "decode_pattern", "infer_pattern"]
 
 FIT = 0.3  # an interval further than this (relative) from its tooth's breaks the pattern [-]
-_MOST = 0.8  # the share of the revolutions a pattern read off the edges must hold in [-]
+#: The share of the revolutions a wheel read off the edges must show: a tooth lost in 3 of 30 still
+#: reads it, in 8 nothing is read (tests/signal/test_wheels.py) [-].
+_MOST = 0.8
 
 
 @dataclass(frozen=True)
@@ -211,6 +218,10 @@ NAMED: dict[str, WheelPattern] = {
     # Honda's 12+1 crank wheel as engine controllers describe it: 12 teeth 30 deg apart and one more
     # 10 deg after one of them, which is position 0
     "12+1": WheelPattern(12, tuple(range(12)), "12+1", (1.0 / 3.0,)),
+    # Honda's 4+1 cam wheel (K-series exhaust cam), rising edges as rusEFI syncs on them: four teeth
+    # 90 cam deg apart and one 27.5 cam deg after one of them (rising at 325.5 and 353 deg), which is
+    # position 0; falling edges put it 19.5 deg after: declare "4: 0-3 + 0.217" for those
+    "4+1": WheelPattern(4, tuple(range(4)), "4+1", (27.5 / 90.0,)),
 }
 
 
@@ -311,24 +322,41 @@ def infer_pattern(edge_times: npt.ArrayLike) -> WheelPattern | None:
         return None
     missing = np.rint(pitches[long]).astype(np.int64) - 1
     apart = np.diff(long)  # edges from one gap to the next
+    shape = [(int(a), int(m)) for a, m in zip(apart, missing[1:], strict=True)]
     for period in range(1, long.size // 3 + 1):
-        if apart.size < 2 * period:
+        if len(shape) < 2 * period:
             break
-        shape = [(int(a), int(m)) for a, m in zip(apart, missing[1:], strict=True)]
-        repeats = [shape[i] == shape[i - period] for i in range(period, len(shape))]
-        if np.mean(repeats) < _MOST:
+        # one revolution from just after its longest gap: the edges from each gap to the next and the size
+        # of the next, as most revolutions show it (a lost or a spurious tooth changes the revolution it
+        # is in, not the others), and a wheel only where they hold in most
+        # the wheel's longest gap comes once a revolution: the longest seen in most of them
+        sizes = Counter(m for _, m in shape)
+        once = [m for m, n in sizes.items() if n >= _MOST * len(shape) / period]
+        if not once:
             continue
-        # one revolution from just after the longest gap: the gaps' sizes and the edges between them
-        first = int(np.argmax(missing[: period + 1]))
-        gaps = [int(missing[first + j]) for j in range(period)]
-        teeth = [int(apart[first + j]) for j in range(period)]
+        longest = max(once)
+        after_longest = Counter(
+            tuple(shape[i : i + period])
+            for i in range(len(shape) - period + 1)
+            if missing[i] == shape[i + period - 1][1] == longest
+            and all(m <= longest for _, m in shape[i : i + period])
+        )
+        if not after_longest:
+            continue
+        revolution, count = after_longest.most_common(1)[0]
+        if count < max(_MOST * len(shape) / period, 3):
+            continue  # not what most revolutions show
+        if any(revolution == revolution[k:] + revolution[:k] for k in range(1, period)):
+            continue  # a shorter wheel again and again: lost or spurious teeth broke its revolutions
         present: list[int] = []
         position = 0
-        for j in range(period):
-            present.extend(range(position, position + teeth[j]))
-            position += teeth[j] + gaps[(j + 1) % period]
-        found = WheelPattern(position, tuple(present), "")
-        return _with_name(found)
+        for teeth, gap in revolution:
+            present.extend(range(position, position + teeth))
+            position += teeth + gap
+        try:
+            return _with_name(WheelPattern(position, tuple(present), ""))
+        except SignalError:
+            continue  # no wheel (fewer than three positions): a stretch of spurious pulses
     return None
 
 

@@ -307,3 +307,60 @@ def test_each_refusal_names_what_is_wrong_and_what_is_expected(tmp_path: Path) -
     out = tmp_path / "out.h5"
     assert main(["import", str(good), "--map", str(_mapping(tmp_path, kind="pressure")), "-o", str(out)]) == 2
     assert not out.exists()
+
+
+def test_a_wheel_mapped_to_be_read_off_its_edges_is_written_as_found(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A 36-2-1 wheel (16 teeth, one missing, 17 teeth, two missing; 10 deg a position) at 1420 rpm with
+    a once-per-cycle cam, written here as Saleae writes it, mapped with ``pattern = "infer"`` and no
+    teeth: ``import`` reads the wheel off the edges, says what it found and writes it as declared;
+    ``spectrum`` then decodes the speed written. A recording still saying "infer" is read off its
+    edges at each decoding, with a note; a mapping that states the teeth too is refused."""
+    rpm, seconds = 1420.0, 1.5
+    present = [*range(16), *range(17, 34)]
+    revolutions = math.ceil(seconds * rpm / 60.0) + 1
+    rises = np.array([FIRST_TOOTH_DEG + 10.0 * p + 360.0 * r for r in range(revolutions) for p in present])
+    cams = CAM_DEG + 720.0 * np.arange(revolutions // 2 + 1)
+    angles = np.concatenate([rises, rises + 4.0, cams, cams + CAM_WIDTH_DEG])
+    inputs = np.repeat([0, 0, 1, 1], [rises.size, rises.size, cams.size, cams.size])
+    levels = np.repeat([1, 0, 1, 0], [rises.size, rises.size, cams.size, cams.size])
+    times = angles / (rpm * 6.0)
+    keep = times < seconds
+    order = np.argsort(times[keep], kind="stable")
+    instants, index = np.unique(times[keep][order], return_inverse=True)
+    _, rows = _level_rows(index + 1, inputs[keep][order], levels[keep][order])
+    capture = tmp_path / "capture.csv"
+    lines = ["Time [s],Channel 0,Channel 1", "0.000000000,0,0"]
+    lines += [f"{t:.9f},{a},{b}" for t, (a, b) in zip(instants, rows[1:], strict=True)]
+    capture.write_text("\n".join(lines) + "\n")
+    mapping = tmp_path / "map.toml"
+    text = MAPPING.format(keys="", tooth='"Channel 0"', cam='"Channel 1"', edge="", first=0, cam_deg=CAM_DEG)
+    told = "fields = { teeth = 60, missing_teeth = 2, first_tooth_angle_deg = 0 }"
+    read_off = f'fields = {{ pattern = "infer", first_tooth_angle_deg = {FIRST_TOOTH_DEG} }}'
+    mapping.write_text(text.replace(told, read_off))
+    out = tmp_path / "capture.h5"
+    assert main(["import", str(capture), "--map", str(mapping), "-o", str(out)]) == 0
+    said = capsys.readouterr().err
+    assert "tooth: wheel read off its edges: 36-2-1 (36: 0-15, 17-33)" in said
+    assert "teeth = 36, missing_teeth = 3, pattern = '36-2-1'" in said
+    tooth = read_recording(out).channel("tooth")
+    assert (tooth.fields["teeth"], tooth.fields["missing_teeth"], tooth.fields["pattern"]) == (
+        36,
+        3,
+        "36-2-1",
+    )
+    assert _spectrum_speed(out, capsys)["mean_speed_rpm"] == pytest.approx(rpm, rel=2e-5)
+
+    from dataclasses import replace
+
+    from monitor.io.hdf5 import write_hdf5
+
+    kept = import_file(capture, load_mapping(mapping))
+    assert kept.channel("tooth").fields["pattern"] == "infer"
+    document = _spectrum_speed(write_hdf5(kept, tmp_path / "kept.h5"), capsys)
+    assert document["mean_speed_rpm"] == pytest.approx(rpm, rel=2e-5)
+    notes = document["angle_reference"]["notes"]  # type: ignore[index]
+    assert any("wheel read off the edges: 36-2-1 (36: 0-15, 17-33)" in note for note in notes), notes
+    with pytest.raises(FormatError, match=r"teeth = 36 with pattern = 'infer': state the wheel"):
+        replace(kept.channel("tooth"), fields=kept.channel("tooth").fields | {"teeth": 36})

@@ -3,12 +3,14 @@
 The captures are written here, pulse by pulse (not by the product's scene writer): a four-stroke
 turning at a steady 1420 rpm with a 36-1 crank wheel, a once-per-cycle cam pulse at 100 deg after
 cylinder 1's firing TDC, and glitches among the cam's (or the keyphasor's) pulses at random times, one
-for every ten pulses, as a logic analyser records sub-microsecond spikes.
+for every ten pulses, as a logic analyser records sub-microsecond spikes. And a cam wheel of several
+teeth (Honda's 4+1), whose position 0 marks the cycle once its pattern is declared.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -117,3 +119,33 @@ def test_a_keyphasor_with_one_glitch_in_ten_is_repaired_and_counted(seed: int) -
         reference.angle_map.times[-1] - reference.angle_map.times[0]
     )
     assert mean == pytest.approx(SPEED, rel=1e-9)
+
+
+def _four_plus_one(extra_deg: float = 27.5) -> np.ndarray:
+    """Honda's 4+1 cam wheel as written here, rising edges: teeth 90 cam deg apart, one more
+    ``extra_deg`` after the tooth at position 0, which sits CAM_DEG of cycle after the firing TDC; a
+    cam degree is two of crank [s]."""
+    cam_deg = np.sort(np.array([0.0, 90.0, 180.0, 270.0, extra_deg]))
+    cycle = (np.arange(CYCLES - 1)[:, None] * 720.0 + 2 * cam_deg).ravel()
+    return _time(FIRING_AT + np.radians(CAM_DEG + cycle))
+
+
+def test_a_four_plus_one_cam_wheel_marks_the_cycle_by_its_position_zero() -> None:
+    """Declared 4+1, the wheel is decoded over the cam's turns and its position 0 gives the phase:
+    cylinder 1's firing TDC at cycle angle 0, no pulse dropped. Undeclared, four of its five pulses
+    a cycle disagree and the phase is refused; declared with the falling edges' spacing (0.217 of a
+    pitch) the rising edges' extra tooth (0.306) breaks the pattern and the refusal gives its time."""
+    cam = _four_plus_one()
+    recording = _recording(cam=cam)
+    declared = replace(recording.channel("cam"), fields={"cam_angle_deg": CAM_DEG, "pattern": "4+1"})
+    reference = angle_reference(
+        replace(recording, channels=(recording.channels[0], declared)), cycle_revolutions=2
+    )
+    assert reference.cycle_phase == "cam" and not [n for n in reference.notes if "cam" in n]
+    firing = reference.angle_map.angle_at(_time(np.array([FIRING_AT])))[0]
+    assert math.remainder(firing, 4 * math.pi) == pytest.approx(0.0, abs=1e-6)
+    with pytest.raises(SignalError, match=r"cam 'cam': cycle phase: \d+ of \d+ cam pulses"):
+        angle_reference(recording, cycle_revolutions=2)
+    falling = replace(declared, fields={"cam_angle_deg": CAM_DEG, "pattern": "4: 0-3 + 0.217"})
+    with pytest.raises(SignalError, match=r"cam 'cam': wheel 4: 0-3 \+ 0.217: the interval from t = "):
+        angle_reference(replace(recording, channels=(recording.channels[0], falling)), cycle_revolutions=2)

@@ -46,7 +46,7 @@ class ChannelMapping(BaseModel):
     location: str = ""
     direction: str = ""
     scale: float = 1.0
-    fields: dict[str, float | int] = Field(default_factory=dict)
+    fields: dict[str, float | int | str] = Field(default_factory=dict)
     edge: Literal["rising", "falling"] | None = None  # level-change captures: the edge that is the event
 
 
