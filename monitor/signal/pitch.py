@@ -37,6 +37,7 @@ __all__ = [
     "correct_pitch",
     "estimate_pitch_errors",
     "learn_pitch_over_speed",
+    "tooth_places",
     "tooth_spacing_errors",
 ]
 
@@ -92,11 +93,37 @@ class PitchCorrection:
         return float(np.max(np.abs(self.errors)))
 
 
+def _per_revolution(decoding: ToothWheelDecoding) -> int:
+    """The teeth a revolution holds (a pattern's extra ones included)."""
+    return decoding.pattern.teeth if decoding.pattern is not None else decoding.teeth - decoding.missing
+
+
 def _complete(decoding: ToothWheelDecoding, starts: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Those first teeth after the gap whose revolution holds every tooth (the next gap's edge follows)."""
-    per_rev = decoding.teeth - decoding.missing
+    per_rev = _per_revolution(decoding)
     starts = starts[starts + per_rev < decoding.times.size]
     return starts[decoding.tooth_index[starts + per_rev] == 0]
+
+
+def _mean_places(decoding: ToothWheelDecoding) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Each tooth's mean place over the complete revolutions less where the decoding puts it, the
+    standard error of that mean, where the decoding puts it [rad], and the revolutions averaged.
+
+    Each tooth's place is its share of its revolution's time; where the decoding puts it is nominal,
+    or nominal plus the errors of a correction already applied (whose residual this then gives).
+    """
+    per_rev = _per_revolution(decoding)
+    starts = _complete(decoding, np.flatnonzero(decoding.tooth_index == 0))
+    if starts.size < 4:
+        raise SignalError(
+            f"tooth-pitch errors need at least four complete revolutions; the recording has {starts.size}"
+        )
+    window = decoding.times[starts[:, None] + np.arange(per_rev + 1)]
+    shares = (window[:, :-1] - window[:, :1]) / (window[:, -1:] - window[:, :1])
+    placed = decoding.angles[starts[0] + np.arange(per_rev)] - decoding.angles[starts[0]]
+    deviation = 2 * math.pi * shares.mean(axis=0) - placed
+    scatter = 2 * math.pi * shares.std(axis=0, ddof=1) / math.sqrt(starts.size)
+    return deviation, scatter, placed, int(starts.size)
 
 
 def _one_gap(decoding: ToothWheelDecoding) -> None:
@@ -170,20 +197,9 @@ def estimate_pitch_errors(
         if kept_orders is None
         else np.unique(np.asarray(kept_orders, dtype=np.int64))
     )
-    starts = _complete(decoding, np.flatnonzero(decoding.tooth_index == 0))
-    if starts.size < 4:
-        raise SignalError(
-            f"tooth-pitch errors need at least four complete revolutions; the recording has {starts.size}"
-        )
-    window = decoding.times[starts[:, None] + np.arange(per_rev + 1)]
-    shares = (window[:, :-1] - window[:, :1]) / (window[:, -1:] - window[:, :1])
-    # where the decoding puts each tooth in its revolution: nominal, or nominal plus the errors of a
-    # correction already applied (whose residual this then estimates)
-    nominal = decoding.angles[starts[0] + np.arange(per_rev)] - decoding.angles[starts[0]]
-    deviation = 2 * math.pi * shares.mean(axis=0) - nominal
-    # standard error of each tooth's mean position over the revolutions (timing noise, cycle-to-cycle
-    # variation): a gap tooth's estimate within 3 of them is not told from zero and not applied
-    scatter = 2 * math.pi * shares.std(axis=0, ddof=1) / math.sqrt(starts.size)
+    # a tooth's estimate within 3 standard errors of its mean place (timing noise, cycle-to-cycle
+    # variation) is not told from zero and not applied beside the gap
+    deviation, scatter, nominal, revolutions = _mean_places(decoding)
     inner = np.arange(gap_neighbours, per_rev - gap_neighbours)
     if 1 + 2 * orders.size >= inner.size:
         raise SignalError(
@@ -218,7 +234,7 @@ def estimate_pitch_errors(
         errors[np.abs(errors) < floor] = 0.0
     else:
         errors = errors - errors.mean()
-    return PitchCorrection(errors, tuple(int(k) for k in orders), int(starts.size), scope=scope)
+    return PitchCorrection(errors, tuple(int(k) for k in orders), revolutions, scope=scope)
 
 
 def learn_pitch_over_speed(
@@ -410,6 +426,22 @@ def correct_pitch(decoding: ToothWheelDecoding, correction: PitchCorrection) -> 
     return replace(decoding, angles=angles)
 
 
+def tooth_places(decoding: ToothWheelDecoding) -> FloatArray:
+    """Where the decoding puts each tooth of a revolution, from the first after the gap [rad].
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+        With at least four complete revolutions.
+
+    Returns
+    -------
+    ndarray, shape (teeth in a revolution,)
+        Nominal (the pattern's places), plus the errors of a correction already applied [rad].
+    """
+    return _mean_places(decoding)[2]
+
+
 def tooth_spacing_errors(decoding: ToothWheelDecoding) -> FloatArray:
     """Angular position error of each tooth, averaged over the complete revolutions, nothing kept.
 
@@ -429,4 +461,5 @@ def tooth_spacing_errors(decoding: ToothWheelDecoding) -> FloatArray:
     synchronous with the revolution is taken as the wheel's, so it is for a run whose fluctuation
     is small (a coast-down, a steady run of a heavy shaft line).
     """
-    return estimate_pitch_errors(decoding, kept_orders=[], gap_neighbours=0, scope="all").errors
+    deviation = _mean_places(decoding)[0]
+    return deviation - deviation.mean()

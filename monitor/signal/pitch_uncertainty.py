@@ -13,7 +13,8 @@ Gaussian with ``E|E_k|^2 = 4 sigma^2 / T``: its magnitude exceeds ``c 2 sigma / 
 probability ``exp(-c^2)``: 1.8 % beyond ``c = 2``. The angle map adds a little beyond the teeth's own
 errors (the gap's missing teeth are interpolated from neighbours whose errors they carry, the gap
 teeth's correction is itself fitted): on a 60-2 wheel the errors came out 1.07 to 1.21 times the
-scale, order by order, with ``sigma`` estimated (tests/signal/test_pitch_systematic.py, 200 wheels).
+scale, order by order, with ``sigma`` estimated (tests/signal/test_pitch_systematic.py, 200 wheels,
+and 200 two-gap 36-2-1 wheels).
 A real wheel's errors are not quite independent: the 4GB10 rig's 60-2 wheel, learned tooth by tooth
 on one steady run and applied to another, puts its order 16 at 2.3 to 2.8 times the scale
 (tests/signal/test_pitch_from_a_fuel_cut.py). The stated bound is :data:`COVERAGE` ``= 3`` times the
@@ -42,7 +43,7 @@ import math
 import numpy as np
 
 from monitor.errors import SignalError
-from monitor.signal.pitch import PitchCorrection, tooth_spacing_errors
+from monitor.signal.pitch import PitchCorrection, tooth_places, tooth_spacing_errors
 from monitor.signal.toothwheel import ToothWheelDecoding
 from monitor.types import FloatArray
 
@@ -57,7 +58,8 @@ def pitch_scatter(decoding: ToothWheelDecoding) -> float:
     Parameters
     ----------
     decoding : ToothWheelDecoding
-        A wheel of one gap, after whatever correction was applied, with four complete revolutions.
+        Any wheel (one gap, several, an extra tooth), after whatever correction was applied, with four
+        complete revolutions.
 
     Returns
     -------
@@ -67,13 +69,13 @@ def pitch_scatter(decoding: ToothWheelDecoding) -> float:
     Raises
     ------
     SignalError
-        For fewer than four complete revolutions, a wheel of several gaps, or too few teeth to leave
-        a residual above a quarter of them.
+        For fewer than four complete revolutions, or too few teeth to leave a residual above a
+        quarter of them.
     """
-    errors = tooth_spacing_errors(decoding)  # every tooth's mean position, less its nominal [rad]
+    errors = tooth_spacing_errors(decoding)  # every tooth's mean position, less where it is put [rad]
     teeth = errors.size
-    highest = decoding.teeth // 4
-    angles = 2 * math.pi * np.arange(teeth) / decoding.teeth
+    highest = teeth // 4
+    angles = tooth_places(decoding)
     k = np.arange(1, highest + 1)
     design = np.hstack([np.ones((teeth, 1)), np.cos(np.outer(angles, k)), np.sin(np.outer(angles, k))])
     freedom = teeth - design.shape[1]

@@ -87,7 +87,7 @@ class AngleReference:
     pitch_scatter : float or None
         The standard deviation of the wheel's tooth-position errors left in the map
         (:mod:`monitor.signal.pitch_uncertainty`) [rad]; 0 when all were learned at every order; None
-        where not known (a keyphasor, a wheel of several gaps, too short a recording).
+        where not known (a keyphasor, too short a recording).
     pitch_orders : tuple of int or None
         The integer orders those errors are left in: None every one, else only these (the orders a
         baseline's correction left to the engine).

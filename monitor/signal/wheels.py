@@ -282,7 +282,11 @@ def decode_pattern(
             f"pitches where the pattern has {expected[tooth[k]] / pattern.pitch:.3g} (a tooth lost or a "
             "spurious pulse there)"
         )
-    revolution = np.floor_divide(np.arange(t.size) + offset, n_teeth)
+    # revolutions counted as on a wheel of one gap (monitor.signal.toothwheel): revolution 0 from the
+    # first position 0 the edges show an interval before, the edges before it in revolution -1, so that
+    # a cycle phase stated against the map means the same on any wheel
+    zero = (n_teeth - offset) % n_teeth or n_teeth
+    revolution = np.floor_divide(np.arange(t.size) - zero, n_teeth)
     angles = first_tooth_angle + 2 * math.pi * revolution + pattern.angles[tooth]
     return t, angles, tooth.astype(np.int64)
 
