@@ -1,0 +1,243 @@
+"""The articulated (master-and-slave) connecting rod of a V engine: the slave piston's exact motion.
+
+On a V engine with articulated rods one bank's rod (the master) runs from the crank pin to its piston
+as a plain slider-crank (:mod:`monitor.model.kinematics`); the other bank's rod (the slave) is pinned
+to the master rod at the knuckle pin, beside the crank pin, and not to the crank pin itself. So the
+slave piston does not move as a slider-crank at the bank angle: its stroke is longer than ``2 R`` and
+its top dead centre is not where the crank points along its bore.
+
+Geometry, in the frame of :mod:`monitor.model.kinematics` (origin on the crankshaft axis, ``y`` along
+the master cylinder's axis towards its head, ``x`` across it, the crank pin at ``R (sin a, cos a)``,
+``a`` the crank angle from the master's TDC in the direction of rotation):
+
+- the master rod, of length ``L``, from the crank pin ``C`` to the master piston pin on the ``y``
+  axis; its unit vector ``u = (-R sin a / L, cos b)`` with ``sin b = lambda sin a``;
+- the knuckle pin ``K = C + r (u cos d + n sin d)``, at distance ``r`` from the crank pin's centre and
+  at the fixed angle ``d`` from the master rod's axis towards the slave bank (``n = (u_y, -u_x)``, the
+  rod's normal towards ``+x``);
+- the slave cylinder's axis through the crankshaft axis at the bank angle ``g`` from the master's,
+  towards ``+x``: ``w = (sin g, cos g)``, its normal ``v = (cos g, -sin g)``;
+- the slave rod, of length ``l``, from ``K`` to the slave piston pin ``S = s w`` (``s`` its distance
+  from the crankshaft axis): ``|S - K| = l`` gives, in closed form,
+
+      s = K . w + sqrt(l^2 - (K . v)^2).
+
+Its derivatives in the crank angle follow by the chain rule from ``K' = C' + r (u' cos d + n' sin d)``
+(``u' = (-lambda cos a, -sin b b')``, ``b' = lambda cos a / cos b``), exactly: with ``p = K . w``,
+``q = K . v`` and ``h = sqrt(l^2 - q^2)``, ``s' = p' - q q' / h`` and ``s'' = p'' - (q'^2 + q q'') / h
+- q^2 q'^2 / h^3``. The slave's top and bottom dead centres are the crank angles where ``s' = 0``
+(found by Newton's method on ``s'`` with ``s''``, from the slider-crank's at the bank angle): its
+displacement from its own TDC is ``s_TDC - s``.
+
+With ``r = 0`` the slave rod hangs on the crank pin: the slave is then a slider-crank of rod ``l`` at
+the bank angle (side-by-side or fork-and-blade rods), the limit the tests check.
+
+References
+----------
+000: Murawski, Kinematic of marine piston-crankshaft system (the slider-crank, eq. 1-10), whose
+     derivation this extends to the knuckle pin; the slave's closed form is derived here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from monitor.errors import ModelError
+from monitor.model.kinematics import check_rod_ratio, cos_rod_angle
+from monitor.types import FloatArray
+
+__all__ = ["ArticulatedRod", "SlaveStroke"]
+
+_NEWTON_STEPS = 50  # at most, for a dead centre; it converges quadratically in a handful
+
+
+@dataclass(frozen=True)
+class SlaveStroke:
+    """The slave piston's dead centres and stroke.
+
+    Attributes
+    ----------
+    tdc_angle : float
+        The crank angle of the slave's top dead centre, from the master's TDC [rad], in [0, 2 pi).
+    bdc_angle : float
+        Of its bottom dead centre [rad], in [0, 2 pi).
+    tdc_offset : float
+        ``tdc_angle`` less the bank angle: how far the articulation moves the slave's TDC from where
+        the crank points along its bore [rad].
+    stroke : float
+        ``s_TDC - s_BDC`` [m] (``2 R`` for a slider-crank).
+    top : float
+        ``s_TDC``, the slave piston pin's distance from the crankshaft axis at TDC [m].
+    """
+
+    tdc_angle: float
+    bdc_angle: float
+    tdc_offset: float
+    stroke: float
+    top: float
+
+
+@dataclass(frozen=True)
+class ArticulatedRod:
+    """A master rod and the slave rod pinned to it (module docstring).
+
+    Attributes
+    ----------
+    crank_radius : float
+        ``R`` [m].
+    master_length : float
+        ``L``, crank pin to master piston pin [m].
+    knuckle_radius : float
+        ``r``, crank pin centre to knuckle pin centre [m] (0: the slave rod on the crank pin).
+    knuckle_angle : float
+        ``d``, the knuckle pin's angle from the master rod's axis towards the slave bank [rad].
+    slave_length : float
+        ``l``, knuckle pin to slave piston pin [m].
+    bank_angle : float
+        ``g``, the slave cylinder's axis from the master's, in the direction of rotation [rad].
+    """
+
+    crank_radius: float
+    master_length: float
+    knuckle_radius: float
+    knuckle_angle: float
+    slave_length: float
+    bank_angle: float
+
+    def __post_init__(self) -> None:
+        lengths = (self.crank_radius, self.master_length, self.slave_length)
+        if not all(math.isfinite(x) and x > 0 for x in lengths) or not (
+            math.isfinite(self.knuckle_radius) and 0.0 <= self.knuckle_radius < self.master_length
+        ):
+            raise ModelError(
+                f"articulated rod: crank_radius = {self.crank_radius!r}, master_length = "
+                f"{self.master_length!r}, slave_length = {self.slave_length!r}, knuckle_radius = "
+                f"{self.knuckle_radius!r}: expected positive lengths and 0 <= knuckle_radius < master_length"
+            )
+        if not (math.isfinite(self.bank_angle) and 0.0 < self.bank_angle < math.pi):
+            raise ModelError(f"bank_angle = {self.bank_angle!r} rad: expected between 0 and pi")
+        if not math.isfinite(self.knuckle_angle):
+            raise ModelError(f"knuckle_angle = {self.knuckle_angle!r} rad: expected a finite angle")
+        check_rod_ratio(self.crank_radius / self.master_length)
+        # the slave rod must reach its bore at every crank angle: |K . v| < l everywhere
+        reach = float(np.max(np.abs(self._knuckle(np.linspace(0.0, 2 * math.pi, 721))[0] @ self._normal)))
+        if reach >= self.slave_length:
+            raise ModelError(
+                f"articulated rod: the knuckle pin strays {reach:.4g} m from the slave bore's axis, the "
+                f"slave rod is {self.slave_length:.4g} m: it cannot reach its piston at every crank angle"
+            )
+
+    @property
+    def _axis(self) -> FloatArray:
+        """The slave cylinder's axis ``w`` (unit)."""
+        return np.array([math.sin(self.bank_angle), math.cos(self.bank_angle)])
+
+    @property
+    def _normal(self) -> FloatArray:
+        """Its normal ``v`` (unit)."""
+        return np.array([math.cos(self.bank_angle), -math.sin(self.bank_angle)])
+
+    def _knuckle(self, crank_angle: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The knuckle pin's position and its first two derivatives in the crank angle, shape (n, 2)."""
+        a = np.atleast_1d(np.asarray(crank_angle, dtype=np.float64))
+        lam = self.crank_radius / self.master_length
+        sin_a, cos_a = np.sin(a), np.cos(a)
+        cos_b = cos_rod_angle(a, lam)
+        sin_b = lam * sin_a
+        db = lam * cos_a / cos_b  # b'
+        d2b = lam * (-sin_a * cos_b + cos_a * sin_b * db) / cos_b**2  # b''
+        radius = self.crank_radius
+        crank = radius * np.stack([sin_a, cos_a], axis=-1)
+        crank1 = radius * np.stack([cos_a, -sin_a], axis=-1)
+        crank2 = -crank
+        u = np.stack([-sin_b, cos_b], axis=-1)
+        u1 = np.stack([-lam * cos_a, -sin_b * db], axis=-1)
+        u2 = np.stack([lam * sin_a, -(cos_b * db**2 + sin_b * d2b)], axis=-1)
+
+        def turned(vector: FloatArray) -> FloatArray:
+            # the rod's direction turned by d towards +x: u cos d + n sin d, n = (u_y, -u_x)
+            normal = np.stack([vector[:, 1], -vector[:, 0]], axis=-1)
+            return np.asarray(vector * math.cos(self.knuckle_angle) + normal * math.sin(self.knuckle_angle))
+
+        r = self.knuckle_radius
+        return crank + r * turned(u), crank1 + r * turned(u1), crank2 + r * turned(u2)
+
+    def slave_position(self, crank_angle: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The slave piston pin's distance from the crankshaft axis, and its derivatives.
+
+        Parameters
+        ----------
+        crank_angle : array_like
+            From the master's TDC [rad].
+
+        Returns
+        -------
+        s, ds, d2s : ndarray
+            ``s`` [m], ``ds/da`` [m/rad] and ``d2s/da2`` [m/rad^2], shaped as ``crank_angle``.
+        """
+        shape = np.shape(crank_angle)
+        k, k1, k2 = self._knuckle(crank_angle)
+        w, v = self._axis, self._normal
+        p, p1, p2 = k @ w, k1 @ w, k2 @ w
+        q, q1, q2 = k @ v, k1 @ v, k2 @ v
+        h = np.sqrt((self.slave_length - q) * (self.slave_length + q))
+        s = p + h
+        ds = p1 - q * q1 / h
+        d2s = p2 - (q1**2 + q * q2) / h - q**2 * q1**2 / h**3
+        return s.reshape(shape), ds.reshape(shape), d2s.reshape(shape)
+
+    def slave_displacement(self, crank_angle: npt.ArrayLike) -> FloatArray:
+        """The slave piston's displacement from its own TDC towards the crank [m].
+
+        Parameters
+        ----------
+        crank_angle : array_like
+            From the master's TDC [rad].
+
+        Returns
+        -------
+        ndarray
+            ``s_TDC - s`` [m], 0 at the slave's TDC, its stroke at its BDC.
+        """
+        return np.asarray(self.stroke().top - self.slave_position(crank_angle)[0])
+
+    def stroke(self) -> SlaveStroke:
+        """The slave's dead centres and stroke (module docstring).
+
+        Returns
+        -------
+        SlaveStroke
+
+        Raises
+        ------
+        ModelError
+            If Newton's method does not settle on a dead centre (a linkage that folds).
+        """
+        tdc = self._dead_centre(self.bank_angle)
+        bdc = self._dead_centre(self.bank_angle + math.pi)
+        top = float(self.slave_position(tdc)[0])
+        bottom = float(self.slave_position(bdc)[0])
+        return SlaveStroke(
+            tdc_angle=tdc % (2 * math.pi),
+            bdc_angle=bdc % (2 * math.pi),
+            tdc_offset=math.remainder(tdc - self.bank_angle, 2 * math.pi),
+            stroke=top - bottom,
+            top=top,
+        )
+
+    def _dead_centre(self, start: float) -> float:
+        """The crank angle where ``ds/da = 0`` nearest ``start`` (Newton's method on ``s'`` with ``s''``)."""
+        angle = start
+        for _ in range(_NEWTON_STEPS):
+            _, ds, d2s = self.slave_position(angle)
+            step = float(ds) / float(d2s)
+            angle -= step
+            if abs(step) < 1e-15:
+                return angle
+        raise ModelError(
+            f"articulated rod: no dead centre of the slave near {math.degrees(start):.1f} deg crank angle"
+        )
