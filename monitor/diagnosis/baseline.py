@@ -134,6 +134,7 @@ class Baseline:
                 "order_errors_deg": None
                 if self.pitch.order_errors is None
                 else np.degrees(self.pitch.order_errors).tolist(),
+                "speeds_rpm": [s * 30 / math.pi for s in self.pitch.speeds],
             },
             "crank_speed_model": None
             if self.crank is None
@@ -262,6 +263,7 @@ class Baseline:
                     order_errors=None
                     if stored.get("order_errors_deg") is None  # absent before they were stated
                     else np.radians(np.asarray(stored["order_errors_deg"], dtype=np.float64)),
+                    speeds=tuple(float(s) * math.pi / 30 for s in stored.get("speeds_rpm", ())),
                 )
                 if stored
                 else None

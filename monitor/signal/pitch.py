@@ -37,6 +37,7 @@ __all__ = [
     "correct_pitch",
     "estimate_pitch_errors",
     "learn_pitch_over_speed",
+    "speed_range",
     "tooth_places",
     "tooth_spacing_errors",
 ]
@@ -72,6 +73,9 @@ class PitchCorrection:
     order_errors : ndarray or None
         The standard error of the errors' whole orders ``1, 2, ...`` (the rms of the complex
         amplitude's error, peak) [rad], where the method gives them; None otherwise.
+    speeds : tuple of float
+        The slowest and fastest revolution's mean speed it was learned over [rad/s]; empty where not
+        known (a baseline stored before it was kept).
     """
 
     errors: FloatArray
@@ -81,6 +85,7 @@ class PitchCorrection:
     scope: str = "gap"
     standard_error: float = math.nan
     order_errors: FloatArray | None = None
+    speeds: tuple[float, ...] = ()
 
     @property
     def rms(self) -> float:
@@ -96,6 +101,27 @@ class PitchCorrection:
 def _per_revolution(decoding: ToothWheelDecoding) -> int:
     """The teeth a revolution holds (a pattern's extra ones included)."""
     return decoding.pattern.teeth if decoding.pattern is not None else decoding.teeth - decoding.missing
+
+
+def speed_range(decoding: ToothWheelDecoding) -> tuple[float, float]:
+    """The slowest and fastest complete revolution's mean speed (both the mean without one).
+
+    Parameters
+    ----------
+    decoding : ToothWheelDecoding
+
+    Returns
+    -------
+    tuple of float
+        [rad/s].
+    """
+    starts = _complete(decoding, np.flatnonzero(decoding.tooth_index == 0))
+    per_rev = _per_revolution(decoding)
+    if starts.size == 0:
+        speed = (decoding.angles[-1] - decoding.angles[0]) / (decoding.times[-1] - decoding.times[0])
+        return float(speed), float(speed)
+    speed = 2 * math.pi / (decoding.times[starts + per_rev] - decoding.times[starts])
+    return float(speed.min()), float(speed.max())
 
 
 def _complete(decoding: ToothWheelDecoding, starts: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
@@ -234,7 +260,9 @@ def estimate_pitch_errors(
         errors[np.abs(errors) < floor] = 0.0
     else:
         errors = errors - errors.mean()
-    return PitchCorrection(errors, tuple(int(k) for k in orders), revolutions, scope=scope)
+    return PitchCorrection(
+        errors, tuple(int(k) for k in orders), revolutions, scope=scope, speeds=speed_range(decoding)
+    )
 
 
 def learn_pitch_over_speed(
@@ -348,6 +376,7 @@ def learn_pitch_over_speed(
         scope="all",
         standard_error=standard_error,
         order_errors=order_errors,
+        speeds=(float(speed.min()), float(speed.max())),
     )
 
 
