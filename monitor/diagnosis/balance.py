@@ -17,7 +17,9 @@ every low order is linear in the strengths ``s``:
 
 The orders ``0 < k <= n_cylinders / R`` (two-stroke 1..n, four-stroke
 0.5..n/2) are stacked, real and imaginary parts apart, and weighted by their
-standard errors from the spread over the averaged blocks.  Orders that are
+standard errors from the spread over the averaged blocks (and, at the whole orders no
+baseline calibrated, the tooth wheel's pitch errors left in the map:
+:mod:`monitor.signal.pitch_uncertainty`).  Orders that are
 multiples of the firing frequency see every cylinder in phase (they fix the
 mean strength), the others resolve the differences.  The covariance is the
 weighted problem's, scaled by the reduced chi-square when the residual is
@@ -45,6 +47,7 @@ from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts
+from monitor.signal.pitch_uncertainty import COVERAGE
 from monitor.signal.spectrum import OrderSpectrum
 from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
@@ -180,6 +183,9 @@ class CylinderBalance:
         The moving masses' torque and the gas force's fixed part (the compression and charge
         pressure), summed over the cylinders as they reach the left-hand side, the calibration's
         factors applied [same unit].
+    wheel_error : ndarray
+        The tooth wheel's pitch errors left in the map, their rms share of each order the weights
+        carry beside ``standard_error`` (0 where a baseline calibrated the order) [same unit].
     """
 
     strength: FloatArray
@@ -206,6 +212,7 @@ class CylinderBalance:
     columns: ComplexArray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.complex128))
     inertia_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     gas_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    wheel_error: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     def calibration(self) -> CrankCalibration:
         """This (healthy) balance's calibration of the model where the cylinders add up.
@@ -329,11 +336,14 @@ def cylinder_balance(
     if not parts.strength:
         raise ModelError("the model has no gas forces: cylinder strengths cannot be estimated")
     use, orders, known, combustion, gas = _cylinder_orders(speed, engine, parts, highest_order)
-    y, se, unit, H, inertia = _left_hand_side(speed, use, engine, parts, transfer)
+    y, se, unit, H, inertia, wheel = _left_hand_side(speed, use, engine, parts, transfer)
     # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
     factor, factor_error, inertia_factor, inertia_factor_error, calibrated = _factors(
         calibration, transfer, orders
     )
+    # the wheel's pitch errors left in the map, where no baseline calibrated the order (a baseline's
+    # factor there holds the same wheel's errors)
+    wheel = np.where(calibrated, 0.0, wheel)
     plain = (H * known).sum(axis=0)  # the inertia and fixed torques, at the recording's own speed
     fixed = inertia_factor * plain
     burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
@@ -361,6 +371,7 @@ def cylinder_balance(
         unlike_share=np.hypot(model_uncertainty, timing),
         timed=timed,
         uneven=uneven,
+        wheel=wheel,
         factor=factor,
         transfer=H,
         combustion=combustion,
@@ -394,6 +405,7 @@ def cylinder_balance(
         columns=design,
         inertia_part=inertia_factor * (H * (known - gas)).sum(axis=0),
         gas_part=inertia_factor * (H * gas).sum(axis=0),
+        wheel_error=wheel,
     )
 
 
@@ -424,11 +436,14 @@ def _cylinder_orders(
 
 def _left_hand_side(
     speed: OrderSpectrum, use: npt.NDArray[np.bool_], engine: Engine, parts: CylinderParts, transfer: Transfer
-) -> tuple[ComplexArray, FloatArray, str, ComplexArray, float]:
+) -> tuple[ComplexArray, FloatArray, str, ComplexArray, float, FloatArray]:
     """The measured left-hand side ``y`` at the orders used, its standard error and unit, the transfer
-    ``H`` from each throw's torque to it, and the rigid body's inertia (0 for the shaft line)."""
+    ``H`` from each throw's torque to it, the rigid body's inertia (0 for the shaft line), and the
+    wheel's unlearned pitch errors' rms share of each order in the same unit (0 where not known)."""
     orders = speed.orders[use]
     inertia = 0.0
+    # the unlearned pitch errors' bound over its coverage: their rms scale at each order [rad/s]
+    wheel = np.zeros(speed.orders.size) if speed.systematic is None else speed.systematic / COVERAGE
     if transfer == "rigid":
         inertia = engine_side_inertia(engine)
         # each order meets the engine side and, through its shafts, what the engine drives
@@ -437,13 +452,15 @@ def _left_hand_side(
         met[positive] = engine_side_inertia_at(engine, speed.orders[positive] * parts.crank_speed)
         y_all, se_all = measured_torque(speed, met, engine.cycle_revolutions)
         y, se, unit = y_all[use], se_all[use], "N m"
+        # as the block spread goes to torque (to first order in the fluctuation)
+        wheel_torque = speed.orders * np.abs(met) * float(np.real(speed.amplitude[0])) * wheel
         H = np.ones((engine.cylinders, orders.size), dtype=np.complex128)
-    elif transfer == "shaft-line":
+        return y, se, unit, H, inertia, np.asarray(wheel_torque[use], dtype=np.float64)
+    if transfer == "shaft-line":
         y, se, unit = speed.amplitude[use], speed.standard_error[use], "rad/s"
         H = tooth_wheel_receptance(engine, orders, parts.crank_speed)
-    else:
-        raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
-    return y, se, unit, H, inertia
+        return y, se, unit, H, inertia, np.asarray(wheel[use], dtype=np.float64)
+    raise ModelError(f"transfer = {transfer!r}: expected 'rigid' or 'shaft-line'")
 
 
 def _factors(
@@ -483,6 +500,7 @@ class _Spread:
     unlike_share: FloatArray  # the share of a cylinder's own deviation from the model that is uncertain
     timed: FloatArray  # the combustion's timing
     uneven: FloatArray  # the healthy cylinders' own differences
+    wheel: FloatArray  # the tooth wheel's unlearned pitch errors (their rms scale)
     factor: ComplexArray
     transfer: ComplexArray
     combustion: ComplexArray
@@ -505,6 +523,7 @@ class _Spread:
                 + (self.unlike_share * unlike) ** 2
                 + self.timed**2
                 + self.uneven**2
+                + self.wheel**2
             )
         )
 

@@ -177,10 +177,11 @@ def missing_firing(
     For each cylinder ``c`` the model ``y - I = beta X + L C - a D_c`` is fitted by weighted least
     squares, real and imaginary parts apart, each order's weight ``1 / sigma_k^2`` with
 
-        sigma_k^2 = se_k^2 + (imbalance |D_k|)^2 + (inertia_share |I_k|)^2
+        sigma_k^2 = se_k^2 + w_k^2 + (imbalance |D_k|)^2 + (inertia_share |I_k|)^2
                     + (u_k |L C_k - a D_ck|)^2,
 
-    ``|D_k|`` the root sum of squares of the cylinders' columns and ``u_k`` the combustion's shape
+    ``|D_k|`` the root sum of squares of the cylinders' columns, ``w_k`` the tooth wheel's pitch
+    errors left in the map (the balance's ``wheel_error``) and ``u_k`` the combustion's shape
     uncertainty (``hypot(model_uncertainty, k timing_uncertainty)``, or the calibrated one).
     """
     columns = balance.columns
@@ -203,7 +204,8 @@ def missing_firing(
         np.hypot(model_uncertainty, np.minimum(balance.orders * timing_uncertainty, 1.0)),
     )
     masses = inertia_share * np.abs(balance.inertia_part)
-    fixed_error = np.sqrt(balance.standard_error**2 + (imbalance * spread) ** 2 + masses**2)
+    wheel = balance.wheel_error if balance.wheel_error.size == n_orders else np.zeros(n_orders)
+    fixed_error = np.sqrt(balance.standard_error**2 + wheel**2 + (imbalance * spread) ** 2 + masses**2)
     rhs = balance.measured - balance.inertia_part
     out = np.zeros((7, n))
     for c in range(n):
