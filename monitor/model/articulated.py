@@ -26,7 +26,7 @@ Its derivatives in the crank angle follow by the chain rule from ``K' = C' + r (
 (``u' = (-lambda cos a, -sin b b')``, ``b' = lambda cos a / cos b``), exactly: with ``p = K . w``,
 ``q = K . v`` and ``h = sqrt(l^2 - q^2)``, ``s' = p' - q q' / h`` and ``s'' = p'' - (q'^2 + q q'') / h
 - q^2 q'^2 / h^3``. The slave's top and bottom dead centres are the crank angles where ``s' = 0``
-(found by Newton's method on ``s'`` with ``s''``, from the slider-crank's at the bank angle): its
+(found by Newton's method on ``s'`` with ``s''``, from the highest and lowest of a sweep): its
 displacement from its own TDC is ``s_TDC - s``.
 
 With ``r = 0`` the slave rod hangs on the crank pin: the slave is then a slider-crank of rod ``l`` at
@@ -53,6 +53,7 @@ from monitor.types import FloatArray
 __all__ = ["ArticulatedRod", "SlaveStroke"]
 
 _NEWTON_STEPS = 50  # at most, for a dead centre; it converges quadratically in a handful
+_SWEEP = 720  # crank angles swept for the dead centres' first guesses (every half degree)
 
 
 @dataclass(frozen=True)
@@ -217,8 +218,12 @@ class ArticulatedRod:
         ModelError
             If Newton's method does not settle on a dead centre (a linkage that folds).
         """
-        tdc = self._dead_centre(self.bank_angle)
-        bdc = self._dead_centre(self.bank_angle + math.pi)
+        # Newton's method from the highest and lowest of a sweep of the crank angle: a linkage near
+        # folding has more than one extremum, and the slider-crank's guess can settle on the wrong one
+        sweep = np.linspace(0.0, 2 * math.pi, _SWEEP, endpoint=False)
+        place = self.slave_position(sweep)[0]
+        tdc = self._dead_centre(float(sweep[int(np.argmax(place))]))
+        bdc = self._dead_centre(float(sweep[int(np.argmin(place))]))
         top = float(self.slave_position(tdc)[0])
         bottom = float(self.slave_position(bdc)[0])
         return SlaveStroke(

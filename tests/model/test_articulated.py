@@ -16,7 +16,7 @@ import math
 import mpmath
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from monitor.errors import ModelError
@@ -130,7 +130,10 @@ def test_over_v_engine_geometries_the_dead_centres_are_the_places_extremes(
     master's): the dead centres the product finds are the largest and smallest place over a fine
     sweep of the crank angle, and the displacement runs from 0 to the stroke."""
     master = 1.0
-    rod = ArticulatedRod(ratio, master, knuckle * master, turn, slave * master, bank)
+    try:
+        rod = ArticulatedRod(ratio, master, knuckle * master, turn, slave * master, bank)
+    except ModelError:
+        assume(False)  # a slave rod too short to reach its bore at every angle: refused, as tested below
     stroke = rod.stroke()
     sweep = np.linspace(0.0, 2 * math.pi, 20001)
     place = rod.slave_position(sweep)[0]
