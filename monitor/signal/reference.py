@@ -330,7 +330,7 @@ def angle_reference(
             if correction is not None:
                 try:
                     decoding = correct_pitch(decoding, correction)
-                    if isinstance(pitch_correction, PitchCorrection):
+                    if isinstance(pitch_correction, PitchCorrection) and pitch_correction.source == "run-up":
                         decoding, correction, regapped = _gap_here(decoding, pitch_correction)
                         notes.extend([f"{channel.name}: {regapped}"] if regapped else [])
                 except SignalError as error:
@@ -387,8 +387,13 @@ def _gap_here(
     baseline, a run-up, a fuel cut) is right for the other teeth; the gap's are estimated again on
     the corrected decoding (:func:`estimate_pitch_errors`, ``scope="gap"``), and moved where what is
     left stands out. Where the recording's revolutions lie within the speeds the correction was learned
-    over (within :data:`SAME_SPEED`: a baseline applied at its own point, a recording calibrated on),
-    it is kept as it is.
+    over (within :data:`SAME_SPEED`), it is kept as it is.
+
+    Only a correction learned over speed (a run-up, a coast-down, a fuel cut) is read again: its trend
+    is pinned on the tooth after the gap, so its gap teeth are the ones it learns worst. A baseline's,
+    learned tooth by tooth at a steady point, is kept: read again on a simulated two-cylinder engine at
+    835 rpm against its baseline's 1120 (make bench-diagnosis, case 200369), the gap teeth moved by
+    0.5 deg and the cylinders were no longer told apart, where kept the weak one was named.
     """
     if correction.speeds:
         low, high = correction.speeds
