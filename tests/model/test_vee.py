@@ -92,7 +92,7 @@ def test_a_90_deg_cross_plane_v8_has_only_a_turning_primary_moment_of_root_10() 
     """Throws at 0, 90, 270 and 180 deg, a apart along the shaft, each with a cylinder of each bank:
     each throw's primary pair turns as the V-twin's, at the throw's angle, so the primary forces
     sum as ``exp(-i theta)`` over the throws, 1 - i + i - 1 = 0, and the moments as ``z exp(-i theta)``
-    = -1.5 - 0.5 i + 0.5 i ... = -3 + i times a: of size sqrt(10) a m r w^2. The secondaries go as
+    = -1.5 + 0.5 i + 0.5 i - 1.5 = -3 + i times a: of size sqrt(10) a m r w^2. The secondaries go as
     ``exp(-2 i theta)`` = 1, -1, -1, 1: no force, and no moment (-1.5 + 0.5 - 0.5 + 1.5 = 0)."""
     spacing = 0.5
     throws = np.radians([0.0, 90.0, 270.0, 180.0])
