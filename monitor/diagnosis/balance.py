@@ -341,16 +341,11 @@ def cylinder_balance(
     factor, factor_error, inertia_factor, inertia_factor_error, calibrated = _factors(
         calibration, transfer, orders
     )
-    # the wheel's pitch errors left in the map, where no baseline calibrated the order (a baseline's
-    # factor there holds the same wheel's errors)
-    wheel = np.where(calibrated, 0.0, wheel)
     plain = (H * known).sum(axis=0)  # the inertia and fixed torques, at the recording's own speed
     fixed = inertia_factor * plain
     burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
     rhs = y - fixed
     design = (factor * H * combustion).T  # (n_orders, n_cyl)
-    # weights: the block spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution);
-    # se is the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
     # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large
     # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
     # cylinders share cancels there too)
@@ -371,7 +366,7 @@ def cylinder_balance(
         unlike_share=np.hypot(model_uncertainty, timing),
         timed=timed,
         uneven=uneven,
-        wheel=wheel,
+        wheel=np.where(calibrated, 0.0, wheel),  # a calibrated order's factor holds the wheel's errors
         factor=factor,
         transfer=H,
         combustion=combustion,
@@ -405,7 +400,7 @@ def cylinder_balance(
         columns=design,
         inertia_part=inertia_factor * (H * (known - gas)).sum(axis=0),
         gas_part=inertia_factor * (H * gas).sum(axis=0),
-        wheel_error=wheel,
+        wheel_error=spread.wheel,
     )
 
 
@@ -534,6 +529,8 @@ def _fit(
     """The strengths by weighted least squares, re-weighted at the strengths found; their covariance
     (scaled by the reduced chi-square where it exceeds 1) and the reduced chi-square."""
     n = design.shape[1]
+    # weights: the spread, with a floor of 1e-6 of the largest order (the arithmetic's resolution); it is
+    # the complex standard error (E |noise|^2 = se^2): the real and imaginary parts have se / sqrt 2
     floor = 1e-6 * float(np.abs(y).max()) + 1e-300
     strength = np.ones(n)
     for _ in range(3):
