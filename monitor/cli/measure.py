@@ -319,18 +319,12 @@ def _wheels_read(recording: Recording) -> Recording:
     from dataclasses import replace
 
     from monitor.io.recording import INFER_PATTERN
-    from monitor.signal.reference import read_wheel
+    from monitor.signal.reference import declared_as_read
 
     channels = []
     for channel in recording.channels:
         if channel.kind == "tooth" and channel.fields.get("pattern") == INFER_PATTERN:
-            found = read_wheel(channel)
-            wheel: dict[str, float | int | str] = {
-                "teeth": found.positions,
-                "missing_teeth": found.missing,
-                "pattern": found.name,
-            }
-            channel = replace(channel, fields=channel.fields | wheel)
+            channel, found = declared_as_read(channel)
             print(
                 f"{channel.name}: wheel read off its edges: {found.name} ({found.spelled}), written as "
                 f"teeth = {found.positions}, missing_teeth = {found.missing}, pattern = {found.name!r}",

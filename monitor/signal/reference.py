@@ -51,6 +51,7 @@ __all__ = [
     "PLAUSIBLE_PITCH_ERROR",
     "AngleReference",
     "angle_reference",
+    "declared_as_read",
     "learn_pitch_errors",
     "learn_pitch_errors_over_speed",
     "read_wheel",
@@ -171,15 +172,37 @@ def read_wheel(channel: Channel) -> WheelPattern:
     return found
 
 
+def declared_as_read(channel: Channel) -> tuple[Channel, WheelPattern]:
+    """The tooth channel declared as its edges show its wheel (:func:`read_wheel`), and the wheel.
+
+    Parameters
+    ----------
+    channel : Channel
+        A tooth channel.
+
+    Returns
+    -------
+    tuple of Channel and WheelPattern
+        The channel with ``teeth``, ``missing_teeth`` and ``pattern`` as found.
+
+    Raises
+    ------
+    SignalError
+        As :func:`read_wheel`.
+    """
+    found = read_wheel(channel)
+    wheel: dict[str, float | int | str] = {
+        "teeth": found.positions,
+        "missing_teeth": found.missing,
+        "pattern": found.name,
+    }
+    return replace(channel, fields=channel.fields | wheel), found
+
+
 def _tooth_decoding(channel: Channel) -> ToothWheelDecoding:
     if channel.fields.get("pattern") == INFER_PATTERN:
-        found = read_wheel(channel)
-        wheel: dict[str, float | int | str] = {
-            "teeth": found.positions,
-            "missing_teeth": found.missing,
-            "pattern": found.name,
-        }
-        decoding = _tooth_decoding(replace(channel, fields=channel.fields | wheel))
+        as_read, found = declared_as_read(channel)
+        decoding = _tooth_decoding(as_read)
         said = (
             f"wheel read off the edges: {found.name} ({found.spelled}); declare teeth = {found.positions}, "
             f"missing_teeth = {found.missing}, pattern = {found.name!r} to have it checked instead"
