@@ -26,7 +26,6 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from collections.abc import Callable
 from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -42,12 +41,25 @@ from pydantic import (
 )
 
 from monitor.errors import EngineDescriptionError
+from monitor.model.banks import Vee, bank_axes, cylinder_names, cylinder_throws, vee_firing_angles
+from monitor.model.quantities import (
+    AngleDeg,
+    Inertia,
+    Length,
+    Mass,
+    PressureBar,
+    Unbalance,
+    between,
+    positive,
+)
+from monitor.model.shaft_description import CrankAxial, ShaftElement, ShaftLine
 from monitor.types import FloatArray
 
 __all__ = [
     "Bearings",
     "ChargePressureLaw",
     "Combustion",
+    "CrankAxial",
     "Engine",
     "Firing",
     "Geometry",
@@ -57,6 +69,7 @@ __all__ = [
     "SensorTransfer",
     "ShaftElement",
     "ShaftLine",
+    "Vee",
     "VibrationLimits",
     "bundled_engines",
     "load_engine",
@@ -66,44 +79,6 @@ __all__ = [
 BUNDLED_DIR = Path(__file__).resolve().parent / "engines"  # package data; recordings/engines links here
 
 
-def _between(low: float, high: float, unit: str, hint: str = "") -> Callable[[float], float]:
-    """Validator: finite and within a plausible range; the message states the range and unit."""
-
-    def check(value: float) -> float:
-        if not math.isfinite(value) or not low <= value <= high:
-            extra = f"; {hint}" if hint else ""
-            raise ValueError(f"expected {low:g} <= value <= {high:g} {unit}{extra}")
-        return value
-
-    return check
-
-
-def _positive(unit: str) -> Callable[[float], float]:
-    def check(value: float) -> float:
-        if not math.isfinite(value) or value <= 0:
-            raise ValueError(f"expected a positive, finite value [{unit}]")
-        return value
-
-    return check
-
-
-def _non_negative(unit: str) -> Callable[[float], float]:
-    def check(value: float) -> float:
-        if not math.isfinite(value) or value < 0:
-            raise ValueError(f"expected a non-negative, finite value [{unit}]")
-        return value
-
-    return check
-
-
-Length = Annotated[float, AfterValidator(_between(0.005, 5.0, "m", "was it given in mm?"))]
-Mass = Annotated[float, AfterValidator(_positive("kg"))]
-Unbalance = Annotated[float, AfterValidator(_non_negative("kg m"))]
-Inertia = Annotated[float, AfterValidator(_positive("kg m^2"))]
-PressureBar = Annotated[float, AfterValidator(_between(0.05, 400.0, "bar", "was it given in Pa?"))]
-AngleDeg = Annotated[float, AfterValidator(_between(-720.0, 720.0, "deg"))]
-
-
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
@@ -111,8 +86,8 @@ class _Strict(BaseModel):
 class Geometry(_Strict):
     """Cylinder and crank-train geometry."""
 
-    bore_m: Annotated[float, AfterValidator(_between(0.01, 1.5, "m", "was it given in mm?"))]
-    stroke_m: Annotated[float, AfterValidator(_between(0.01, 4.0, "m", "was it given in mm?"))]
+    bore_m: Annotated[float, AfterValidator(between(0.01, 1.5, "m", "was it given in mm?"))]
+    stroke_m: Annotated[float, AfterValidator(between(0.01, 4.0, "m", "was it given in mm?"))]
     rod_length_m: Length | None = None
     rod_ratio: float | None = Field(
         default=None, description="crank radius / rod length; give this or rod_length_m"
@@ -159,26 +134,28 @@ class Masses(_Strict):
 class Firing(_Strict):
     """Firing order and, for uneven firing, the firing angles."""
 
-    order: list[int]
+    order: list[int] | list[str] = Field(
+        description="cylinders by number (in line) or by name (a V engine's A1, B1, ...), first to fire first"
+    )
     angles_deg: list[float] | None = Field(
         default=None,
-        description="firing angle of each cylinder, by cylinder number, after cylinder 1 [deg]",
+        description="firing angle of each cylinder (A1..Am, B1..Bm on a V) after cylinder 1 (A1) [deg]",
     )
 
 
 class Operation(_Strict):
     """Rated operating point."""
 
-    rated_speed_rpm: Annotated[float, AfterValidator(_between(1.0, 20000.0, "rpm"))]
-    rated_power_kw: Annotated[float, AfterValidator(_positive("kW"))] | None = None
+    rated_speed_rpm: Annotated[float, AfterValidator(between(1.0, 20000.0, "rpm"))]
+    rated_power_kw: Annotated[float, AfterValidator(positive("kW"))] | None = None
 
 
 class Bearings(_Strict):
     """Main bearings and which crank throw sits between which two of them."""
 
-    count: int | None = Field(default=None, description="number of main bearings (default n + 1)")
+    count: int | None = Field(default=None, description="number of main bearings (default throws + 1)")
     throws: list[tuple[int, int]] | None = Field(
-        default=None, description="bearing pair of each throw, by cylinder (default (c, c + 1))"
+        default=None, description="bearing pair of each crank throw, in throw order (default (k, k + 1))"
     )
     positions_m: list[float] | None = Field(
         default=None, description="axial bearing positions from bearing 1 (default: mid-pitch)"
@@ -197,7 +174,7 @@ class SensorTransfer(_Strict):
     bearing: Annotated[int, Field(ge=1)]
     direction: Literal["vertical", "horizontal"]
     unit: str
-    speed_rpm: Annotated[float, AfterValidator(_positive("rpm"))]
+    speed_rpm: Annotated[float, AfterValidator(positive("rpm"))]
     orders: list[float] = Field(min_length=1)
     magnitude: list[float] = Field(description="|H_k| [unit per N]")
     phase_deg: list[float] = Field(description="arg H_k [deg]")
@@ -259,8 +236,8 @@ class Combustion(_Strict):
     does not state it gets ``"turbocharged"``. See :mod:`monitor.model.gas`.
     """
 
-    rated_imep_bar: Annotated[float, AfterValidator(_between(1.0, 60.0, "bar"))]
-    compression_ratio: Annotated[float, AfterValidator(_between(4.0, 40.0, "-"))]
+    rated_imep_bar: Annotated[float, AfterValidator(between(1.0, 60.0, "bar"))]
+    compression_ratio: Annotated[float, AfterValidator(between(4.0, 40.0, "-"))]
     intake_pressure_bar: PressureBar = Field(
         description="charge (scavenge) air pressure, absolute, at rated load"
     )
@@ -275,13 +252,13 @@ class Combustion(_Strict):
     )
     inlet_closing_deg: AngleDeg = Field(description="start of compression, before firing TDC (< 0)")
     exhaust_opening_deg: AngleDeg = Field(description="end of expansion, after firing TDC (> 0)")
-    blowdown_deg: Annotated[float, AfterValidator(_between(1.0, 120.0, "deg"))] = 40.0
+    blowdown_deg: Annotated[float, AfterValidator(between(1.0, 120.0, "deg"))] = 40.0
     combustion_start_deg: AngleDeg = 0.0
-    combustion_duration_deg: Annotated[float, AfterValidator(_between(5.0, 180.0, "deg"))] = 60.0
-    wiebe_a: Annotated[float, AfterValidator(_between(1.0, 12.0, "-"))] = 6.9
-    wiebe_m: Annotated[float, AfterValidator(_between(0.0, 5.0, "-"))] = 1.0
-    polytropic_compression: Annotated[float, AfterValidator(_between(1.0, 1.45, "-"))] = 1.36
-    polytropic_expansion: Annotated[float, AfterValidator(_between(1.0, 1.45, "-"))] = 1.30
+    combustion_duration_deg: Annotated[float, AfterValidator(between(5.0, 180.0, "deg"))] = 60.0
+    wiebe_a: Annotated[float, AfterValidator(between(1.0, 12.0, "-"))] = 6.9
+    wiebe_m: Annotated[float, AfterValidator(between(0.0, 5.0, "-"))] = 1.0
+    polytropic_compression: Annotated[float, AfterValidator(between(1.0, 1.45, "-"))] = 1.36
+    polytropic_expansion: Annotated[float, AfterValidator(between(1.0, 1.45, "-"))] = 1.30
 
     @model_validator(mode="after")
     def _timing(self) -> Combustion:
@@ -313,8 +290,8 @@ class PressureTrace(_Strict):
     crank_angle_deg: list[float] | None = None
     pressure_bar: list[float] | None = None
     absolute: bool = Field(default=True, description="pressures are absolute (else gauge)")
-    speed_rpm: Annotated[float, AfterValidator(_between(1.0, 20000.0, "rpm"))] | None = None
-    load: Annotated[float, AfterValidator(_between(0.0, 1.2, "-"))] | None = None
+    speed_rpm: Annotated[float, AfterValidator(between(1.0, 20000.0, "rpm"))] | None = None
+    load: Annotated[float, AfterValidator(between(0.0, 1.2, "-"))] | None = None
 
     @model_validator(mode="after")
     def _source(self) -> PressureTrace:
@@ -324,64 +301,6 @@ class PressureTrace(_Strict):
         if inline and (self.crank_angle_deg is None or self.pressure_bar is None):
             raise ValueError("crank_angle_deg and pressure_bar must both be given")
         return self
-
-
-class ShaftElement(_Strict):
-    """One lumped element of the shaft line beyond the crank throws.
-
-    Elements are listed from the engine outwards; each is joined to the one
-    before it (the first to the nearest crank throw) by a shaft of the given
-    stiffness and relative damping.
-    """
-
-    name: str
-    kind: Literal["damper", "flywheel", "shaft", "gear", "propeller", "generator", "other"]
-    inertia_kgm2: Annotated[float, AfterValidator(_non_negative("kg m^2"))]
-    stiffness_to_previous_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))]
-    relative_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
-        default=0.0, description="damping in the connection to the previous element (e.g. a damper's)"
-    )
-    absolute_damping_nms_per_rad: Annotated[float, AfterValidator(_non_negative("N m s/rad"))] = Field(
-        default=0.0, description="damping of this element to ground (e.g. propeller, generator)"
-    )
-
-
-class CrankAxial(_Strict):
-    """Axial and coupling data of one crank throw (paper 001), for the torsional-axial model.
-
-    Flexibilities of one crank with one journal fixed, at the other journal:
-    axial (C11), lateral in the crank plane (C22) and across it (C33), radial
-    displacement per axial force (C21) and tangential displacement per torque
-    (C34); its torsional flexibility is ``1 / throw_stiffness``.
-    """
-
-    axial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
-    radial_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
-    tangential_flexibility_m_per_n: Annotated[float, AfterValidator(_positive("m/N"))]
-    radial_per_axial_m_per_n: float = Field(description="C21 [m/N]")
-    tangential_per_torque_m_per_nm: float = Field(description="C34 [m/(N m)]")
-    throw_mass_kg: Mass = Field(description="mass of one throw moving axially with the crankshaft")
-    thrust_bearing_stiffness_n_per_m: Annotated[float, AfterValidator(_positive("N/m"))]
-    stiffness_damping_s: Annotated[float, AfterValidator(_non_negative("s"))] = Field(
-        default=1e-4, description="damping proportional to stiffness, C = beta K"
-    )
-
-
-class ShaftLine(_Strict):
-    """Torsional data of the crankshaft and the shafting (used by the torsion model)."""
-
-    throw_inertia_kgm2: Inertia = Field(
-        description="rotating inertia of one throw, without rod and reciprocating parts"
-    )
-    throw_stiffness_nm_per_rad: Annotated[float, AfterValidator(_positive("N m/rad"))] = Field(
-        description="torsional stiffness between adjacent throws"
-    )
-    free_end: list[ShaftElement] = Field(default_factory=list)
-    driven_end: list[ShaftElement] = Field(default_factory=list)
-    tooth_wheel: str | None = Field(
-        default=None, description="name of the element that carries the crank-speed tooth wheel"
-    )
-    axial: CrankAxial | None = None
 
 
 class Engine(_Strict):
@@ -403,16 +322,15 @@ class Engine(_Strict):
     shaft_line: ShaftLine | None = None
     vibration_limits: VibrationLimits | None = None
     sensor_transfers: list[SensorTransfer] = Field(default_factory=list)
+    vee: Vee | None = Field(default=None, description="two banks on one crankshaft (monitor.model.banks)")
     source_dir: Path | None = Field(default=None, exclude=True, description="folder of the file")
 
     @model_validator(mode="after")
     def _consistency(self) -> Engine:
         n = self.cylinders
-        order = self.firing.order
-        if sorted(order) != list(range(1, n + 1)):
-            raise ValueError(
-                f"firing.order = {order}: expected a permutation of the cylinders 1..{n}, each once"
-            )
+        if self.vee is not None and n % 2:
+            raise ValueError(f"cylinders = {n} on a V engine: expected an even number, half on each bank")
+        order = self.firing_order
         if self.firing.angles_deg is not None:
             angles = self.firing.angles_deg
             span = 360.0 * self.cycle_revolutions
@@ -424,12 +342,15 @@ class Engine(_Strict):
                 raise ValueError(
                     f"firing.angles_deg = {angles}: expected cylinder 1 at 0 and every angle in [0, {span:g})"
                 )
-            by_angle = [c for _, c in sorted(zip(angles, range(1, n + 1), strict=True))]
+            by_angle = [c for _, c in sorted(zip(angles, range(n), strict=True))]
             if by_angle != order:
+                listed = [self.cylinder_names[c] if self.vee else c + 1 for c in by_angle]
                 raise ValueError(
-                    f"firing.angles_deg = {angles} fire the cylinders in the order {by_angle}, "
-                    f"not firing.order = {order}"
+                    f"firing.angles_deg = {angles} fire the cylinders in the order {listed}, "
+                    f"not firing.order = {self.firing.order}"
                 )
+        if self.vee is not None:
+            _ = self.firing_angles  # the bank geometry's check of the angles, given or found
         cg = self.masses.conrod_cg_from_piston_pin_m
         if not 0 < cg < self.rod_length:
             raise ValueError(
@@ -439,14 +360,16 @@ class Engine(_Strict):
         nb = self.bearing_count
         if nb < 2:
             raise ValueError(f"bearings.count = {nb}: expected at least 2 main bearings")
-        for c, pair in enumerate(self.throw_bearings, start=1):
+        if self.bearings.throws is not None and len(self.bearings.throws) != self.throws:
+            raise ValueError(
+                f"bearings.throws has {len(self.bearings.throws)} pairs: expected {self.throws}, one a throw"
+            )
+        for c, pair in enumerate(self.throw_bearings):
             if not all(1 <= b <= nb for b in pair) or pair[0] == pair[1]:
                 raise ValueError(
-                    f"bearings.throws: throw {c} between bearings {pair}: expected two different "
-                    f"bearings in 1..{nb}"
+                    f"bearings.throws: cylinder {self.cylinder_names[c]}'s throw between bearings {pair}: "
+                    f"expected two different bearings in 1..{nb}"
                 )
-        if self.bearings.throws is not None and len(self.bearings.throws) != n:
-            raise ValueError(f"bearings.throws has {len(self.bearings.throws)} pairs: expected {n}")
         if self.bearings.positions_m is not None and len(self.bearings.positions_m) != nb:
             raise ValueError(
                 f"bearings.positions_m has {len(self.bearings.positions_m)} values: expected {nb}"
@@ -532,37 +455,81 @@ class Engine(_Strict):
         return self.masses.crank_unbalance_kgm - self.masses.counterweight_kgm
 
     @cached_property
+    def cylinder_names(self) -> list[str]:
+        """Each cylinder's name, by index: ``1..n`` in line, ``A1..Am, B1..Bm`` on a V."""
+        return cylinder_names(self.cylinders, self.vee)
+
+    @cached_property
+    def firing_order(self) -> list[int]:
+        """The firing order as cylinder indices (0-based); ``ValueError`` unless each is in it once."""
+        names = self.cylinder_names
+        given = [str(c) for c in self.firing.order]
+        if sorted(given) != sorted(names):
+            half = self.cylinders // 2
+            which = f"A1..A{half} and B1..B{half}" if self.vee is not None else f"1..{self.cylinders}"
+            raise ValueError(
+                f"firing.order = {self.firing.order}: expected a permutation of the cylinders {which}, "
+                "each once"
+            )
+        return [names.index(c) for c in given]
+
+    @cached_property
     def firing_angles(self) -> FloatArray:
-        """Firing angle of each cylinder (index c - 1) after cylinder 1 [rad]."""
-        n = self.cylinders
-        if self.firing.angles_deg is not None:
-            return np.radians(np.asarray(self.firing.angles_deg, dtype=np.float64))
-        order = self.firing.order
-        start = order.index(1)
+        """Firing angle of each cylinder (by index) after cylinder 1 [rad]."""
+        given = self.firing.angles_deg
+        if self.vee is not None:
+            found = vee_firing_angles(
+                self.firing_order, self.vee, cycle_revolutions=self.cycle_revolutions, given_deg=given
+            )
+            return np.radians(found)
+        if given is not None:
+            return np.radians(np.asarray(given, dtype=np.float64))
+        order = self.firing_order
+        start = order.index(0)
         rotated = order[start:] + order[:start]
-        angles = np.empty(n)
-        step = 2 * np.pi * self.cycle_revolutions / n
+        angles = np.empty(self.cylinders)
+        step = 2 * np.pi * self.cycle_revolutions / self.cylinders
         for position, cylinder in enumerate(rotated):
-            angles[cylinder - 1] = position * step
+            angles[cylinder] = position * step
         return angles
+
+    @cached_property
+    def cylinder_axes(self) -> FloatArray:
+        """Each cylinder's axis from the engine's vertical, towards ``+x`` [rad] (0 in line)."""
+        return bank_axes(self.cylinders, self.vee)
+
+    @property
+    def throws(self) -> int:
+        """Number of crank throws: one per cylinder in line, one per pair on a V."""
+        return self.cylinders if self.vee is None else self.cylinders // 2
+
+    @cached_property
+    def cylinder_throw(self) -> list[int]:
+        """Each cylinder's crank throw (0-based, from cylinder 1's end), by cylinder index."""
+        return cylinder_throws(self.cylinders, self.vee)
 
     @property
     def bearing_count(self) -> int:
         """Number of main bearings."""
-        return self.bearings.count if self.bearings.count is not None else self.cylinders + 1
+        return self.bearings.count if self.bearings.count is not None else self.throws + 1
 
     @property
     def throw_bearings(self) -> list[tuple[int, int]]:
-        """The two main bearings (1-based) each throw sits between."""
+        """The two main bearings (1-based) each cylinder's throw sits between, by cylinder index."""
         if self.bearings.throws is not None:
-            return [tuple(p) for p in self.bearings.throws]  # type: ignore[misc]
-        return [(c, c + 1) for c in range(1, self.cylinders + 1)]
+            pairs = [tuple(p) for p in self.bearings.throws]
+        else:
+            pairs = [(k, k + 1) for k in range(1, self.throws + 1)]
+        return [pairs[k] for k in self.cylinder_throw]  # type: ignore[misc]
 
     @property
     def cylinder_positions(self) -> FloatArray:
-        """Axial position of each cylinder from cylinder 1, in numbering direction [m]."""
+        """Axial position of each cylinder from cylinder 1 (A1), in numbering direction [m]."""
         pitch = self.geometry.cylinder_pitch_m or 0.0
-        return pitch * np.arange(self.cylinders, dtype=np.float64)
+        place = pitch * np.asarray(self.cylinder_throw, dtype=np.float64)
+        if self.vee is not None:
+            place[self.cylinders // 2 :] += self.vee.bank_offset_m
+        return place
 
     @cached_property
     def bearing_share(self) -> FloatArray:

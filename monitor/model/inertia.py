@@ -78,7 +78,9 @@ def mean_reciprocating_inertia(engine: Engine) -> float:
 
 
 def throw_inertia(engine: Engine) -> float:
-    """One throw's rotating inertia with the rod's crank-pin share, ``I_throw + m_rot R^2`` [kg m^2].
+    """One throw's rotating inertia with its rods' crank-pin shares, ``I_throw + r m_rot R^2`` [kg m^2].
+
+    ``r`` rods on the pin: one in line, two on a V.
 
     Parameters
     ----------
@@ -92,7 +94,25 @@ def throw_inertia(engine: Engine) -> float:
     """
     if engine.shaft_line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
-    return engine.shaft_line.throw_inertia_kgm2 + engine.rotating_rod_mass * engine.crank_radius**2
+    rods = engine.cylinders // engine.throws
+    return engine.shaft_line.throw_inertia_kgm2 + rods * engine.rotating_rod_mass * engine.crank_radius**2
+
+
+def throw_node_names(engine: Engine) -> list[str]:
+    """The shaft-line node of each cylinder's throw, by cylinder index: ``cylinder c`` in line (one
+    throw a cylinder), ``throw k`` on a V (A k and B k on it).
+
+    Parameters
+    ----------
+    engine : Engine
+
+    Returns
+    -------
+    list of str
+    """
+    if engine.vee is None:
+        return [f"cylinder {c}" for c in range(1, engine.cylinders + 1)]
+    return [f"throw {k + 1}" for k in engine.cylinder_throw]
 
 
 def node_inertias(
@@ -113,8 +133,9 @@ def node_inertias(
     Returns
     -------
     list of (str, float)
-        Free-end elements (outermost first), the throws (named ``cylinder 1`` ..., from the free
-        end), the driven-end elements.
+        Free-end elements (outermost first), the throws from the free end (named by
+        :func:`throw_node_names`: ``cylinder 1`` ... in line, ``throw 1`` ... on a V), the driven-end
+        elements.
 
     Raises
     ------
@@ -124,21 +145,25 @@ def node_inertias(
     line = engine.shaft_line
     if line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
-    base = throw_inertia(engine)
     if reciprocating == "mean":
-        throws = np.full(engine.cylinders, base + mean_reciprocating_inertia(engine))
+        moving = np.full(engine.cylinders, mean_reciprocating_inertia(engine))
     elif reciprocating == "none":
-        throws = np.full(engine.cylinders, base)
+        moving = np.zeros(engine.cylinders)
     elif isinstance(reciprocating, float) and math.isfinite(reciprocating):
-        throws = base + reciprocating_inertia(engine, reciprocating - engine.firing_angles)
+        moving = reciprocating_inertia(engine, reciprocating - engine.firing_angles)
     else:
         raise ModelError(f"reciprocating = {reciprocating!r}: expected 'mean', 'none' or a crank angle [rad]")
-    order = range(1, engine.cylinders + 1)
+    # each throw with its rods' reciprocating parts (both cylinders' on a V, each at its own angle)
+    on_throw = np.bincount(engine.cylinder_throw, weights=moving, minlength=engine.throws)
+    throws = throw_inertia(engine) + on_throw
+    names = throw_node_names(engine)
+    first_of = [names[engine.cylinder_throw.index(k)] for k in range(engine.throws)]
+    order = list(range(engine.throws))
     if engine.cylinder_numbering == "from flywheel end":
-        order = range(engine.cylinders, 0, -1)
+        order.reverse()
     return (
         [(element.name, element.inertia_kgm2) for element in reversed(line.free_end)]
-        + [(f"cylinder {c}", float(throws[c - 1])) for c in order]
+        + [(first_of[k], float(throws[k])) for k in order]
         + [(element.name, element.inertia_kgm2) for element in line.driven_end]
     )
 
@@ -178,7 +203,7 @@ def _engine_side(engine: Engine) -> tuple[list[tuple[str, float]], int]:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line]: its inertias are unknown")
     nodes = node_inertias(engine)
     names = [name for name, _ in nodes]
-    last = max(names.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1))
+    last = max(names.index(name) for name in throw_node_names(engine))
     for element in engine.shaft_line.driven_end:
         if element.kind == "flywheel":
             last = names.index(element.name)

@@ -46,6 +46,7 @@ import numpy.typing as npt
 
 from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
+from monitor.model.banks import to_engine_frame
 from monitor.model.crankshaft import EngineModel, phase_shift
 from monitor.model.engine import Engine
 from monitor.model.forces import crank_train_forces
@@ -79,7 +80,8 @@ class ModelOrders:
     orders : ndarray, shape (n_orders,)
         0, then steps of 1 (two-stroke) or 0.5 (four-stroke) [-].
     cylinder_inertia_force : ndarray, shape (n_cylinders, 2, n_orders)
-        Components x, y [N].
+        Components x, y in the engine's frame (a V engine's cylinders turned by their banks' lean,
+        :func:`monitor.model.banks.to_engine_frame`) [N].
     cylinder_torque, cylinder_gas_torque : ndarray, shape (n_cylinders, n_orders)
         [N m].
     engine_torque : ndarray, shape (n_orders,)
@@ -174,9 +176,9 @@ def predict_orders(
     )
     oc = order_coefficients(rows, cycle_revolutions=model.cycle_revolutions, max_order=max_order)
     per_cylinder = phase_shift(oc.coefficients, oc.orders, engine.firing_angles)  # (n_cyl, 6, n_orders)
-    inertia = per_cylinder[:, 0:2, :]
+    inertia = to_engine_frame(per_cylinder[:, 0:2, :], engine.cylinder_axes)
     torque = per_cylinder[:, 2, :]
-    throw = per_cylinder[:, 4:6, :]
+    throw = to_engine_frame(per_cylinder[:, 4:6, :], engine.cylinder_axes)
     bearing = np.einsum("bc,cko->bko", engine.bearing_share, throw)
     lever = engine.cylinder_positions - engine.cylinder_positions.mean()
     free_force = inertia.sum(axis=0)
@@ -360,7 +362,8 @@ def combine_cylinders(parts: CylinderParts, engine: Engine, strengths: npt.Array
     per_cylinder = one[None, :, :] + s[:, None, None] * parts.combustion[None, :, :]
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))
     phased = per_cylinder * rotation[:, None, :]  # (n_cyl, 3, n_orders)
-    bearing = np.einsum("bc,cko->bko", engine.bearing_share, phased[:, 1:3, :])
+    throw = to_engine_frame(phased[:, 1:3, :], engine.cylinder_axes)
+    bearing = np.einsum("bc,cko->bko", engine.bearing_share, throw)
     torque = phased[:, 0, :]
     return CombinedOrders(parts.orders, torque, torque.sum(axis=0), bearing)
 

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import ModelError
+from monitor.model.banks import to_engine_frame
 from monitor.model.crankshaft import phase_shift
 from monitor.types import ComplexArray, FloatArray
 
@@ -99,10 +100,8 @@ def vee_free_forces(
     if not (np.all(np.isfinite(tdc)) and np.all(np.isfinite(axis)) and np.all(np.isfinite(place))):
         raise ModelError("V engine forces: expected finite TDC angles, axis angles and positions")
     delayed = phase_shift(force, k, tdc)  # (n_cyl, 2, n_orders), each in its own frame
-    cos_p, sin_p = np.cos(axis)[:, None], np.sin(axis)[:, None]
-    across, along = delayed[:, 0, :], delayed[:, 1, :]
-    horizontal = across * cos_p + along * sin_p
-    vertical = -across * sin_p + along * cos_p
+    turned = to_engine_frame(delayed, axis)
+    horizontal, vertical = turned[:, 0, :], turned[:, 1, :]
     lever = (place - place.mean())[:, None]
     return VeeFree(
         orders=k,

@@ -64,6 +64,8 @@ def model_orders_document(result: ModelOrders, engine: Engine) -> dict[str, Any]
             "main_bearings": engine.bearing_count,
             "firing_order": engine.firing.order,
             "firing_angles_deg": [round(float(a), 9) for a in np.degrees(engine.firing_angles)],
+            "cylinder_names": engine.cylinder_names,
+            "vee": engine.vee.model_dump() if engine.vee is not None else None,
         },
         "operating_point": {
             "speed_rpm": result.speed_rpm,
@@ -89,6 +91,7 @@ def model_orders_document(result: ModelOrders, engine: Engine) -> dict[str, Any]
         "cylinders": [
             {
                 "cylinder": c + 1,
+                "name": engine.cylinder_names[c],
                 "firing_angle_deg": round(math.degrees(float(engine.firing_angles[c])), 9),
                 "inertia_force_kn": _xy(result.cylinder_inertia_force[c], kn),
                 "torque_knm": _series(result.cylinder_torque[c], knm),
@@ -169,11 +172,13 @@ def model_orders_table(result: ModelOrders, engine: Engine) -> str:
         lines.append(f"{orders[i]:6.1f} {_amp(q, scale, 1e3, 10)} {_phase(q, scale, 8)}")
 
     lines.append("")
-    lines.append("Inertia force of each cylinder's moving parts [kN] (same amplitude in every cylinder);")
-    lines.append("phase of the vertical component per cylinder [deg] (k x firing angle behind cylinder 1):")
-    head = f"{'order':>6} {'vertical':>9} {'horiz.':>9} " + " ".join(
-        f"{'c' + str(c + 1):>6}" for c in range(engine.cylinders)
+    frame = " in the engine's frame, the banks leaning alike" if engine.vee is not None else ""
+    lines.append(
+        f"Inertia force of each cylinder's moving parts [kN] (same amplitude in every cylinder{frame});"
     )
+    lines.append("phase of the vertical component per cylinder [deg] (k x firing angle behind cylinder 1):")
+    labels = [name if engine.vee is not None else f"c{name}" for name in engine.cylinder_names]
+    head = f"{'order':>6} {'vertical':>9} {'horiz.':>9} " + " ".join(f"{label:>6}" for label in labels)
     lines.append(head)
     scale = float(np.abs(result.cylinder_inertia_force[0, :, 1:]).max(initial=0.0))
     for i in range(1, orders.size):

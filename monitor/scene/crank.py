@@ -23,7 +23,7 @@ import numpy as np
 from monitor.errors import SceneError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
-from monitor.model.inertia import engine_side_inertia
+from monitor.model.inertia import engine_side_inertia, throw_node_names
 from monitor.scene.effects import CrankSpeedParams, ExternalTorqueParams, GasParams, named
 from monitor.scene.model import Scene
 from monitor.scene.sources import Sources
@@ -207,7 +207,7 @@ def _shaft_line_lead(
     line = shaft_line_of(engine)
     wheel = engine.shaft_line.tooth_wheel or line.node_names[0]
     probe = line.index(wheel)
-    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
+    throws = [line.index(name) for name in throw_node_names(engine)]
     external = named(scene, "external_torque")
     where = None
     if isinstance(external, ExternalTorqueParams):
@@ -228,7 +228,7 @@ def _shaft_line_lead(
     for i, w in enumerate(speeds):
         torque = np.zeros((len(line.nodes), k.size), dtype=np.complex128)
         if sources.cylinder_torque is not None:
-            torque[throws] = sources.cylinder_torque.at(w)
+            np.add.at(torque, throws, sources.cylinder_torque.at(w))  # a V's two cylinders on one throw
         if where is not None and sources.external is not None:
             torque[where] += sources.external
         for j in np.flatnonzero(k > 0):

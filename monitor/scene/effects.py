@@ -127,20 +127,22 @@ class BearingVibrationParams(_Params):
 class MisfireParams(_Params):
     """Cylinders without combustion: they are motored (compression and expansion only)."""
 
-    cylinders: list[Annotated[int, Field(ge=1)]] = Field(min_length=1)
+    cylinders: list[Annotated[int, Field(ge=1)] | str] = Field(
+        min_length=1, description='by number, or by name on a V engine ("B3")'
+    )
 
 
 class WeakCylinderParams(_Params):
     """A cylinder whose combustion gives a fraction of the others' heat release."""
 
-    cylinder: Annotated[int, Field(ge=1)]
+    cylinder: Annotated[int, Field(ge=1)] | str = Field(description='by number, or by name ("B3")')
     scale: Annotated[float, Field(ge=0, le=1, description="fraction of the normal heat release")]
 
 
 class LeakingCylinderParams(_Params):
     """A cylinder that loses charge: its compression (charge) pressure is a fraction of the others'."""
 
-    cylinder: Annotated[int, Field(ge=1)]
+    cylinder: Annotated[int, Field(ge=1)] | str = Field(description='by number, or by name ("B3")')
     compression: Annotated[float, Field(gt=0, le=1, description="fraction of the normal charge pressure")]
 
 

@@ -19,6 +19,7 @@ from pydantic import BaseModel
 
 from monitor.errors import SceneError
 from monitor.fourier import order_coefficients
+from monitor.model.banks import to_engine_frame
 from monitor.model.crankshaft import EngineModel, GasModel
 from monitor.model.engine import Engine
 from monitor.model.forces import crank_train_forces
@@ -122,17 +123,20 @@ def sources_of(scene: Scene, engine: Engine, evaluated: list[str]) -> Sources | 
     shifts = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))
     coefficients = oc.coefficients * shifts[:, None, None, :]  # (n_cyl, 2, 3, n_orders)
     torque = Orders(orders, coefficients[:, 0, 0].sum(axis=0), coefficients[:, 1, 0].sum(axis=0))
-    throw_a, throw_b = coefficients[:, 0, 1:3], coefficients[:, 1, 1:3]  # (n_cyl, 2, n_orders)
+    # each throw's forces in the engine's frame (a V engine's cylinders lean with their banks)
+    throw_a = to_engine_frame(coefficients[:, 0, 1:3], engine.cylinder_axes)  # (n_cyl, 2, n_orders)
+    throw_b = to_engine_frame(coefficients[:, 1, 1:3], engine.cylinder_axes)
     if unbalance is not None:
         assert isinstance(unbalance, UnbalanceParams)
         evaluated.append("unbalance")
         c = unbalance.throw
-        if not 1 <= c <= n:
-            raise SceneError(f"effect 'unbalance': throw {c} does not exist (the engine has {n})")
-        # U w^2 (sin, cos) of the throw's angle plus the offset: order 1 of the crank angle
-        phase = unbalance.angle_deg * math.pi / 180 - engine.firing_angles[c - 1]
+        if not 1 <= c <= engine.throws:
+            raise SceneError(f"effect 'unbalance': throw {c} does not exist (the engine has {engine.throws})")
+        # U w^2 (sin, cos) of the throw's angle from the vertical plus the offset: order 1 of the crank
+        # angle; the throw's first cylinder (A bank on a V) is at its TDC, its own axis, at its firing angle
+        throw_angle = engine.cylinder_axes[c - 1] - engine.firing_angles[c - 1]
+        phase = unbalance.angle_deg * math.pi / 180 + throw_angle
         k1 = int(np.argmin(np.abs(orders - 1.0)))
-        throw_b = throw_b.copy()
         throw_b[c - 1, 0, k1] += unbalance.kgm * -1j * np.exp(1j * phase)
         throw_b[c - 1, 1, k1] += unbalance.kgm * np.exp(1j * phase)
     share = engine.bearing_share
@@ -160,6 +164,24 @@ def sources_of(scene: Scene, engine: Engine, evaluated: list[str]) -> Sources | 
     )
 
 
+def _cylinder_number(engine: Engine, cylinder: int | str, effect: str) -> int:
+    """A cylinder a scene names, as its number (1-based index): ``3`` in line, ``"B3"`` (or its number)
+    on a V engine."""
+    names = engine.cylinder_names
+    if isinstance(cylinder, str):
+        if cylinder not in names:
+            raise SceneError(
+                f"effect {effect!r}: cylinder {cylinder!r} does not exist (the engine's cylinders: "
+                f"{', '.join(names)})"
+            )
+        return names.index(cylinder) + 1
+    if not 1 <= cylinder <= len(names):
+        raise SceneError(
+            f"effect {effect!r}: cylinder {cylinder} does not exist (the engine has {len(names)})"
+        )
+    return cylinder
+
+
 def _cylinder_scales(
     scene: Scene, engine: Engine, gas: BaseModel | None, evaluated: list[str]
 ) -> tuple[list[float], list[float]]:
@@ -178,9 +200,8 @@ def _cylinder_scales(
         cylinders = (
             params.cylinders if isinstance(params, MisfireParams) else [params.cylinder]  # type: ignore[attr-defined]
         )
-        for c in cylinders:
-            if not 1 <= c <= n:
-                raise SceneError(f"effect {effect!r}: cylinder {c} does not exist (the engine has {n})")
+        for named_cylinder in cylinders:
+            c = _cylinder_number(engine, named_cylinder, effect)
             if isinstance(params, MisfireParams):
                 gas_scale[c - 1] = 0.0
             elif isinstance(params, WeakCylinderParams):

@@ -500,6 +500,11 @@ class AxialTorsionalCrankshaft:
         -------
         AxialTorsionalCrankshaft
         """
+        if engine.vee is not None:
+            raise ModelError(
+                f"engine {engine.id!r} is a V engine: the coupled axial-torsional model takes one cylinder "
+                "per throw (paper 001's in-line crankshaft); use the torsional model alone"
+            )
         line = engine.shaft_line
         if line is None or line.axial is None:
             raise ModelError(f"engine {engine.id!r} has no [shaft_line.axial] data for the coupled model")

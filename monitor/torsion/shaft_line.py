@@ -52,7 +52,7 @@ import scipy.linalg
 from monitor.errors import ModelError
 from monitor.model.engine import Engine
 from monitor.model.excitation import cylinder_torque_orders
-from monitor.model.inertia import node_inertias
+from monitor.model.inertia import node_inertias, throw_node_names
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
@@ -383,7 +383,7 @@ def shaft_line_of(
     free = list(reversed(line.free_end))
     grounded = (
         [e.absolute_damping_nms_per_rad for e in free]
-        + [0.0] * engine.cylinders
+        + [0.0] * engine.throws
         + [e.absolute_damping_nms_per_rad for e in line.driven_end]
     )
     nodes = [
@@ -408,9 +408,9 @@ def shaft_line_of(
                 free[-1].relative_damping_nms_per_rad,
             )
         )
-    for i in range(first_throw, first_throw + engine.cylinders - 1):
+    for i in range(first_throw, first_throw + engine.throws - 1):
         shafts.append(ShaftElement(i, i + 1, line.throw_stiffness_nm_per_rad))
-    previous = first_throw + engine.cylinders - 1
+    previous = first_throw + engine.throws - 1
     for element in line.driven_end:
         shafts.append(
             ShaftElement(
@@ -450,7 +450,7 @@ def tooth_wheel_receptance(engine: Engine, orders: FloatArray, crank_speed: floa
         raise ModelError(f"transfer 'shaft-line' needs the [shaft_line] of engine {engine.id!r}")
     line = shaft_line_of(engine)
     probe = line.index(engine.shaft_line.tooth_wheel or line.node_names[0])
-    throws = [line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
+    throws = [line.index(name) for name in throw_node_names(engine)]
     out = np.zeros((engine.cylinders, orders.size), dtype=np.complex128)
     for j, k in enumerate(orders):
         for i, node in enumerate(throws):
@@ -524,13 +524,13 @@ def engine_forced_response(
     ForcedResponse
     """
     model_line = line if line is not None else shaft_line_of(engine)
-    throw_nodes = [model_line.index(f"cylinder {c}") for c in range(1, engine.cylinders + 1)]
+    throw_nodes = [model_line.index(name) for name in throw_node_names(engine)]
     w, orders, cylinder_torque = cylinder_torque_orders(engine, speeds, load=load, max_order=max_order)
     angle = np.zeros((len(model_line.nodes), w.size, orders.size), dtype=np.complex128)
     condition = np.zeros((w.size, orders.size))
     for i, speed in enumerate(w):
         torque = np.zeros((len(model_line.nodes), orders.size), dtype=np.complex128)
-        torque[throw_nodes, :] = cylinder_torque[i]
+        np.add.at(torque, throw_nodes, cylinder_torque[i])  # a V's two cylinders on one throw
         for j, k in enumerate(orders):
             angle[:, i, j], condition[i, j] = model_line.harmonic_response(float(k * speed), torque[:, j])
     return ForcedResponse(w, orders, angle, condition, model_line.node_names)

@@ -199,6 +199,11 @@ class VariableInertiaCrank:
         return cls(epsilon=half / j0, r=crank_speed / natural, zeta=damping / (2 * j0 * natural))
 
 
+def _cylinder_share(engine: Engine) -> float:
+    """One cylinder's share of its throw's rotating inertia: the whole throw in line, half on a V [kg m^2]."""
+    return throw_inertia(engine) * engine.throws / engine.cylinders
+
+
 def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> VariableInertiaCrank:
     """The equivalent single crank of an engine at a speed (one throw's inertia ratio, one mode's frequency).
 
@@ -214,11 +219,12 @@ def crank_of_engine(engine: Engine, crank_speed: float, *, mode: int = 1) -> Var
     Returns
     -------
     VariableInertiaCrank
-        ``epsilon = (m_rec R^2 / 2) / (I_throw + m_rot R^2 + m_rec R^2 / 2)`` and
+        ``epsilon = (m_rec R^2 / 2) / (I_throw + m_rot R^2 + m_rec R^2 / 2)`` (on a V, ``I_throw`` is
+        half the throw's: one cylinder's share) and
         ``r = omega / omega_mode`` with the mean-inertia shaft line.
     """
     half = 0.5 * engine.reciprocating_mass * engine.crank_radius**2
-    rotating = throw_inertia(engine)
+    rotating = _cylinder_share(engine)
     frequencies = shaft_line_of(engine).modes().frequencies
     if not 1 <= mode <= frequencies.size:
         raise ModelError(f"mode = {mode!r}: the shaft line has modes 1..{frequencies.size}")
@@ -252,7 +258,7 @@ def gas_excitation(
         ``amplitude_k = |T_k| / (omega^2 J_0)``, ``J_0 = I_throw + m_rot R^2 + m_rec R^2 / 2``.
     """
     r2 = engine.crank_radius**2
-    j0 = throw_inertia(engine) + 0.5 * engine.reciprocating_mass * r2
+    j0 = _cylinder_share(engine) + 0.5 * engine.reciprocating_mass * r2
     orders, torque = gas_torque_orders(engine, crank_speed, load=load, max_order=max_order)
     scale = crank_speed**2 * j0
     return HarmonicExcitation(

@@ -1,0 +1,286 @@
+"""A V engine's banks: its cylinders' names, axes, throws and places, and its firing angles.
+
+Conventions (docs/engines.md says them with a figure).
+
+- Two banks, A and B, of ``m = n / 2`` cylinders each, named ``A1..Am`` and ``B1..Bm`` and numbered
+  along the shaft from the end the description's ``cylinder_numbering`` names, as an in-line engine's.
+  Cylinders ``Ak`` and ``Bk`` share crank throw ``k``: two rods on one crank pin. Inside the product
+  a cylinder is an index in the order ``A1..Am, B1..Bm``.
+- The bank angle ``g`` is the angle between the banks' axes. In the engine's frame (``y`` up the V's
+  bisector, ``x`` across it, towards where the crank pin goes just after it passes ``y``) the leading
+  bank (the one whose axis the crank pin passes first; ``leading_bank``) leans by ``-g/2``, the other
+  by ``+g/2``: on each throw the trailing bank's cylinder reaches its top dead centre a crank angle
+  ``g`` after the leading one's (on a four-stroke it may fire a revolution later, ``g + 360``).
+- A cylinder's firing angle is as on an in-line engine: the crank angle of A1's crank from A1's firing
+  TDC at which the cylinder reaches its own firing TDC. Its forces, across and along its own axis,
+  are an in-line cylinder's at its own crank angle; :func:`to_engine_frame` turns them into the
+  engine's frame, where the main bearings' vertical (``y``) and horizontal (``x``) are.
+- Rods: ``side-by-side`` (each bank's rod on its own length of the crank pin, so the B bank stands
+  ``bank_offset_m`` further along the shaft than the A bank) or ``fork-and-blade`` (both rods in one
+  plane: no offset). Articulated master-and-slave rods move the slave's piston otherwise
+  (:mod:`monitor.model.articulated`); the crank train does not model them yet and a description
+  with them is refused.
+
+Firing angles from the firing order, when ``firing.angles_deg`` does not give them: evenly spaced
+(720 or 360 degrees over ``n``) if that puts each throw's two cylinders a bank angle apart; otherwise
+each bank fires evenly on its own, as an in-line engine of ``m`` cylinders in the order its cylinders
+appear, and each trailing cylinder a bank angle after its partner, in the revolution that makes the
+engine fire in the stated order (the uneven intervals of, say, a 12-cylinder V of 55 degrees:
+55, 65, 55, 65, ...). Given or found, the angles must put each throw's two cylinders a bank angle
+apart; a description whose angles do not is refused, naming the throw.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Annotated, Literal
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+
+from monitor.model.quantities import between
+from monitor.types import ComplexArray, FloatArray
+
+__all__ = [
+    "ANGLE_TOLERANCE_DEG",
+    "Vee",
+    "bank_axes",
+    "cylinder_names",
+    "cylinder_throws",
+    "to_engine_frame",
+    "vee_firing_angles",
+]
+
+#: How far a throw's two cylinders' firing angles may stand from a bank angle apart (rounding of the
+#: angles a maker prints, to a tenth of a degree) [deg].
+ANGLE_TOLERANCE_DEG = 0.05
+
+Rods = Literal["side-by-side", "fork-and-blade", "articulated"]
+
+
+class Vee(BaseModel):
+    """The ``[vee]`` table of an engine description: two banks on one crankshaft."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    bank_angle_deg: Annotated[float, AfterValidator(between(1.0, 180.0, "deg"))] = Field(
+        description="angle between the two banks' cylinder axes"
+    )
+    leading_bank: Literal["A", "B"] = Field(
+        default="A", description="the bank whose axis the crank pin passes first as the crank turns"
+    )
+    rods: Rods = Field(description="'side-by-side' or 'fork-and-blade' connecting rods")
+    bank_offset_m: Annotated[float, AfterValidator(between(-1.0, 1.0, "m", "was it given in mm?"))] = Field(
+        default=0.0,
+        description=(
+            "side-by-side rods: how much further along the shaft (towards higher cylinder numbers) the "
+            "B bank's cylinders stand than the A bank's"
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _arrangement(self) -> Vee:
+        """Refuse an arrangement the crank train does not model, or an offset where rods share a plane."""
+        if self.rods == "articulated":
+            raise ValueError(
+                "rods = 'articulated': the master-and-slave rod's slave motion is not in the crank train "
+                "yet; expected 'side-by-side' or 'fork-and-blade'"
+            )
+        if self.rods == "fork-and-blade" and self.bank_offset_m != 0.0:
+            raise ValueError(
+                f"bank_offset_m = {self.bank_offset_m!r} with fork-and-blade rods: both rods run in one "
+                "plane, so the banks stand at the same place along the shaft (expected 0)"
+            )
+        return self
+
+
+def cylinder_names(cylinders: int, vee: Vee | None) -> list[str]:
+    """Each cylinder's name, by index: ``1..n`` in line, ``A1..Am, B1..Bm`` on a V.
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+
+    Returns
+    -------
+    list of str
+    """
+    if vee is None:
+        return [str(c) for c in range(1, cylinders + 1)]
+    half = cylinders // 2
+    return [f"A{k}" for k in range(1, half + 1)] + [f"B{k}" for k in range(1, half + 1)]
+
+
+def cylinder_throws(cylinders: int, vee: Vee | None) -> list[int]:
+    """Each cylinder's crank throw (0-based), by index.
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+
+    Returns
+    -------
+    list of int
+    """
+    if vee is None:
+        return list(range(cylinders))
+    half = cylinders // 2
+    return [c % half for c in range(cylinders)]
+
+
+def _leads(vee: Vee, cylinders: int) -> FloatArray:
+    """1 for each cylinder of the leading bank, 0 for the trailing one's."""
+    half = cylinders // 2
+    a = np.r_[np.ones(half), np.zeros(half)]
+    return a if vee.leading_bank == "A" else 1.0 - a
+
+
+def bank_axes(cylinders: int, vee: Vee | None) -> FloatArray:
+    """Each cylinder's axis from the engine's vertical, towards ``+x`` [rad] (0 in line).
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+
+    Returns
+    -------
+    ndarray, shape (cylinders,)
+    """
+    if vee is None:
+        return np.zeros(cylinders)
+    half_angle = math.radians(vee.bank_angle_deg) / 2
+    return np.where(_leads(vee, cylinders) == 1.0, -half_angle, half_angle)
+
+
+def _pair_problem(angles_deg: FloatArray, vee: Vee) -> str | None:
+    """Which throw's two cylinders are not a bank angle apart (mod 360), in words, or None."""
+    half = angles_deg.size // 2
+    names = cylinder_names(angles_deg.size, vee)
+    lead = _leads(vee, angles_deg.size)
+    for k in range(half):
+        first, second = (k, k + half) if lead[k] == 1.0 else (k + half, k)
+        gap = (angles_deg[second] - angles_deg[first]) % 360.0
+        miss = abs((gap - vee.bank_angle_deg + 180.0) % 360.0 - 180.0)
+        if miss > ANGLE_TOLERANCE_DEG:
+            return (
+                f"throw {k + 1} carries {names[first]} and {names[second]}, whose firing angles "
+                f"{angles_deg[first]:g} and {angles_deg[second]:g} deg are {gap:g} deg apart "
+                f"(mod 360): expected the bank angle {vee.bank_angle_deg:g} deg, {names[second]} trailing"
+            )
+    return None
+
+
+def _fires_in_order(angles_deg: FloatArray, order: list[int], span: float) -> bool:
+    """Whether the angles (mod ``span``) put the cylinders in ``order``, cyclically, none together."""
+    wrapped = np.mod(angles_deg - angles_deg[order[0]], span)
+    ranked = np.argsort(wrapped, kind="stable").tolist()
+    return bool(np.all(np.diff(np.sort(wrapped)) > ANGLE_TOLERANCE_DEG)) and ranked == order
+
+
+def _per_bank(order: list[int], vee: Vee, span: float) -> list[FloatArray]:
+    """Each bank even on its own, the trailing cylinders in a revolution that keeps the order: every
+    way that does (more than one when the order does not say which revolution, as a V-twin's)."""
+    n = len(order)
+    half = n // 2
+    lead = _leads(vee, n)
+    leading = [c for c in order if lead[c] == 1.0]
+    angles = np.zeros(n)
+    for position, c in enumerate(leading):
+        angles[c] = position * span / half
+    trailing = [c for c in range(n) if lead[c] == 0.0]
+    partner = {c: (c + half) % n for c in trailing}
+    revolutions = round(span / 360.0)
+    found = []
+    for turns in itertools.product(range(revolutions), repeat=len(trailing)):
+        for c, turn in zip(trailing, turns, strict=True):
+            angles[c] = (angles[partner[c]] + vee.bank_angle_deg + 360.0 * turn) % span
+        if _fires_in_order(angles, order, span):
+            found.append(angles.copy())
+    return found
+
+
+def vee_firing_angles(
+    order: list[int], vee: Vee, *, cycle_revolutions: int, given_deg: npt.ArrayLike | None = None
+) -> FloatArray:
+    """A V engine's firing angles, from A1 [deg] (module docstring).
+
+    Parameters
+    ----------
+    order : list of int
+        The firing order, as cylinder indices (0-based, ``A1..Am, B1..Bm``).
+    vee : Vee
+    cycle_revolutions : int
+        1 two-stroke, 2 four-stroke.
+    given_deg : array_like, optional
+        The description's firing angles, by index; checked, not derived.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Each cylinder's firing angle after A1's, in ``[0, 360 * cycle_revolutions)`` [deg].
+
+    Raises
+    ------
+    ValueError
+        When no angles put each throw's two cylinders a bank angle apart in the stated order, or the
+        given angles do not.
+    """
+    n = len(order)
+    span = 360.0 * cycle_revolutions
+    if given_deg is not None:
+        angles = np.asarray(given_deg, dtype=np.float64)
+        problem = _pair_problem(angles, vee)
+        if problem is not None:
+            raise ValueError(f"firing.angles_deg: {problem}")
+        return angles
+    even = np.empty(n)
+    for position, c in enumerate(order):
+        even[c] = position * span / n
+    if _pair_problem(even, vee) is None:
+        return np.mod(even - even[0], span)
+    found = _per_bank(order, vee, span)
+    if len(found) != 1:
+        names = cylinder_names(n, vee)
+        why = (
+            "neither even firing nor each bank firing evenly puts every throw's two cylinders a bank "
+            "angle apart in this order; check the order, or give"
+            if not found
+            else f"{len(found)} ways of firing each bank evenly keep this order (it does not say in which "
+            "revolution a trailing cylinder fires); give"
+        )
+        raise ValueError(
+            f"firing.order = {[names[c] for c in order]} with a bank angle of {vee.bank_angle_deg:g} deg: "
+            f"{why} firing.angles_deg (by cylinder, {names[0]}..{names[-1]})"
+        )
+    return np.mod(found[0] - found[0][0], span)
+
+
+def to_engine_frame(forces: npt.ArrayLike, axes: npt.ArrayLike) -> ComplexArray:
+    """Turn each cylinder's forces from its own axes into the engine's (module docstring).
+
+    A cylinder whose axis leans by ``p`` towards ``+x`` has its own ``x`` along ``(cos p, -sin p)`` and
+    its own ``y`` along ``(sin p, cos p)``. The map is linear, so it acts on order coefficients as on
+    forces in time.
+
+    Parameters
+    ----------
+    forces : array_like, shape (n_cylinders, 2, ...)
+        Across (``x``) and along (``y``) each cylinder's axis.
+    axes : array_like, shape (n_cylinders,)
+        Each cylinder's lean [rad] (:func:`bank_axes`).
+
+    Returns
+    -------
+    ndarray, complex, the shape of ``forces``
+        Horizontal (``x``) and vertical (``y``) in the engine's frame.
+    """
+    f = np.asarray(forces, dtype=np.complex128)
+    p = np.asarray(axes, dtype=np.float64).reshape((-1,) + (1,) * (f.ndim - 2))
+    cos_p, sin_p = np.cos(p), np.sin(p)
+    across, along = f[:, 0], f[:, 1]
+    return np.stack([across * cos_p + along * sin_p, -across * sin_p + along * cos_p], axis=1)
