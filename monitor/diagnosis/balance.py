@@ -186,6 +186,8 @@ class CylinderBalance:
     wheel_error : ndarray
         The tooth wheel's pitch errors left in the map, their rms share of each order the weights
         carry beside ``standard_error`` (0 where a baseline calibrated the order) [same unit].
+    names : list of str
+        Each cylinder's name (:attr:`monitor.model.engine.Engine.cylinder_names`).
     """
 
     strength: FloatArray
@@ -213,6 +215,11 @@ class CylinderBalance:
     inertia_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     gas_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     wheel_error: FloatArray = field(default_factory=lambda: np.zeros(0))
+    names: list[str] = field(default_factory=list)
+
+    def name(self, c: int) -> str:
+        """Cylinder ``c``'s name (index; ``A3`` on a V engine), its number when no names were given."""
+        return self.names[c] if c < len(self.names) else str(c + 1)
 
     def calibration(self) -> CrankCalibration:
         """This (healthy) balance's calibration of the model where the cylinders add up.
@@ -376,6 +383,7 @@ def cylinder_balance(
     relative, relative_error, contrast_error = _relative(strength, covariance)
     predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
     return CylinderBalance(
+        names=engine.cylinder_names,
         strength=strength,
         strength_covariance=covariance,
         relative=relative,

@@ -227,7 +227,7 @@ def missing_firing_findings(
         return []
     e = max(float(test.share_error[c]), 1e-12)
     partner = partners[c] if partners is not None else None
-    named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
+    named = _named(balance, c, partner)
     what = "misfiring" if share < MISFIRE_BELOW else f"misfiring, or nearly: {NEARLY_PATTERN}"
     return [
         Finding(
@@ -256,6 +256,7 @@ def missing_firing_findings(
                     "explained": float(test.explained[c]),
                     "orders": test.orders[test.cancelling].tolist(),
                     "cylinder": c + 1,
+                    "cylinder_name": balance.name(c),
                     "model_chi2_reduced": balance.chi2_reduced,
                 }
             ],
@@ -263,11 +264,17 @@ def missing_firing_findings(
     ]
 
 
+def _named(balance: CylinderBalance, c: int, partner: int | None) -> str:
+    """The subject: ``cylinder 3`` (``cylinder B3`` on a V), or it and its 360 deg partner."""
+    named = f"cylinder {balance.name(c)}"
+    return named if partner is None else f"{named} or cylinder {balance.name(partner)}"
+
+
 def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) -> list[Finding]:
     findings = []
     for c in range(balance.strength.size):
         partner = partners[c] if partners is not None else None
-        named = f"cylinder {c + 1}" if partner is None else f"cylinder {c + 1} or cylinder {partner + 1}"
+        named = _named(balance, c, partner)
         r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
         contrast = max(float(balance.contrast_error[c]), 1e-12)
         severity, threshold = "healthy", None
@@ -314,6 +321,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                         "orders": balance.orders.tolist(),
                         "strength": float(balance.strength[c]),
                         "cylinder": c + 1,
+                        "cylinder_name": balance.name(c),
                         "condition_number": balance.condition,
                     }
                 ],
@@ -354,9 +362,9 @@ def missing_firing_doubt(balance: CylinderBalance) -> str | None:
     if float(test.explained[c]) >= PATTERN_EXPLAINED:
         return None
     return (
-        f"cylinder {c + 1} reads {round(100 * float(test.share[c]))} % of the others' firing impulse "
-        f"by its pattern, {float(test.significance[c]):.0f} standard errors, but the pattern explains "
-        f"only {round(100 * float(test.explained[c]))} % of the orders where the cylinders cancel: "
+        f"cylinder {balance.name(c)} reads {round(100 * float(test.share[c]))} % of the others' firing "
+        f"impulse by its pattern, {float(test.significance[c]):.0f} standard errors, but the pattern "
+        f"explains only {round(100 * float(test.explained[c]))} % of the orders where the cylinders cancel: "
         "a missing impulse and something else (near a torsional resonance try the shaft-line transfer)"
     )
 

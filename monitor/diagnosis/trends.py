@@ -164,8 +164,9 @@ def trend_points(document: dict[str, Any]) -> list[TrendPoint]:
     balance = document.get("cylinder_balance") or {}
     relative = balance.get("relative") or []
     errors = balance.get("relative_standard_error") or [None] * len(relative)
-    for number, (value, error) in enumerate(zip(relative, errors, strict=False), start=1):
-        add(f"cylinder {number} strength", value, error, "-")
+    names = balance.get("names") or [str(c) for c in range(1, len(relative) + 1)]
+    for name, value, error in zip(names, relative, errors, strict=False):
+        add(f"cylinder {name} strength", value, error, "-")
     for sensor, channel in sorted((document.get("channels") or {}).items()):
         if sensor == "crank speed":  # the cylinders' strengths are its summary
             continue

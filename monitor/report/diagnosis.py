@@ -84,6 +84,7 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
         document["cylinder_balance"] = {
             "transfer": balance.transfer,
             "strength_meaning": balance.strength_meaning,
+            "names": [balance.name(c) for c in range(balance.strength.size)],
             "strength": balance.strength,
             "strength_standard_error": balance.strength_error,
             "relative": balance.relative,
@@ -161,7 +162,7 @@ def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int 
         ]
         for c in range(balance.strength.size):
             lines.append(
-                f"{c + 1:8d} {balance.strength[c]:9.3f} {balance.strength_error[c]:6.3f} "
+                f"{balance.name(c):>8} {balance.strength[c]:9.3f} {balance.strength_error[c]:6.3f} "
                 f"{100 * balance.relative[c]:8.1f}% {196 * balance.relative_error[c]:9.1f}%"
             )
     for comparison in diagnosis.comparisons:

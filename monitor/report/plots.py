@@ -401,7 +401,7 @@ def plot_diagnosis(
         )
         for c in range(n):
             polar.annotate(
-                f"{c + 1}", (theta[c], max(balance.relative[c], 0) + 0.12), ha="center", fontsize=9
+                balance.name(c), (theta[c], max(balance.relative[c], 0) + 0.12), ha="center", fontsize=9
             )
         polar.set_ylim(0, max(1.3, float(np.max(balance.relative)) + 0.2))
         polar.set_theta_zero_location("N")

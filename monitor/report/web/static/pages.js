@@ -41,6 +41,11 @@
   function chart(box, series, data, options) {
     var x = { label: options.xLabel };
     if (options.integerX) { x.incrs = [1]; }
+    if (options.xNames) {  // a V engine's A1 .. B6 at the integer places 1 .. n
+      x.values = function (u, splits) {
+        return splits.map(function (v) { return options.xNames[v - 1] === undefined ? "" : options.xNames[v - 1]; });
+      };
+    }
     var opts = Object.assign({
       width: width(box),
       height: options.height || 260,
@@ -80,6 +85,7 @@
       { label: "warning below", stroke: "#e6a100", dash: [6, 4] },
       { label: "alarm below", stroke: "#c0392b", dash: [6, 4] }
     ], [xs, ys, lo, hi, warn, alarm], { xLabel: "cylinder", yLabel: "strength [-]", integerX: true,
+      xNames: b.names,
       extra: { scales: { x: { time: false, range: [0.5, n + 0.5] }, y: { range: [Math.min(0, Math.min.apply(null, lo.filter(function (v) { return v !== null; }).concat([0]))), 1.4] } } } });
   }
 
