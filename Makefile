@@ -118,7 +118,7 @@ bench-kill: $(STAMP)
 	$(BIN)/python -m benchmarks.service_flood --connections 20000 --clients 2 --seconds 30
 
 ## samples: regenerate the small recordings in recordings/samples/ from their scenes (deterministic)
-SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3
+SAMPLES := 7k98mc-baseline:10 7k98mc-misfire-cyl4:10 6l32-misfire-cyl3:3 12v32-misfire-b3:3
 samples: $(STAMP)
 	@mkdir -p recordings/samples
 	@for item in $(SAMPLES); do \

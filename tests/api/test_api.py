@@ -337,11 +337,13 @@ def test_the_access_log_is_one_line_per_request_unless_turned_off(tmp_path: Path
 
 def test_recordings_are_paged_and_filtered(server: Server) -> None:
     with server.client() as client:
-        for path in sorted(SAMPLES.glob("*.h5")):
+        samples = sorted(SAMPLES.glob("*.h5"))
+        for path in samples:
             assert _upload(client, path).status_code == 201
-        first = client.get("/recordings", params={"limit": 2}).json()
-        assert len(first["items"]) == 2 and first["next_offset"] == 2
-        rest = client.get("/recordings", params={"limit": 2, "offset": 2}).json()
+        page = len(samples) - 1  # a full page, then the one left
+        first = client.get("/recordings", params={"limit": page}).json()
+        assert len(first["items"]) == page and first["next_offset"] == page
+        rest = client.get("/recordings", params={"limit": page, "offset": page}).json()
         assert len(rest["items"]) == 1 and rest["next_offset"] is None
         seven = client.get("/recordings", params={"engine_id": "man-b-w-7k98mc"}).json()["items"]
         assert {r["filename"] for r in seven} == {"7k98mc-baseline.h5", "7k98mc-misfire-cyl4.h5"}
