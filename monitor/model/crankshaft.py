@@ -207,8 +207,13 @@ class EngineModel:
         )
 
     def unbalance_force(self, crank_speed: float) -> tuple[FloatArray, FloatArray]:
-        """Centrifugal force of cylinder 1's throw unbalance over the grid (x, y) [N]."""
+        """Centrifugal force of cylinder 1's share of its throw's unbalance over the grid (x, y) [N].
+
+        The whole throw's in line; half on a V, whose two cylinders on a throw each carry half of it
+        (both see the same crank pin, so their halves, turned into the engine's frame, add to the
+        throw's).
+        """
         omega, _ = check_crank_speed(crank_speed)
-        u = self.engine.net_crank_unbalance * omega**2
+        u = self.engine.net_crank_unbalance * omega**2 * self.engine.throws / self.engine.cylinders
         alpha = self._setup.alpha
         return u * np.sin(alpha), u * np.cos(alpha)

@@ -187,3 +187,19 @@ def test_a_90_deg_v_twin_through_the_model_has_a_turning_primary_and_a_horizonta
 def test_an_in_line_cylinder_is_not_turned() -> None:
     forces = np.array([[[1.0 + 2.0j], [3.0 - 1.0j]]])
     np.testing.assert_array_equal(to_engine_frame(forces, [0.0]), forces)
+
+
+def test_a_throws_unbalance_counts_once_though_two_cylinders_share_it() -> None:
+    """Adding 10 kg m to the unbalance of each throw of a V8 adds 10 w^2 to each throw's turning force:
+    half of it to bearing 1 (throw 1 alone beside it, midway between bearings 1 and 2), not the
+    whole, as each of the throw's two cylinders carrying the throw's whole unbalance would make it."""
+    order = ["A1", "B4", "B2", "A2", "B3", "A3", "A4", "B1"]
+    omega = SPEED_RPM * math.pi / 30
+    forces = []
+    for extra in (0.0, 10.0):
+        data = _vee(8, 90.0, order, leading_bank="B")
+        data["masses"]["crank_unbalance_kgm"] = 5.0 + extra
+        predicted = predict_orders(EngineModel(parse_engine(data)), crank_speed=omega, load=0.0)
+        first = int(np.argmin(np.abs(predicted.orders - 1.0)))
+        forces.append(predicted.bearing_force[0, :, first])
+    np.testing.assert_allclose(np.abs(forces[1] - forces[0]), 0.5 * 10.0 * omega**2, rtol=1e-9)
