@@ -353,9 +353,8 @@ def cylinder_balance(
     burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
     rhs = y - fixed
     design = (factor * H * combustion).T  # (n_orders, n_cyl)
-    # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large
-    # at the firing harmonics (every cylinder adds) and nil where healthy cylinders cancel (a gap all
-    # cylinders share cancels there too)
+    # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large at
+    # the firing harmonics (every cylinder adds), nil where healthy cylinders (and a gap all share) cancel
     nominal = fixed + factor * burning
     uncertainty = np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty)
     # the combustion's timing: on every cylinder's combustion where no baseline calibrated the order

@@ -217,7 +217,7 @@ def vee_firing_angles(
     cycle_revolutions : int
         1 two-stroke, 2 four-stroke.
     given_deg : array_like, optional
-        The description's firing angles, by index; checked, not derived.
+        The description's firing angles, by index; checked, not derived [deg].
 
     Returns
     -------
@@ -270,7 +270,7 @@ def to_engine_frame(forces: npt.ArrayLike, axes: npt.ArrayLike) -> ComplexArray:
     Parameters
     ----------
     forces : array_like, shape (n_cylinders, 2, ...)
-        Across (``x``) and along (``y``) each cylinder's axis.
+        Across (``x``) and along (``y``) each cylinder's axis [N] (or any force's order coefficients).
     axes : array_like, shape (n_cylinders,)
         Each cylinder's lean [rad] (:func:`bank_axes`).
 

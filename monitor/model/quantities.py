@@ -33,7 +33,7 @@ def between(low: float, high: float, unit: str, hint: str = "") -> Callable[[flo
     Parameters
     ----------
     low, high : float
-        The range, in the field's unit.
+        The range [the field's unit, ``unit``].
     unit : str
     hint : str, optional
         Added to the message (the likely slip).

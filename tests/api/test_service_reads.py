@@ -18,14 +18,15 @@ import sqlalchemy as sa
 from api.reads import KEY_TTL_S, matches
 from monitor.store import open_store
 from tests.api.test_api import SAMPLES, Server, _upload, _wait_done, two_fleet_server
+from tests.jobs.test_batch import IN_LINE
 
 
 @pytest.fixture(scope="module")
 def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server = two_fleet_server(tmp_path_factory.mktemp("reads"))
     with server.client() as client:
-        for path in sorted(SAMPLES.glob("*.h5")):
-            assert _upload(client, path).status_code == 201
+        for name in IN_LINE:
+            assert _upload(client, SAMPLES / name).status_code == 201
         recording = next(
             r["id"] for r in client.get("/recordings").json()["items"] if r["filename"].startswith("6l32")
         )
