@@ -100,6 +100,25 @@ class SimEngine:
         "propeller" (torque proportional to speed squared) or "generator" (governed, constant torque).
     peak_pressure_scatter : float
         Cycle-to-cycle standard deviation of a cylinder's peak pressure, relative [-].
+    bank_angle : float
+        Angle between a V engine's banks' axes [rad]; 0 for an in-line engine.
+    leading_bank : str
+        "A" or "B": the bank whose axis the crank pin passes first (a V engine).
+    rods : str
+        "in-line", or on a V "side-by-side" or "fork-and-blade".
+    bank_offset : float
+        How much further along the shaft the B bank's cylinders stand than the A bank's [m]
+        (side-by-side rods; 0 otherwise).
+
+    Notes
+    -----
+    On a V engine of ``n = 2 m`` cylinders, cylinder indices run ``A1..Am`` then ``B1..Bm``
+    (``firing_order`` holds those 1-based indices; :attr:`cylinder_names` their names), and ``Ak``
+    and ``Bk`` share throw ``k``. In the engine's frame (``y`` up the V's bisector, ``x`` across
+    it, towards where the crank pin goes just after passing ``y``) the leading bank's axis leans
+    ``-g/2`` and the trailing one's ``+g/2``, so the trailing cylinder of a throw reaches its
+    top dead centre a crank angle ``g`` after its partner. ``crank_unbalance``,
+    ``counterweight`` and ``throw_inertia`` are per throw.
     """
 
     seed: int
@@ -134,11 +153,53 @@ class SimEngine:
     friction_mep: float
     load_type: Literal["propeller", "generator"]
     peak_pressure_scatter: float
+    bank_angle: float = 0.0
+    leading_bank: Literal["A", "B"] = "A"
+    rods: Literal["in-line", "side-by-side", "fork-and-blade"] = "in-line"
+    bank_offset: float = 0.0
 
     @property
     def cylinders(self) -> int:
         """Number of cylinders."""
         return len(self.firing_order)
+
+    @property
+    def is_vee(self) -> bool:
+        """Whether the engine has two banks (a V)."""
+        return self.bank_angle > 0
+
+    @property
+    def throws(self) -> int:
+        """Number of crank throws: one per cylinder in line, one per pair of cylinders on a V."""
+        return self.cylinders // 2 if self.is_vee else self.cylinders
+
+    @property
+    def cylinder_throws(self) -> list[int]:
+        """Each cylinder's throw (1-based), by cylinder index."""
+        return [c % self.throws + 1 for c in range(self.cylinders)]
+
+    @property
+    def cylinder_names(self) -> list[str]:
+        """Each cylinder's name by index: "1".."n" in line, "A1".."Am", "B1".."Bm" on a V."""
+        if not self.is_vee:
+            return [str(c) for c in range(1, self.cylinders + 1)]
+        m = self.throws
+        return [f"A{k}" for k in range(1, m + 1)] + [f"B{k}" for k in range(1, m + 1)]
+
+    @property
+    def cylinder_leans(self) -> FloatArray:
+        """Each cylinder's axis from the engine's vertical, towards ``+x`` [rad] (0 in line)."""
+        if not self.is_vee:
+            return np.zeros(self.cylinders)
+        m = self.throws
+        a_leads = self.leading_bank == "A"
+        half = self.bank_angle / 2
+        return np.r_[np.full(m, -half if a_leads else half), np.full(m, half if a_leads else -half)]
+
+    @property
+    def unbalance_share(self) -> float:
+        """Share of a throw's unbalance each of its cylinders carries in the force model [-]."""
+        return 0.5 if self.is_vee else 1.0
 
     @property
     def cycle_angle(self) -> float:
@@ -163,6 +224,8 @@ class SimEngine:
     @property
     def firing_angles(self) -> FloatArray:
         """Angle of cylinder 1's crank at which each cylinder (index c - 1) fires [rad]."""
+        if self.is_vee:
+            return _vee_angles(self)
         angles = np.empty(self.cylinders)
         step = self.cycle_angle / self.cylinders
         for position, cylinder in enumerate(self.firing_order):
@@ -171,23 +234,31 @@ class SimEngine:
 
     @property
     def cylinder_positions(self) -> FloatArray:
-        """True axial position of each cylinder from bearing 1 [m]: mid-bay of the nominal pitch."""
-        return np.asarray(self.cylinder_pitch * (np.arange(self.cylinders, dtype=np.float64) + 0.5))
+        """True axial position of each cylinder from bearing 1 [m]: mid-bay of the nominal pitch.
+
+        On a V the A bank's cylinder stands half the bank offset before its throw's mid-bay, the B
+        bank's half after it.
+        """
+        if not self.is_vee:
+            return np.asarray(self.cylinder_pitch * (np.arange(self.cylinders, dtype=np.float64) + 0.5))
+        mid = self.cylinder_pitch * (np.asarray(self.cylinder_throws, dtype=np.float64) - 0.5)
+        m = self.throws
+        return np.asarray(mid + np.r_[np.full(m, -0.5), np.full(m, 0.5)] * self.bank_offset)
 
     @property
     def throw_bearings(self) -> list[tuple[int, int]]:
-        """The main bearings (1-based) each throw sits between."""
-        return [(c, c + 1) for c in range(1, self.cylinders + 1)]
+        """The main bearings (1-based) each cylinder's throw sits between, by cylinder index."""
+        return [(k, k + 1) for k in self.cylinder_throws]
 
     @property
     def bearing_count(self) -> int:
         """Number of main bearings."""
-        return self.cylinders + 1
+        return self.throws + 1
 
     @property
     def rigid_inertia(self) -> float:
         """Constant part of the crank's inertia: throws, flywheel, driven machine [kg m^2]."""
-        return self.cylinders * self.throw_inertia + self.flywheel_inertia + self.driven_inertia
+        return self.throws * self.throw_inertia + self.flywheel_inertia + self.driven_inertia
 
     @property
     def friction_torque(self) -> float:
@@ -198,6 +269,24 @@ class SimEngine:
     def rated_indicated_torque(self) -> float:
         """Mean indicated torque at rated load [N m]."""
         return self.rated_imep * self.swept_volume * self.cylinders / self.cycle_angle
+
+
+def _vee_angles(engine: SimEngine) -> FloatArray:
+    """A V engine's firing angles: each bank an in-line engine, the trailing cylinder g after its partner.
+
+    The leading bank fires in the order its cylinders take in ``firing_order``, evenly over the
+    cycle from its first cylinder's firing; the trailing bank's cylinder of each throw fires the bank
+    angle later; the whole is shifted so that A1 fires at 0 [rad].
+    """
+    m = engine.throws
+    lead = 0 if engine.leading_bank == "A" else m
+    bank = [c - 1 - lead for c in engine.firing_order if lead <= c - 1 < lead + m]
+    step = engine.cycle_angle / m
+    angles = np.empty(engine.cylinders)
+    for position, k in enumerate(bank):
+        angles[lead + k] = position * step
+        angles[(m - lead) + k] = position * step + engine.bank_angle
+    return np.asarray(np.mod(angles - angles[0], engine.cycle_angle))
 
 
 _FIRING_ORDERS: dict[tuple[int, int], tuple[tuple[int, ...], ...]] = {
