@@ -14,7 +14,12 @@ medium-speed four-stroke, 300-1000 rpm; high-speed four-stroke, 1000-1500 rpm; s
 300-1000 rpm), 1 to 12 cylinders, even firing.  Bore and stroke follow from a mean piston speed
 and a stroke-to-bore ratio typical of the class, masses scale with the bore cubed, and the
 flywheel is sized for a cyclic irregularity typical of the drive (gensets 1/300-1/150,
-propulsion 1/150-1/70).
+propulsion 1/150-1/70).  V engines come from :func:`random_vee_engine` (a stream of their own, so
+the in-line population is unchanged): medium-speed (45-60 deg V, 500-1000 rpm) and high-speed
+(60-90 deg V, 1200-1900 rpm) four-strokes of 12-20 cylinders, banks A and B named ``A1..Am``,
+``B1..Bm``, ``Ak`` and ``Bk`` on throw ``k``, side-by-side (B a bank offset further along the shaft)
+or fork-and-blade rods; each bank fires as an in-line engine and the trailing bank's cylinder the
+bank angle after its partner.
 
 Cylinder pressure (:func:`closed_cycle`, :func:`cycle_table`).  A single-zone first-law model of
 the closed part of the cycle (inlet closing to exhaust opening), integrated in temperature with
@@ -41,7 +46,12 @@ cycle by a random 1-2 % of its peak pressure.
 Main-bearing forces (:func:`throw_vertical_force`, :func:`bearing_split`).  Newton's law on the
 free bodies of piston, rod and throw gives the vertical force a throw puts on its bearings:
 ``F = -(p - p_amb) A - sum_i m_i ddot(y_i)`` over piston, rod centre of gravity and the throw's
-net unbalance.  It is shared by its two main bearings by the lever rule at the true (slightly
+net unbalance.  Across the cylinder axis (:func:`throw_across_force`) Newton-Euler on the piston
+and on the rod as a rigid body (its centre of gravity and moment of inertia) gives the rod's
+force on the crank pin, the liner's side force on the piston staying in the frame; on a V engine
+each cylinder's along- and across-axis forces are turned into the engine's vertical by its bank's
+lean (:func:`cylinder_vertical_forces`), a throw's unbalance shared by its two cylinders.  A
+cylinder's force is shared by its throw's two main bearings by the lever rule at the true (slightly
 irregular) bearing positions.
 
 Structure and sensors.  A bearing's accelerometer sees its own bearing's vertical force plus 5-20 %
@@ -113,13 +123,16 @@ from validation.simulator.installation import Installation, random_installation
 from validation.simulator.kinematics import (
     SliderCrank,
     bearing_split,
+    cylinder_vertical_forces,
     equivalent_inertia,
     slider_crank,
+    throw_across_force,
     throw_vertical_force,
 )
 from validation.simulator.operating import OPERATING_CLASSES, OperatingPoint
 from validation.simulator.scenario import FAULT_CLASSES
 from validation.simulator.shared import AMBIENT_PRESSURE, SimulationError
+from validation.simulator.vee_engine import engine_of_seed, random_vee_engine
 
 __all__ = [
     "AMBIENT_PRESSURE",
@@ -146,8 +159,10 @@ __all__ = [
     "burned_fraction",
     "closed_cycle",
     "cycle_table",
+    "cylinder_vertical_forces",
     "description_engine",
     "engine_description",
+    "engine_of_seed",
     "equivalent_inertia",
     "gamma",
     "healthy_twin",
@@ -158,9 +173,11 @@ __all__ = [
     "random_case",
     "random_engine",
     "random_installation",
+    "random_vee_engine",
     "rated_heat",
     "run_crank",
     "slider_crank",
+    "throw_across_force",
     "throw_vertical_force",
     "wall_heat_transfer_coefficient",
 ]

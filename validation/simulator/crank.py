@@ -12,7 +12,12 @@ import numpy.typing as npt
 
 from validation.simulator.engine import SimEngine
 from validation.simulator.gas import HEAT_LEVELS, HEAT_STEP, CycleTable
-from validation.simulator.kinematics import engine_kinematics, equivalent_inertia, inertia_force_coefficients
+from validation.simulator.kinematics import (
+    engine_kinematics,
+    equivalent_inertia,
+    inertia_force_coefficients,
+    vertical_force_coefficients,
+)
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
 
 
@@ -288,8 +293,14 @@ class _AngleWindows:
         self.inertia = engine.rigid_inertia + inertia_c.sum(axis=0)
         self.inertia_1 = derivative_c.sum(axis=0)
         self.arm = -engine_kinematics(engine, psi).piston_1  # dx/dpsi, piston travel from TDC
-        k2, k1 = inertia_force_coefficients(engine, psi)
-        self.k2_rows, self.k1_rows = weights @ k2, weights @ k1
+        if engine.is_vee:  # each cylinder's vertical force: along and across its leaning axis
+            g, k2, k1 = vertical_force_coefficients(engine, psi)
+            self.gas_rows = weights[:, :, None] * g[None, :, :]
+            self.k2_rows, self.k1_rows = -(weights @ k2), -(weights @ k1)
+        else:
+            k2, k1 = inertia_force_coefficients(engine, psi)
+            self.k2_rows, self.k1_rows = weights @ k2, weights @ k1
+            self.gas_rows = np.zeros((0, n, 0))
         self.area = engine.piston_area
         # firing index of each grid point of each cylinder, relative to the window (-1, 0 or 1)
         part = np.floor((psi + cycle / 2) / cycle).astype(int)
@@ -384,11 +395,13 @@ class _AngleWindows:
         rate = source - self.beta * energy
         accel = (rate - 0.5 * self.inertia_1 * omega**2) / inertia
         time = time0 + _cumtrapz(1.0 / omega, self.step)
-        forces = (
-            (-(self.weights @ gas) - self.k2_rows * omega**2 - self.k1_rows * accel)
-            if keep
-            else np.zeros((0, self.m + 1))
-        )
+        if not keep:
+            forces = np.zeros((0, self.m + 1))
+        elif self.engine.is_vee:
+            on_rows = np.einsum("rnm,nm->rm", self.gas_rows, gas)
+            forces = on_rows - self.k2_rows * omega**2 - self.k1_rows * accel
+        else:
+            forces = -(self.weights @ gas) - self.k2_rows * omega**2 - self.k1_rows * accel
         return energy, omega, accel, time, forces
 
 

@@ -13,6 +13,7 @@ from scipy.integrate import solve_ivp
 from validation.simulator.engine import DoubleWiebe, SimEngine, random_engine
 from validation.simulator.kinematics import engine_kinematics
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
+from validation.simulator.vee_engine import random_vee_engine
 
 #: Specific gas constant of the cylinder charge [J/(kg K)].
 GAS_CONSTANT = 287.0
@@ -457,9 +458,12 @@ def rated_heat(engine: SimEngine) -> float:
 
 
 @lru_cache(maxsize=64)
-def rated_of_seed(seed: int) -> tuple[float, FloatArray, FloatArray]:
-    """Rated heat [J], and the crank angle [rad] and pressure [Pa] of the rated cycle, of a seed's engine."""
-    engine = random_engine(seed)
+def rated_of_seed(seed: int, vee: bool = False) -> tuple[float, FloatArray, FloatArray]:
+    """Rated heat [J], and the crank angle [rad] and pressure [Pa] of the rated cycle, of a seed's engine.
+
+    ``vee`` takes the seed's V engine (:func:`~validation.simulator.vee_engine.random_vee_engine`).
+    """
+    engine = random_vee_engine(seed) if vee else random_engine(seed)
     heat, table = _rated_table(engine)
     pressure = np.array([np.interp(heat / table.heat[1], table.fuel, column) for column in table.pressure.T])
     return heat, table.crank_angle, pressure

@@ -10,7 +10,7 @@ from scipy import signal
 
 from validation.simulator.engine import SimEngine
 from validation.simulator.gas import rated_of_seed
-from validation.simulator.kinematics import bearing_split, throw_vertical_force
+from validation.simulator.kinematics import bearing_split, cylinder_vertical_forces
 from validation.simulator.shared import INSTALLATION_STREAM, FloatArray
 
 
@@ -150,14 +150,14 @@ def random_installation(engine: SimEngine) -> Installation:
         )
     # expected level: the steady response, at rated speed and load, to the bearing forces of the
     # rated cycle with the crank turning evenly (Parseval over the cycle's harmonics)
-    _, angle, rated_pressure = rated_of_seed(engine.seed)
+    _, angle, rated_pressure = rated_of_seed(engine.seed, engine.is_vee)
     mix = sensor_mix(engine, crosstalk)
     points = 4096
     cycle = engine.cycle_angle
     psi = cycle * np.arange(points)[None, :] / points - engine.firing_angles[:, None]
     local = np.mod(psi + cycle / 2, cycle) - cycle / 2
     pressure = np.interp(local, angle, rated_pressure, period=cycle)
-    throws = throw_vertical_force(engine, psi, pressure, engine.rated_speed, 0.0)
+    throws = cylinder_vertical_forces(engine, psi, pressure, engine.rated_speed, 0.0)
     spectrum = np.fft.rfft(mix @ throws, axis=1) / points
     frequency = np.arange(spectrum.shape[1]) * engine.rated_speed / cycle
     s_var = 2j * math.pi * frequency

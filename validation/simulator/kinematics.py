@@ -1,4 +1,10 @@
-"""Crank-train kinematics, inertia and the vertical forces a throw puts on its main bearings."""
+"""Crank-train kinematics, inertia and the forces a cylinder's throw puts on its main bearings.
+
+Along the cylinder's axis (:func:`throw_vertical_force`, the vertical of an in-line engine) and
+across it (:func:`throw_across_force`), both from Newton-Euler on piston, rod and throw; on a V
+engine each cylinder's two components are turned into the engine's vertical by its bank's lean
+(:func:`cylinder_vertical_forces`).
+"""
 
 from __future__ import annotations
 
@@ -131,7 +137,8 @@ def inertia_force_coefficients(engine: SimEngine, psi: npt.ArrayLike) -> tuple[F
     """``K2, K1`` with ``sum_i m_i ddot(y_i) = K2 omega^2 + K1 omega_dot``, piston, rod, throw [kg m]."""
     k = engine_kinematics(engine, psi)
     psi = np.asarray(psi, dtype=np.float64)
-    net = engine.crank_unbalance - engine.counterweight  # throw's mass x radius towards the pin
+    # throw's mass x radius towards the pin (on a V each of its two cylinders carries half)
+    net = (engine.crank_unbalance - engine.counterweight) * engine.unbalance_share
     k2 = engine.piston_mass * k.piston_2 + engine.rod_mass * k.rod_y_2 - net * np.cos(psi)
     k1 = engine.piston_mass * k.piston_1 + engine.rod_mass * k.rod_y_1 - net * np.sin(psi)
     return k2, k1
@@ -175,6 +182,152 @@ def throw_vertical_force(
     w = np.asarray(speed, dtype=np.float64)
     gas = (np.asarray(pressure, dtype=np.float64) - AMBIENT_PRESSURE) * engine.piston_area
     return np.asarray(-gas - (k2 * w**2 + k1 * np.asarray(acceleration, dtype=np.float64)))
+
+
+def across_force_coefficients(
+    engine: SimEngine, psi: npt.ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``G, K2, K1`` of the across-axis force on the bearings, ``G (p - p_amb) A + K2 w^2 + K1 w_dot``.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    psi : array_like
+        The cylinder's crank angle from its TDC [rad].
+
+    Returns
+    -------
+    tuple of ndarray
+        [-], [kg m], [kg m].
+
+    Notes
+    -----
+    Newton-Euler on each free body, ``x`` across the axis, ``y`` along it. Piston: the liner's side
+    force ``N`` and the rod's force ``F_rp`` balance (``N = -F_rp,x``), ``F_rp,y = m_p ddot(y_p) + F_g``
+    with the gas force ``F_g = (p - p_amb) A``. Rod: ``F_cr = m_r a_G + F_rp`` (crank pin on rod), and
+    its moments about its centre of gravity ``I_r ddot(phi) = L sin(phi) F_rp,y + L cos(phi) F_rp,x + b m_r
+    (sin(phi) ddot(y_G) + cos(phi) ddot(x_G))`` with ``b = L - a``, so
+    ``N = tan(phi) F_rp,y + (b m_r (sin(phi) ddot(y_G) + cos(phi) ddot(x_G)) - I_r ddot(phi))
+    / (L cos(phi))``.
+    Throw: the bearings carry ``-F_cr - u ddot(r_u)``, ``u`` its share of the net unbalance at the pin
+    ``(sin psi, cos psi)``; across the axis ``N - m_r ddot(x_G) - u ddot(sin psi)``: the liner's side force
+    itself acts on the frame, not on a bearing.
+    """
+    k = engine_kinematics(engine, psi)
+    angle = np.asarray(psi, dtype=np.float64)
+    lam = engine.crank_radius / engine.rod_length
+    sin_phi = lam * np.sin(angle)
+    cos_phi = np.sqrt(1 - sin_phi**2)
+    tan_phi = sin_phi / cos_phi
+    mp, mr, ir = engine.piston_mass, engine.rod_mass, engine.rod_inertia
+    b, length = engine.rod_length - engine.rod_cg_from_pin, engine.rod_length
+    u = (engine.crank_unbalance - engine.counterweight) * engine.unbalance_share
+
+    def part(piston: FloatArray, gx: FloatArray, gy: FloatArray, rod: FloatArray) -> FloatArray:
+        moment = (b * mr * (sin_phi * gy + cos_phi * gx) - ir * rod) / (length * cos_phi)
+        return np.asarray(tan_phi * mp * piston + moment - mr * gx)
+
+    k2 = part(k.piston_2, k.rod_x_2, k.rod_y_2, k.rod_angle_2) + u * np.sin(angle)
+    k1 = part(k.piston_1, k.rod_x_1, k.rod_y_1, k.rod_angle_1) - u * np.cos(angle)
+    return np.asarray(tan_phi), k2, k1
+
+
+def throw_across_force(
+    engine: SimEngine,
+    crank_angle: npt.ArrayLike,
+    pressure: npt.ArrayLike,
+    speed: npt.ArrayLike,
+    acceleration: npt.ArrayLike,
+) -> FloatArray:
+    """Force of one cylinder's throw on its main bearings across the cylinder's axis.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    crank_angle : array_like
+        The cylinder's crank angle from its TDC [rad].
+    pressure : array_like
+        Its cylinder pressure, absolute [Pa].
+    speed : array_like
+        Crank speed [rad/s].
+    acceleration : array_like
+        Crank angular acceleration [rad/s^2].
+
+    Returns
+    -------
+    ndarray
+        Towards ``+x``, where the crank pin goes after its TDC [N].
+
+    Notes
+    -----
+    :func:`across_force_coefficients` derives it.
+    """
+    g, k2, k1 = across_force_coefficients(engine, crank_angle)
+    gas = (np.asarray(pressure, dtype=np.float64) - AMBIENT_PRESSURE) * engine.piston_area
+    w = np.asarray(speed, dtype=np.float64)
+    return np.asarray(g * gas + k2 * w**2 + k1 * np.asarray(acceleration, dtype=np.float64))
+
+
+def vertical_force_coefficients(
+    engine: SimEngine, psi: npt.ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``G, K2, K1`` of each cylinder's force on its bearings along the engine's vertical.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    psi : array_like, shape (n, ...)
+        Each cylinder's crank angle from its TDC [rad].
+
+    Returns
+    -------
+    tuple of ndarray
+        The vertical force is ``G (p - p_amb) A + K2 omega^2 + K1 omega_dot`` [-], [kg m], [kg m].
+
+    Notes
+    -----
+    A cylinder whose axis leans ``lambda`` from the vertical towards ``+x`` has its axis along
+    ``(sin lambda, cos lambda)`` and its ``+x`` across it along ``(cos lambda, -sin lambda)``, so
+    the vertical is ``cos(lambda) F_along - sin(lambda) F_across``.
+    """
+    angle = np.asarray(psi, dtype=np.float64)
+    lean = engine.cylinder_leans.reshape((-1,) + (1,) * (angle.ndim - 1))
+    c, s = np.cos(lean), np.sin(lean)
+    a2, a1 = inertia_force_coefficients(engine, angle)
+    g, k2, k1 = across_force_coefficients(engine, angle)
+    return np.asarray(-c - s * g), np.asarray(-c * a2 - s * k2), np.asarray(-c * a1 - s * k1)
+
+
+def cylinder_vertical_forces(
+    engine: SimEngine,
+    crank_angle: npt.ArrayLike,
+    pressure: npt.ArrayLike,
+    speed: npt.ArrayLike,
+    acceleration: npt.ArrayLike,
+) -> FloatArray:
+    """Each cylinder's force on its throw's main bearings along the engine's vertical, upwards.
+
+    Parameters
+    ----------
+    engine : SimEngine
+    crank_angle : array_like, shape (n, ...)
+        Each cylinder's crank angle from its TDC [rad].
+    pressure : array_like, shape (n, ...)
+        Absolute [Pa].
+    speed, acceleration : array_like
+        [rad/s], [rad/s^2].
+
+    Returns
+    -------
+    ndarray, shape (n, ...)
+        [N]; an in-line engine's is :func:`throw_vertical_force`.
+    """
+    if not engine.is_vee:
+        return throw_vertical_force(engine, crank_angle, pressure, speed, acceleration)
+    g, k2, k1 = vertical_force_coefficients(engine, crank_angle)
+    gas = (np.asarray(pressure, dtype=np.float64) - AMBIENT_PRESSURE) * engine.piston_area
+    w = np.asarray(speed, dtype=np.float64)
+    return np.asarray(g * gas + k2 * w**2 + k1 * np.asarray(acceleration, dtype=np.float64))
 
 
 def bearing_split(
