@@ -26,6 +26,7 @@ from validation.simulator import (
     slider_crank,
     throw_vertical_force,
 )
+from validation.simulator.description import description_engine, engine_description
 from validation.simulator.engine import SimEngine, random_engine
 from validation.simulator.kinematics import cylinder_vertical_forces, throw_across_force
 from validation.simulator.shared import FloatArray
@@ -243,3 +244,24 @@ def test_vee_bearing_rows_of_a_crank_run_are_the_vertical_forces() -> None:
     assert run.forces.shape == (engine.bearing_count, run.time.size)
     forces = cylinder_vertical_forces(engine, psi, pressure, run.speed, run.acceleration)
     assert np.allclose(run.forces, split @ forces, rtol=1e-4, atol=1e-4 * np.abs(forces).max())
+
+
+@pytest.mark.parametrize("seed", VEE_SEEDS + tuple(range(300020, 300040)))
+def test_product_reads_the_vee_description_and_fires_as_the_simulator(seed: int) -> None:
+    """The product loads a V engine's description and derives the simulator's firing angles."""
+    engine = random_vee_engine(seed)
+    text = engine_description(engine)
+    described = description_engine(text)
+    assert described.cylinders == engine.cylinders
+    assert described.vee is not None
+    assert described.vee.leading_bank == engine.leading_bank and described.vee.rods == engine.rods
+    assert described.vee.bank_angle_deg == pytest.approx(math.degrees(engine.bank_angle), abs=1e-4)
+    assert described.vee.bank_offset_m == pytest.approx(engine.bank_offset, rel=0.021)
+    assert described.cylinder_names == engine.cylinder_names
+    assert [described.cylinder_names[c] for c in described.firing_order] == [
+        engine.cylinder_names[c - 1] for c in engine.firing_order
+    ]
+    gap = np.mod(described.firing_angles - engine.firing_angles + math.pi, 4 * math.pi) - math.pi
+    # the product fires evenly when a bank angle is within 0.05 deg of even firing (a 60.02 deg V12)
+    assert np.abs(gap).max() < math.radians(0.05)
+    assert described.bearing_count == engine.bearing_count

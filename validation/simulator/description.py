@@ -58,6 +58,7 @@ class _Perturbed:
     crank_unbalance: float
     counterweight: float
     compression_ratio: float
+    bank_offset: float = 0.0  # a V engine's, side-by-side rods [m]
 
 
 def _perturb(engine: SimEngine) -> _Perturbed:
@@ -86,6 +87,7 @@ def _perturb(engine: SimEngine) -> _Perturbed:
     rod_inertia = heavy(engine.rod_inertia)
     crank_unbalance, counterweight = heavy(engine.crank_unbalance), heavy(engine.counterweight)
     compression_ratio = engine.compression_ratio * float(rng.uniform(0.97, 1.03))
+    offset = geo(engine.bank_offset) if engine.is_vee else 0.0  # drawn last: in-line streams unchanged
     return _Perturbed(
         bore,
         stroke,
@@ -104,7 +106,30 @@ def _perturb(engine: SimEngine) -> _Perturbed:
         crank_unbalance,
         counterweight,
         compression_ratio,
+        offset,
     )
+
+
+def _vee_lines(engine: SimEngine, d: _Perturbed) -> list[str]:
+    """A V engine's ``[vee]`` table (the bank angle as the maker states it, the offset perturbed)."""
+    if not engine.is_vee:
+        return []
+    return [
+        "[vee]",
+        f"bank_angle_deg = {_float(math.degrees(engine.bank_angle))}",
+        f'leading_bank = "{engine.leading_bank}"',
+        f'rods = "{engine.rods}"',
+        f"bank_offset_m = {_float(d.bank_offset)}",
+        "",
+    ]
+
+
+def _firing_line(engine: SimEngine) -> str:
+    """The firing order: by number in line, by name (``"A1"``, ``"B3"``) on a V."""
+    if not engine.is_vee:
+        return f"order = [{', '.join(str(c) for c in engine.firing_order)}]"
+    names = engine.cylinder_names
+    return f"order = [{', '.join(chr(34) + names[c - 1] + chr(34) for c in engine.firing_order)}]"
 
 
 def _shaft_line_lines(d: _Perturbed, stiffness: float, machine: str, damping: float) -> list[str]:
@@ -152,7 +177,8 @@ def engine_description(engine: SimEngine) -> str:
     double Wiebe's burned fraction (least squares); rated IMEP, charge pressure and valve timing
     are the true ones.  The simulated crank is rigid, so the shaft line states its
     connections as stiff: ``10 J (50 omega_rated)^2`` with ``J`` the whole rigid inertia, which puts
-    every torsional mode far above the 50th order.
+    every torsional mode far above the 50th order.  A V engine's file has a ``[vee]`` table (its true
+    bank angle, leading bank and rods, its bank offset +-2 %) and its firing order by name.
     """
     d = _perturb(engine)
     deg = 180 / math.pi
@@ -189,6 +215,7 @@ def engine_description(engine: SimEngine) -> str:
         f"rod_length_m = {_float(d.rod)}",
         f"cylinder_pitch_m = {_float(d.pitch)}",
         "",
+        *_vee_lines(engine, d),
         "[masses]",
         f"piston_assembly_kg = {_float(d.piston_mass)}",
         f"conrod_kg = {_float(d.rod_mass)}",
@@ -198,7 +225,7 @@ def engine_description(engine: SimEngine) -> str:
         f"counterweight_kgm = {_float(d.counterweight)}",
         "",
         "[firing]",
-        f"order = [{', '.join(str(c) for c in engine.firing_order)}]",
+        _firing_line(engine),
         "",
         "[operation]",
         f"rated_speed_rpm = {_float(rated_rpm)}",
