@@ -36,6 +36,7 @@ import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
 from benchmarks.diagnosis_operating import missed_table, operating_sections
+from benchmarks.diagnosis_vee import VEE_FIRST_SEED, vee_length, vee_section
 from monitor.diagnosis import Baseline, calibrate
 from monitor.diagnosis.findings import MISFIRE_BELOW
 from monitor.diagnosis.operating_points import OperatingPoints
@@ -98,6 +99,7 @@ class Outcome:
     load_type: str = ""  # propeller or generator
     charge_law: str = ""  # the simulator's charge pressure against load
     points: int = 1  # the baseline's calibrated points (3: across the engine's law, law_baseline)
+    vee: bool = False  # a V engine's case (benchmarks.diagnosis_vee)
 
 
 def classify(finding: Any) -> tuple[str, str]:
@@ -178,7 +180,13 @@ def run_case(seed: int, duration_s: float) -> Outcome:
 
 
 def run_ways(
-    seed: int, duration_s: float, operating: str, ways: tuple[bool, ...], *, across_law: bool = False
+    seed: int,
+    duration_s: float,
+    operating: str,
+    ways: tuple[bool, ...],
+    *,
+    across_law: bool = False,
+    vee: bool = False,
 ) -> list[Outcome]:
     """Simulate one case and its healthy twin, calibrate on the twin and diagnose the case each way.
 
@@ -186,22 +194,23 @@ def run_ways(
     is told the load (the true load off by up to 10 %), once per way. With ``across_law`` a case off
     its baseline's point is diagnosed each way again against a baseline of three points: the twin and
     two more healthy twins at the lowest and the highest load of the engine's law
-    (:func:`law_baseline`). A case the simulator cannot make is an outcome of status "error" failed at
-    "simulator"; one the product cannot calibrate on or diagnose fails at "calibration" or "diagnosis".
+    (:func:`law_baseline`). ``vee`` simulates the seed's V engine. A case the simulator cannot make
+    is an outcome of status "error" failed at "simulator"; one the product cannot calibrate on or
+    diagnose fails at "calibration" or "diagnosis".
     """
     start = time.perf_counter()
     plan = [(told, 1) for told in ways]
     if across_law and operating != "baseline point":
         plan += [(told, 3) for told in ways]
     try:
-        case = random_case(seed, duration_s=duration_s, operating=operating)
+        case = random_case(seed, duration_s=duration_s, operating=operating, vee=vee)
         twin = healthy_twin(case, seed=seed + 1_000_000)
     except Exception as error:  # the simulator's failure, not the product's: counted apart
         spent = time.perf_counter() - start
         failed = Outcome(
             seed, duration_s, 0, "", math.nan, "", "", math.nan, "error", 3, "error", False, False, "", spent
         )
-        failed = replace(failed, error=_said(error), failed_at="simulator", operating=operating)
+        failed = replace(failed, error=_said(error), failed_at="simulator", operating=operating, vee=vee)
         return [replace(failed, load_told=told, points=points) for told, points in plan]
     truth = case.truth
     # the true cylinder, bearing or channel, as the findings name it
@@ -227,6 +236,7 @@ def run_ways(
             true_load=float(truth["true_load"]),
             load_type=str(truth["load_type"]),
             charge_law=str(truth["charge_law"]),
+            vee=vee,
         )
 
     cylinders = 0
@@ -307,7 +317,7 @@ def _outcome(
     why = [n.removeprefix("inconclusive: ") for n in diagnosis.notes if n.startswith("inconclusive: ")]
     share = math.nan
     if truth["class"] in ("misfire", "weak") and diagnosis.balance is not None:
-        share = float(diagnosis.balance.relative[int(truth["cylinder"]) - 1])
+        share = float(diagnosis.balance.relative[int(truth.get("cylinder_index", truth["cylinder"])) - 1])
     top = findings[0][0] if findings else diagnosis.status
     return Outcome(
         seed,
@@ -434,7 +444,7 @@ def at_point(everything: list[Outcome]) -> list[Outcome]:
     return [
         o
         for o in everything
-        if o.operating == "baseline point" and o.load_told and o.failed_at != "simulator"
+        if o.operating == "baseline point" and o.load_told and o.failed_at != "simulator" and not o.vee
     ]
 
 
@@ -554,7 +564,7 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
             f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | {o.truth} | "
             f"{o.subject} | {o.status} | {said.replace('|', '/')} |"
         )
-    lines += ["", *_operating_section(everything)]
+    lines += ["", *_operating_section([o for o in everything if not o.vee]), *vee_section(everything)]
     return "\n".join(lines)
 
 
@@ -612,6 +622,10 @@ def main(argv: list[str] | None = None) -> int:
         help="cases off the baseline's operating point, each class equally likely (default 540)",
     )
     parser.add_argument("--off-point-first-seed", type=int, default=OFF_POINT_FIRST_SEED)
+    parser.add_argument(
+        "--vee-cases", type=int, default=0, help="V engines' cases at their point (default 0)"
+    )
+    parser.add_argument("--vee-first-seed", type=int, default=VEE_FIRST_SEED)
     parser.add_argument("--out", type=Path, default=DOCS / "diagnosis-validation.md")
     parser.add_argument(
         "--rules-doc",
@@ -624,16 +638,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.rules_doc is None and args.out == DOCS / "diagnosis-validation.md":
         args.rules_doc = DOCS / "diagnosis.md"
     ways = (True, False)
-    jobs = [(args.first_seed + i, case_length(i), "baseline point") for i in range(args.cases)]
+    jobs = [(args.first_seed + i, case_length(i), "baseline point", False) for i in range(args.cases)]
     jobs += [
-        (args.off_point_first_seed + i, off_point_length(i), "random") for i in range(args.off_point_cases)
+        (args.off_point_first_seed + i, off_point_length(i), "random", False)
+        for i in range(args.off_point_cases)
     ]
+    jobs += [(args.vee_first_seed + i, vee_length(i), "baseline point", True) for i in range(args.vee_cases)]
     outcomes: list[Outcome] = []
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         futures = [
-            pool.submit(run_ways, seed, duration, operating, ways, across_law=True)
-            for seed, duration, operating in jobs
+            pool.submit(
+                run_ways, seed, duration, operating, ways[: 1 if vee else 2], across_law=True, vee=vee
+            )
+            for seed, duration, operating, vee in jobs
         ]
         for done, future in enumerate(as_completed(futures), start=1):
             outcomes += future.result()

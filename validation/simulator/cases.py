@@ -19,7 +19,7 @@ from validation.simulator.channels import (
 )
 from validation.simulator.crank import CrankRun, LoadStep, operating_load, run_crank
 from validation.simulator.description import engine_description
-from validation.simulator.engine import SimEngine, random_engine
+from validation.simulator.engine import SimEngine
 from validation.simulator.gas import (
     CHARGE_LAWS,
     HEAT_LEVELS,
@@ -38,6 +38,7 @@ from validation.simulator.kinematics import bearing_split
 from validation.simulator.operating import OperatingPoint, draw_operating_point, law_range
 from validation.simulator.scenario import Scenario, draw_scenario
 from validation.simulator.shared import NOISE_STREAM, TWIN_WORD, FloatArray
+from validation.simulator.vee_engine import engine_of_seed
 
 
 @dataclass(frozen=True)
@@ -75,17 +76,19 @@ def _simulate(
     duration_s: float,
     fault: str | None,
     operating: str | OperatingPoint = "baseline point",
+    vee: bool = False,
 ) -> Case:
     """A case: ``engine_seed`` gives engine, installation, description, operating point and fault.
 
     ``operating`` a class of :data:`~validation.simulator.operating.OPERATING_CLASSES` (or
     "random") draws the point; an :class:`OperatingPoint` is a healthy twin's, at that point.
+    ``vee`` takes the seed's V engine (:func:`~validation.simulator.vee_engine.random_vee_engine`).
     """
     if not (math.isfinite(duration_s) and duration_s >= 1.0):
         raise ValueError(f"duration_s = {duration_s!r}: expected a duration of at least 1 s")
     if noise_seed < 0:
         raise ValueError(f"seed = {noise_seed}: expected an integer >= 0")
-    engine = random_engine(engine_seed)
+    engine = engine_of_seed(engine_seed, vee)
     install = random_installation(engine)
     toml_text = engine_description(engine)
     if isinstance(operating, OperatingPoint):  # a healthy twin, or a healthy run, at the point given
@@ -109,7 +112,7 @@ def _simulate(
     data = _with_hum_and_noise(clean, install, rng)
     truth: dict[str, Any] = {
         "class": scenario.fault,
-        "cylinder": scenario.cylinder,
+        "cylinder": _cylinder_name(engine, scenario.cylinder),
         "bearing": None,
         "channel": None,
         "strength": None,
@@ -158,6 +161,8 @@ def _simulate(
         charge_law=point.charge_law,
         crank_only=point.crank_only,
     )
+    if engine.is_vee:
+        truth.update(vee=True, cylinder_index=scenario.cylinder, cylinder_names=engine.cylinder_names)
     return Case(
         seed=noise_seed if twin else engine_seed,
         engine_toml=toml_text,
@@ -165,6 +170,13 @@ def _simulate(
         load_given=true_load * scenario.given_ratio,
         truth=truth,
     )
+
+
+def _cylinder_name(engine: SimEngine, cylinder: int | None) -> int | str | None:
+    """A faulty cylinder as the truth names it: its number in line, its name (``"B3"``) on a V."""
+    if cylinder is None or not engine.is_vee:
+        return cylinder
+    return engine.cylinder_names[cylinder - 1]
 
 
 def _operating_table(engine: SimEngine, engine_seed: int, load: float, charge_law: str) -> CycleTable:
@@ -180,7 +192,7 @@ def _operating_table(engine: SimEngine, engine_seed: int, load: float, charge_la
         speed=speed_guess,
         charge_pressure=CHARGE_LAWS[charge_law](engine, load),
         fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
-        heat_reference=rated_of_seed(engine_seed)[0],
+        heat_reference=rated_of_seed(engine_seed, engine.is_vee)[0],
     )
 
 
@@ -306,6 +318,7 @@ def random_case(
     duration_s: float,
     fault: str | None = "random",
     operating: str | OperatingPoint = "baseline point",
+    vee: bool = False,
 ) -> Case:
     """Simulate one validation case.
 
@@ -324,6 +337,9 @@ def random_case(
         the case runs where its healthy twin does), or "random": a class off the baseline's point
         (:func:`~validation.simulator.operating.draw_operating_point`); or a point, where the
         engine then runs healthy (``fault`` only draws the load told).
+    vee : bool, optional
+        A V engine (:func:`~validation.simulator.vee_engine.random_vee_engine`) instead of the
+        seed's in-line one.
 
     Returns
     -------
@@ -335,6 +351,8 @@ def random_case(
         unit_per_9.81), ``true_load`` (mean IMEP of all cylinders over the rated IMEP), the mean
         speed (``mean_speed_rpm``, also ``speed_rpm``), ``cycle``, ``cylinders``, the IMEP and peak
         pressure of every cylinder, the reversal angles and bursts of a worn bearing, and the seeds;
+        on a V engine ``cylinder`` is the name (``"B3"``), ``cylinder_index`` its 1-based index in the
+        order ``A1..Am, B1..Bm``, and ``vee`` is True;
         and where it ran: ``operating_class``, ``baseline_load`` (the twin's), ``test_loads`` (the
         healthy engine's, drawn), ``segment_loads`` (as run, each side of a step), ``step_time_s``
         (from the recording's start; None without a step), ``charge_law`` and ``crank_only``.
@@ -346,7 +364,7 @@ def random_case(
     SimulationError
         For a misfire asked of a single-cylinder engine.
     """
-    return _simulate(seed, seed, twin=False, duration_s=duration_s, fault=fault, operating=operating)
+    return _simulate(seed, seed, twin=False, duration_s=duration_s, fault=fault, operating=operating, vee=vee)
 
 
 def healthy_twin(case: Case, *, seed: int, load: float | None = None) -> Case:
@@ -383,6 +401,7 @@ def healthy_twin(case: Case, *, seed: int, load: float | None = None) -> Case:
         duration_s=float(truth["duration_s"]),
         fault=None,
         operating=point,
+        vee=bool(truth.get("vee", False)),
     )
 
 
@@ -398,7 +417,7 @@ def law_loads(case: Case) -> tuple[float, float]:
     tuple of float
         As :func:`~validation.simulator.operating.law_range` [-].
     """
-    return law_range(random_engine(int(case.truth["engine_seed"])))
+    return law_range(engine_of_seed(int(case.truth["engine_seed"]), bool(case.truth.get("vee", False))))
 
 
 def population(

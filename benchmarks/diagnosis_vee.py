@@ -1,0 +1,111 @@
+"""The V engines of docs/diagnosis-validation.md: their cases' seeds, lengths and table rows.
+
+A V engine's case (``validation.simulator.random_case(seed, ..., vee=True)``) runs at its baseline's
+operating point, told its load, from a seed range of its own (:data:`VEE_FIRST_SEED`); the truth
+names its cylinders by bank (``"B3"``) as the product's findings do (``cylinder B3``). Its rows stand
+apart from the in-line population's, whose tables stay as they always were.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from typing import Protocol
+
+#: The first seed of the V engines' cases (dated, like the others, by their seed modulo 100,000
+#: minutes after 2026-01-01).
+VEE_FIRST_SEED = 300_000
+#: Their recordings' lengths, in turn [s].
+VEE_DURATIONS = (10.0, 30.0)
+CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
+
+
+class VeeCase(Protocol):
+    """What the V rows read of a case's outcome (benchmarks.diagnosis_validation.Outcome)."""
+
+    duration_s: float
+    truth: str
+    strength: float
+    exit_code: int
+    named: bool
+    alarm: bool
+    failed_at: str
+    vee: bool
+    load_told: bool
+
+
+def vee_length(index: int) -> float:
+    """The recording's length [s] of the ``index``-th V engine's case.
+
+    Parameters
+    ----------
+    index : int
+
+    Returns
+    -------
+    float
+    """
+    return VEE_DURATIONS[index % len(VEE_DURATIONS)]
+
+
+def _rate(group: Sequence[VeeCase]) -> str:
+    hits = sum(o.named for o in group)
+    return f"{hits}/{len(group)} ({100 * hits / len(group):.0f} %)" if group else "-"
+
+
+def vee_section(outcomes: Sequence[VeeCase]) -> list[str]:
+    """The V engines' rows (Markdown lines), empty when the run had none.
+
+    Parameters
+    ----------
+    outcomes : sequence of Outcome
+        Every outcome of the run; the V engines' are picked out.
+
+    Returns
+    -------
+    list of str
+    """
+    vee = [o for o in outcomes if o.vee and o.load_told]
+    if not vee:
+        return []
+    failed = [o for o in vee if o.failed_at == "simulator"]
+    made = [o for o in vee if o.failed_at != "simulator"]
+    lines = [
+        "## V engines",
+        "",
+        f"{len(vee)} cases of V engines (`--vee-cases`, seeds from {VEE_FIRST_SEED}, "
+        "`validation.simulator.random_case(seed, duration_s=..., vee=True)`): medium-speed (45-60 deg V, "
+        "500-1000 rpm) and high-speed (60-90 deg V, 1200-1900 rpm) four-strokes of 12 to 20 cylinders, "
+        "side-by-side or fork-and-blade rods, each bank firing as an in-line engine; at their baseline's "
+        "point, told their load. A cylinder is named by bank (`cylinder B3`); `named` as above. "
+        f"Cases the simulator could not make: {len(failed)}.",
+        "",
+        "| V engines: true class | length [s] | cases | named | exit 0 | exit 1 | exit 2 | exit 3 |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for truth in CLASSES:
+        for duration in sorted({o.duration_s for o in made}):
+            group = [o for o in made if o.truth == truth and o.duration_s == duration]
+            if not group:
+                continue
+            exits = Counter(o.exit_code for o in group)
+            lines.append(
+                f"| {truth} | {duration:g} | {len(group)} | {_rate(group)} | "
+                + " | ".join(str(exits.get(code, 0)) for code in range(4))
+                + " |"
+            )
+    healthy = [o for o in made if o.truth == "healthy"]
+    worn = [o for o in made if o.truth == "worn_bearing"]
+    weak = [o for o in made if o.truth == "weak" and o.duration_s >= 30.0 and o.strength <= 0.70]
+    lines += [
+        "",
+        "| V engines | measured |",
+        "|---|---|",
+        f"| misfire named (right cylinder) | {_rate([o for o in made if o.truth == 'misfire'])} |",
+        f"| weak cylinder at or below 70 % named, 30 s or longer | {_rate(weak)} |",
+        f"| worn bearing named at the right bearing | {_rate(worn)} |",
+        f"| healthy runs exit 0 | {sum(o.exit_code == 0 for o in healthy)}/{len(healthy)} |",
+        f"| alarms on healthy runs | {sum(o.alarm for o in healthy)} |",
+        "",
+    ]
+    return lines

@@ -1,0 +1,71 @@
+"""V engines' validation cases: the truth names cylinders by bank, as the product's findings do."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from benchmarks.diagnosis_validation import Outcome, _named, at_point, classify
+from benchmarks.diagnosis_vee import vee_section
+from validation.simulator import Case, description_engine, healthy_twin, law_loads, random_case
+from validation.simulator.vee_engine import random_vee_engine
+
+
+@pytest.fixture(scope="module")
+def misfire() -> Case:
+    return random_case(300007, duration_s=1.5, fault="misfire", vee=True)
+
+
+def test_vee_misfire_case_names_its_cylinder_by_bank(misfire: Case) -> None:
+    truth = misfire.truth
+    engine = random_vee_engine(300007)
+    assert truth["vee"] is True and truth["cylinders"] == engine.cylinders
+    index = truth["cylinder_index"]
+    assert truth["cylinder"] == engine.cylinder_names[index - 1]
+    assert truth["cylinder"][0] in "AB" and truth["cylinder_names"] == engine.cylinder_names
+    imep = np.asarray(truth["imep_bar"])
+    others = np.delete(imep, index - 1)
+    assert imep[index - 1] < 0.2 * others.mean()  # the motored cylinder, by its index
+    assert description_engine(misfire.engine_toml).cylinder_names[index - 1] == truth["cylinder"]
+    assert misfire.recording.engine_id == engine.ident
+    assert all(
+        c.name.endswith("-vertical") and 1 <= int(c.name[2:].split("-")[0]) <= engine.throws + 1
+        for c in misfire.recording.channels
+        if c.name.startswith("mb")
+    )
+
+
+def test_vee_twin_is_the_same_v_engine(misfire: Case) -> None:
+    twin = healthy_twin(misfire, seed=1_300_007)
+    assert twin.truth["vee"] is True and twin.truth["class"] == "healthy"
+    assert twin.engine_toml == misfire.engine_toml
+    low, high = law_loads(misfire)
+    assert 0 < low < high <= 1.0 + 1e-9
+
+
+def test_findings_on_a_vee_cylinder_match_the_truth() -> None:
+    finding = SimpleNamespace(kind="cylinder", subject="cylinder B3", summary="low torque (misfiring)")
+    assert classify(finding) == ("misfire", "B3")
+    truth = {"class": "misfire", "cylinder": "B3"}
+    assert _named(truth, [("misfire", "B3", "alarm")])
+    assert not _named(truth, [("misfire", "A3", "alarm")])
+
+
+def _outcome(truth: str, named: bool, vee: bool, exit_code: int) -> Outcome:
+    return Outcome(
+        300000, 10.0, 12, "four-stroke", 750.0, truth, "B3", math.nan, "alarm", exit_code, truth, named,
+        exit_code == 2, "", 1.0, vee=vee,
+    )  # fmt: skip
+
+
+def test_vee_outcomes_have_their_own_rows() -> None:
+    outcomes = [_outcome("misfire", True, True, 2), _outcome("healthy", True, True, 0)]
+    outcomes += [_outcome("misfire", False, False, 2)]
+    assert at_point(outcomes) == outcomes[2:]
+    lines = vee_section(outcomes)
+    assert lines[0] == "## V engines"
+    assert any(line.startswith("| misfire | 10 | 1 | 1/1 (100 %) |") for line in lines)
+    assert vee_section(outcomes[2:]) == []
