@@ -21,17 +21,35 @@ CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 
 
 class VeeCase(Protocol):
-    """What the V rows read of a case's outcome (benchmarks.diagnosis_validation.Outcome)."""
+    """What the V rows read of a case's outcome (benchmarks.diagnosis_validation.Outcome; read-only,
+    as that frozen dataclass's fields are)."""
 
-    duration_s: float
-    truth: str
-    strength: float
-    exit_code: int
-    named: bool
-    alarm: bool
-    failed_at: str
-    vee: bool
-    load_told: bool
+    @property
+    def duration_s(self) -> float: ...
+
+    @property
+    def truth(self) -> str: ...
+
+    @property
+    def strength(self) -> float: ...
+
+    @property
+    def exit_code(self) -> int: ...
+
+    @property
+    def named(self) -> bool: ...
+
+    @property
+    def alarm(self) -> bool: ...
+
+    @property
+    def failed_at(self) -> str: ...
+
+    @property
+    def vee(self) -> bool: ...
+
+    @property
+    def load_told(self) -> bool: ...
 
 
 def vee_length(index: int) -> float:
