@@ -69,3 +69,10 @@ def test_vee_outcomes_have_their_own_rows() -> None:
     assert lines[0] == "## V engines"
     assert any(line.startswith("| misfire | 10 | 1 | 1/1 (100 %) |") for line in lines)
     assert vee_section(outcomes[2:]) == []
+
+
+def test_vee_worn_bearing_knocks_where_its_planar_load_is_least() -> None:
+    case = random_case(300003, duration_s=2.0, fault="worn_bearing", vee=True)
+    truth = case.truth
+    assert truth["class"] == "worn_bearing" and truth["reversal"] in ("plane", "minimum")
+    assert truth["burst_count"] > 0 and truth["channel"] == f"mb{truth['bearing']}-vertical"

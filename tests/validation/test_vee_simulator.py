@@ -220,8 +220,8 @@ def test_ninety_degree_twin_primary_is_a_rotating_force() -> None:
 
 
 def test_vee_bearing_rows_of_a_crank_run_are_the_vertical_forces() -> None:
-    """A V engine's kept force rows are the lever split of each cylinder's vertical force, recomputed
-    here from the run's speed and acceleration and each cylinder's own crank angle."""
+    """A V engine's kept force rows are the lever split of each cylinder's vertical (and horizontal)
+    force, recomputed here from the run's speed and acceleration and each cylinder's own crank angle."""
     engine = random_vee_engine(300000)
     table = cycle_table(
         engine,
@@ -233,7 +233,15 @@ def test_vee_bearing_rows_of_a_crank_run_are_the_vertical_forces() -> None:
     load, _, speed = operating_load(engine, table, 0.7, np.ones(engine.cylinders))
     split = bearing_split(engine.cylinder_positions, engine.bearing_positions, engine.throw_bearings)
     run = run_crank(
-        engine, table, load, fuel=0.0, end_time=0.05, initial_speed=speed, mixes=split, settle_start=False
+        engine,
+        table,
+        load,
+        fuel=0.0,
+        end_time=0.05,
+        initial_speed=speed,
+        mixes=split,
+        horizontal_mixes=split,
+        settle_start=False,
     )
     alpha = run.step * np.arange(run.time.size)
     psi = alpha[None, :] - engine.firing_angles[:, None]
@@ -241,9 +249,16 @@ def test_vee_bearing_rows_of_a_crank_run_are_the_vertical_forces() -> None:
     pressure = np.stack(
         [np.interp(row, table.crank_angle, table.pressure[0], period=4 * math.pi) for row in local]
     )
-    assert run.forces.shape == (engine.bearing_count, run.time.size)
+    b = engine.bearing_count
+    assert run.forces.shape == (2 * b, run.time.size)
     forces = cylinder_vertical_forces(engine, psi, pressure, run.speed, run.acceleration)
-    assert np.allclose(run.forces, split @ forces, rtol=1e-4, atol=1e-4 * np.abs(forces).max())
+    assert np.allclose(run.forces[:b], split @ forces, rtol=1e-4, atol=1e-4 * np.abs(forces).max())
+    # the horizontal rows: each cylinder's along and across forces turned by its lean, here
+    along = throw_vertical_force(engine, psi, pressure, run.speed, run.acceleration)
+    across = throw_across_force(engine, psi, pressure, run.speed, run.acceleration)
+    lean = engine.cylinder_leans[:, None]
+    x = np.sin(lean) * along + np.cos(lean) * across
+    assert np.allclose(run.forces[b:], split @ x, rtol=1e-4, atol=1e-4 * np.abs(x).max())
 
 
 @pytest.mark.parametrize("seed", VEE_SEEDS + tuple(range(300020, 300040)))

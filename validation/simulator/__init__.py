@@ -65,7 +65,9 @@ sometimes a keyphasor.
 Faults (one per case, or none).  ``misfire``: one cylinder motored.  ``weak``: one cylinder's heat
 release times 0.5-0.8.  ``worn_bearing``: short decaying 2-8 kHz bursts (a two-pole resonator
 struck at each event) on a bearing's sensor where that bearing's vertical load reverses sign
-(where it never does, at the prominent minima of its magnitude), 3-6 times that sensor's noise,
+(where it never does, at the prominent minima of its magnitude; on a V engine, whose bearing loads
+turn in the plane with horizontal parts as large as the vertical, at the prominent minima of the
+load's planar magnitude, where the journal crosses its clearance), 3-6 times that sensor's noise,
 and on the other sensors with that ratio times 0.15-0.35 per bearing of distance.
 ``sensor_fault``: one bearing channel clipped (its range lowered until the peaks are cut),
 dead (flat, or noise only), or in the wrong unit (data x 1000 or / 9.81, range with them).

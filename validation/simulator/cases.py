@@ -120,7 +120,7 @@ def _simulate(
     }
     if scenario.fault == "worn_bearing":
         bursts, details = worn_bearing_bursts(
-            run, engine.cycle_angle, install, scenario, pre, duration_s, rng
+            run, engine.cycle_angle, install, scenario, pre, duration_s, rng, planar=engine.is_vee
         )
         data += bursts
         truth.update(details)
@@ -241,6 +241,8 @@ def _run(
         fault_factors=factors,
         variation=variation,
         mixes=np.vstack([sensor_mix(engine, install.crosstalk), pure]),
+        # a V engine's bearing loads turn in the plane: their horizontal too, for a worn bearing's knocks
+        horizontal_mixes=pure if engine.is_vee else None,
         points_per_revolution=ppr,
         step=(
             LoadStep(pre + point.step_fraction * duration_s, after[0][0], after[0][1], tables[1])

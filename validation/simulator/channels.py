@@ -65,6 +65,15 @@ def _reversals(force: npt.NDArray[np.float32], hysteresis: float) -> tuple[Float
     return minima.astype(np.float64), "minimum"
 
 
+def _load_minima(magnitude: FloatArray) -> tuple[FloatArray, str]:
+    """Fractional grid indices of a planar load's prominent minima (prominence 0.2 of its span, below
+    its mean): where it turns, the journal crossing its clearance ("plane"; none found: "minimum")."""
+    spread = float(magnitude.max() - magnitude.min())
+    minima, _ = signal.find_peaks(-magnitude, prominence=0.2 * spread)
+    minima = minima[magnitude[minima] < magnitude.mean()]
+    return minima.astype(np.float64), "plane" if minima.size else "minimum"
+
+
 def _events(
     run: CrankRun,
     offset: float,
@@ -118,10 +127,15 @@ def worn_bearing_bursts(
     pre: float,
     duration_s: float,
     rng: np.random.Generator,
+    *,
+    planar: bool = False,
 ) -> tuple[FloatArray, dict[str, Any]]:
     """Ringing bursts at a bearing's load reversals, as seen by every sensor, shape (s, samples).
 
-    ``cycle`` is the engine's cycle angle [rad].
+    ``cycle`` is the engine's cycle angle [rad]. ``planar`` (a V engine, whose run keeps each sensor
+    bearing's horizontal load after its vertical one): the load turns in the plane, and the journal
+    crosses its clearance where the load's magnitude has its prominent minima, not where its
+    vertical alone changes sign.
     """
     fs = install.sample_rate
     count = len(install.sensor_bearings)
@@ -129,8 +143,11 @@ def worn_bearing_bursts(
     found = []
     for s in range(count):
         force = run.forces[count + s]
-        found.append(_reversals(force, 0.03 * float(np.abs(force).max())))
-    pool = [s for s in range(count) if found[s][1] == "sign"] or list(range(count))
+        if planar:
+            found.append(_load_minima(np.hypot(force, run.forces[2 * count + s])))
+        else:
+            found.append(_reversals(force, 0.03 * float(np.abs(force).max())))
+    pool = [s for s in range(count) if found[s][1] in ("sign", "plane")] or list(range(count))
     worn = pool[min(int(scenario.bearing_choice * len(pool)), len(pool) - 1)]
     where, how = found[worn]
     when = _cubic(run.time, where) - pre

@@ -128,6 +128,7 @@ def run_crank(
     fault_factors: npt.ArrayLike | None = None,
     variation: Callable[[int], FloatArray] | None = None,
     mixes: npt.ArrayLike | None = None,
+    horizontal_mixes: npt.ArrayLike | None = None,
     points_per_revolution: int = 720,
     settle_start: bool = True,
     step: LoadStep | None = None,
@@ -153,6 +154,8 @@ def run_crank(
         index, shape (n,), called once per firing in increasing order; default none.
     mixes : array_like, shape (R, n), optional
         Rows of throw-force weights whose sums to keep (bearing sensors' views) [-].
+    horizontal_mixes : array_like, shape (H, n), optional
+        On a V engine, rows of weights of the cylinders' horizontal forces to keep after those [-].
     points_per_revolution : int, optional
         Grid points per revolution.
     settle_start : bool, optional
@@ -192,6 +195,7 @@ def run_crank(
         variation=variation,
         mixes=mixes,
         points_per_revolution=points_per_revolution,
+        horizontal_mixes=horizontal_mixes,
     )
     cycle = engine.cycle_angle
     energy0 = 0.5 * float(crank.inertia[0]) * initial_speed**2
@@ -274,6 +278,7 @@ class _AngleWindows:
         variation: Callable[[int], FloatArray] | None,
         mixes: npt.ArrayLike | None,
         points_per_revolution: int,
+        horizontal_mixes: npt.ArrayLike | None = None,
     ) -> None:
         n = engine.cylinders
         self.engine, self.load, self.variation = engine, load, variation
@@ -295,8 +300,15 @@ class _AngleWindows:
         self.arm = -engine_kinematics(engine, psi).piston_1  # dx/dpsi, piston travel from TDC
         if engine.is_vee:  # each cylinder's vertical force: along and across its leaning axis
             g, k2, k1 = vertical_force_coefficients(engine, psi)
-            self.gas_rows = weights[:, :, None] * g[None, :, :]
-            self.k2_rows, self.k1_rows = -(weights @ k2), -(weights @ k1)
+            across = (
+                np.zeros((0, n))
+                if horizontal_mixes is None
+                else np.atleast_2d(np.asarray(horizontal_mixes, float))
+            )
+            gh, k2h, k1h = vertical_force_coefficients(engine, psi, horizontal=True)
+            self.gas_rows = np.concatenate([weights[:, :, None] * g[None], across[:, :, None] * gh[None]])
+            self.k2_rows = -np.vstack([weights @ k2, across @ k2h])
+            self.k1_rows = -np.vstack([weights @ k1, across @ k1h])
         else:
             k2, k1 = inertia_force_coefficients(engine, psi)
             self.k2_rows, self.k1_rows = weights @ k2, weights @ k1

@@ -269,7 +269,7 @@ def throw_across_force(
 
 
 def vertical_force_coefficients(
-    engine: SimEngine, psi: npt.ArrayLike
+    engine: SimEngine, psi: npt.ArrayLike, *, horizontal: bool = False
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``G, K2, K1`` of each cylinder's force on its bearings along the engine's vertical.
 
@@ -278,6 +278,8 @@ def vertical_force_coefficients(
     engine : SimEngine
     psi : array_like, shape (n, ...)
         Each cylinder's crank angle from its TDC [rad].
+    horizontal : bool, optional
+        Along the engine's horizontal (``+x``) instead: ``sin(lambda) F_along + cos(lambda) F_across``.
 
     Returns
     -------
@@ -295,6 +297,8 @@ def vertical_force_coefficients(
     c, s = np.cos(lean), np.sin(lean)
     a2, a1 = inertia_force_coefficients(engine, angle)
     g, k2, k1 = across_force_coefficients(engine, angle)
+    if horizontal:
+        return np.asarray(-s + c * g), np.asarray(-s * a2 + c * k2), np.asarray(-s * a1 + c * k1)
     return np.asarray(-c - s * g), np.asarray(-c * a2 - s * k2), np.asarray(-c * a1 - s * k1)
 
 
