@@ -7,10 +7,11 @@ ones do. For each case the product is given what a user has: the engine file, a 
 of the same engine to calibrate on (the case's healthy twin), the recording, and a load that is
 off by up to 10 %. Its verdict is compared with what the simulator put in.
 
-    python -m benchmarks.diagnosis_validation [--cases 540] [--off-point-cases 540] [--workers 2]
+    python -m benchmarks.diagnosis_validation [--cases 540] [--off-point-cases 540] [--vee-cases 0]
 
 Cases off the baseline's operating point (another load or speed, a load step mid-recording, crank
-speed alone) are diagnosed told their load and not told it: benchmarks/diagnosis_operating.py.
+speed alone) are diagnosed told their load and not told it: benchmarks/diagnosis_operating.py. V
+engines' cases (12-20 cylinders, named by bank) have rows of their own: benchmarks/diagnosis_vee.py.
 
 Every number in the document comes from the run that wrote it; each case's row is written beside it
 as JSON (docs/diagnosis-validation.json, not kept in the repository).
