@@ -150,8 +150,7 @@ def run_crank(
     fault_factors : array_like, shape (n,), optional
         Each cylinder's fuel multiplier (0 misfire, 0.5-0.8 weak) [-]; default all 1.
     variation : callable, optional
-        ``variation(firing)`` gives the cylinders' cycle-to-cycle fuel multipliers of that firing
-        index, shape (n,), called once per firing in increasing order; default none.
+        ``variation(firing)``: the cylinders' fuel multipliers of that firing, shape (n,), called in order.
     mixes : array_like, shape (R, n), optional
         Rows of throw-force weights whose sums to keep (bearing sensors' views) [-].
     horizontal_mixes : array_like, shape (H, n), optional
@@ -159,8 +158,7 @@ def run_crank(
     points_per_revolution : int, optional
         Grid points per revolution.
     settle_start : bool, optional
-        Scale the first cycle's energy so that its mean speed is ``initial_speed`` (start on the
-        periodic orbit).
+        Start on the periodic orbit (the first cycle's energy scaled to mean ``initial_speed``).
     step : LoadStep, optional
         A change of load during the run; default none.
 
@@ -207,8 +205,7 @@ def run_crank(
     force_parts: list[FloatArray] = []
     cycle_speed: list[float] = []
     t0, k, integral = 0.0, 0, 0.0
-    kp, ki = load.governor_gains
-    base = fuel
+    (kp, ki), base = load.governor_gains, fuel
     while t0 < end_time:
         if step is not None and crank.switch_column < 0 and t0 >= step.time:
             base, (kp, ki) = step.fuel, step.load.governor_gains
@@ -218,8 +215,7 @@ def run_crank(
         speeds.append(omega[:-1])
         accels.append(accel[:-1])
         force_parts.append(forces[:, :-1].astype(np.float32))
-        mean = cycle / (time[-1] - time[0])
-        cycle_speed.append(mean)
+        cycle_speed.append(mean := cycle / (time[-1] - time[0]))
         if crank.load.kind == "generator":
             error = (crank.load.speed_reference - mean) / crank.load.speed_reference
             integral += error
