@@ -64,6 +64,7 @@ from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
     DEFAULT_BOUNDARIES_MM_S,
     VelocityRms,
+    limits_named,
     velocity_rms,
     zone_of,
 )
@@ -394,7 +395,7 @@ def diagnose(
         with_baseline=baseline is not None,
         cylinders_changed=any(f.kind == "cylinder" for f in findings),
     )
-    velocity, zone_findings = _zones(recording, rms, boundaries)
+    velocity, zone_findings = _zones(recording, rms, boundaries, stated=limits is not None)
     findings += zone_findings
     status = _status(findings, analysis, engine, notes, undecided)
     order = {"alarm": 0, "warning": 1}
@@ -660,7 +661,7 @@ def _cylinder_findings(
 
 
 def _zones(
-    recording: Recording, rms: dict[str, VelocityRms], boundaries: tuple[float, float, float]
+    recording: Recording, rms: dict[str, VelocityRms], boundaries: tuple[float, float, float], stated: bool
 ) -> tuple[dict[str, tuple[VelocityRms, str]], list[Finding]]:
     """Each vibration channel's rms velocity with its zone; a finding for each in zone C or D."""
     velocity = {}
@@ -680,7 +681,7 @@ def _zones(
                     summary=(
                         f"{channel.name} ({channel.location or 'location not given'}): {v.value:.2f} "
                         f"mm/s rms over {v.band_hz[0]:g}-{v.band_hz[1]:g} Hz, zone {zone} "
-                        f"(boundary {limit:g} mm/s)"
+                        f"(boundary {limit:g} mm/s; {limits_named(boundaries, stated=stated)})"
                     ),
                     confidence=confidence_beyond((v.value - limit) / max(v.error, 1e-12)),
                     evidence=[

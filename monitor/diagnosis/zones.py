@@ -32,7 +32,16 @@ import numpy as np
 from monitor.errors import SignalError
 from monitor.io.recording import Channel
 
-__all__ = ["DEFAULT_BAND_HZ", "DEFAULT_BOUNDARIES_MM_S", "SEGMENTS", "VelocityRms", "velocity_rms", "zone_of"]
+__all__ = [
+    "DEFAULT_BAND_HZ",
+    "DEFAULT_BOUNDARIES_MM_S",
+    "SEGMENTS",
+    "VelocityRms",
+    "healthy_zone_notes",
+    "limits_named",
+    "velocity_rms",
+    "zone_of",
+]
 
 # each unit a channel may be stored in (monitor.io.recording.UNITS), in SI (m/s^2, m/s)
 _TO_SI = {
@@ -145,3 +154,59 @@ def zone_of(value: float, boundaries: tuple[float, float, float]) -> str:
         if value < limit:
             return zone
     return "D"
+
+
+def limits_named(boundaries: tuple[float, float, float], *, stated: bool) -> str:
+    """The zone boundaries in words, saying whose they are.
+
+    Parameters
+    ----------
+    boundaries : tuple of float
+        A/B, B/C, C/D [mm/s].
+    stated : bool
+        Whether the engine file states them (else they are the product's defaults).
+
+    Returns
+    -------
+    str
+    """
+    values = "/".join(f"{b:g}" for b in boundaries)
+    if stated:
+        return f"the engine file's limits {values} mm/s"
+    return f"the product's default limits {values} mm/s (state the agreed ones in [vibration_limits])"
+
+
+def healthy_zone_notes(
+    velocity: dict[str, float], boundaries: tuple[float, float, float], *, stated: bool, label: str
+) -> list[str]:
+    """A line for each channel of a recording calibrated as healthy that is already in zone C or D.
+
+    The zones are absolute: an engine whose healthy state is in zone C (a structural resonance near
+    a running speed, limits not agreed for the machine) is judged against them at every later
+    recording, so the calibration says so at once, while the limits or the speed can still be
+    reviewed, instead of the first compare raising the zone as a finding.
+
+    Parameters
+    ----------
+    velocity : dict of str to float
+        Each vibration channel's rms velocity [mm/s] (NaN where not known).
+    boundaries : tuple of float
+        A/B, B/C, C/D [mm/s].
+    stated : bool
+        Whether the engine file states them.
+    label : str
+        The recording's name.
+
+    Returns
+    -------
+    list of str
+    """
+    notes = []
+    for name, value in velocity.items():
+        if math.isfinite(value) and (zone := zone_of(value, boundaries)) in ("C", "D"):
+            notes.append(
+                f"{label}: {name} reads {value:.2f} mm/s rms on this healthy recording, zone {zone} of "
+                f"{limits_named(boundaries, stated=stated)}: every recording at this point will be "
+                f"{'warned' if zone == 'C' else 'alarmed'} on it; review the limits or the running speed"
+            )
+    return notes

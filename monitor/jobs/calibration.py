@@ -19,6 +19,7 @@ from typing import Any
 from monitor.diagnosis import calibrate
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
+from monitor.diagnosis.zones import DEFAULT_BOUNDARIES_MM_S, healthy_zone_notes
 from monitor.errors import DiagnosisError
 from monitor.io import open_recording
 from monitor.jobs.analyse import FLEET_ENGINE_MISSING, recording_engine
@@ -34,7 +35,8 @@ class Calibrated:
     ----------
     points : OperatingPoints
     notes : list of str
-        A line for each recording whose load was estimated.
+        A line for each recording whose load was estimated, and for each of its vibration channels
+        already in zone C or D (:func:`monitor.diagnosis.zones.healthy_zone_notes`).
     """
 
     points: OperatingPoints
@@ -121,6 +123,14 @@ def calibrate_recordings(
                         exclude=kept,
                         progress=told,
                     )
+                )
+                baseline = baselines[-1]
+                limits = chosen.vibration_limits
+                notes += healthy_zone_notes(
+                    {name: s.velocity_rms for name, s in baseline.sensors.items()},
+                    limits.zone_boundaries_mm_s if limits is not None else DEFAULT_BOUNDARIES_MM_S,
+                    stated=limits is not None,
+                    label=labels[i],
                 )
     return Calibrated(OperatingPoints.of(baselines), notes)
 

@@ -499,7 +499,7 @@ def test_a_faulty_sensor_is_a_warning_never_an_alarm(fault: str) -> None:
 def test_vibration_zones(velocity: float, expected: tuple[str, float] | None) -> None:
     """The default zone boundaries: zone C a warning, zone D an alarm, a value on a boundary above it."""
     rms = {"mb5-vertical": VelocityRms(velocity, 0.1, (2.0, 450.0), 16)}
-    _, found = _zones(_recording(), rms, DEFAULT_BOUNDARIES_MM_S)
+    _, found = _zones(_recording(), rms, DEFAULT_BOUNDARIES_MM_S, stated=False)
     assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == ([expected] if expected else [])
 
 
