@@ -26,6 +26,7 @@ from monitor.diagnosis.baseline import Baseline
 from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_score, window_bins
 from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.errors import ModelError
+from monitor.io import read_recording
 from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts, combine_cylinders, cylinder_parts
@@ -35,6 +36,7 @@ from tests.diagnosis.test_diagnosis_physics import _model, _parts
 from validation.simulator import healthy_twin, random_case
 
 ENGINE = "medium-speed-6l32"
+SAMPLES = Path(__file__).resolve().parents[2] / "recordings" / "samples"
 
 
 def _engine() -> Engine:
@@ -273,3 +275,25 @@ def _validation_engine(text: str) -> Engine:
         path = Path(folder) / "engine.toml"
         path.write_text(text)
         return load_engine(path)
+
+
+@pytest.mark.parametrize(
+    ("engine_id", "expected"),
+    [
+        # each bank an in-line six every 120 deg, B 55 deg behind: the banks add at every third order,
+        # at order 3 to |cos(82.5 deg)| = 0.13 of the twelve cylinders (above ADD_UP = 0.05), and cancel
+        # to round-off at every other order
+        ("medium-speed-12v32", list(range(3, 25, 3))),
+        # each bank every 90 deg, the other 60 deg apart: orders 4, 8, ... (order 4 at |cos 120 deg| = 0.5)
+        ("high-speed-16v170", list(range(4, 25, 4))),
+        # the in-line six: the multiples of cylinders / revolutions, as before
+        ("medium-speed-6l32", list(range(3, 25, 3))),
+    ],
+)
+def test_the_firing_harmonics_left_to_the_engine_are_where_its_cylinders_add_up(
+    engine_id: str, expected: list[int]
+) -> None:
+    """engine_orders on a 60-tooth wheel (orders up to 0.4 x 60): the uneven V12's order 3 is kept, as
+    a threshold of 0.14 or more would lose it; a threshold at round-off would keep every order."""
+    recording = read_recording(SAMPLES / "12v32-misfire-b3.h5")
+    assert engine_orders(load_engine(engine_id), recording, firing_only=True) == expected
