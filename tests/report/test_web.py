@@ -449,3 +449,38 @@ def test_a_crank_speed_only_recording_shows_its_bearings_not_judged(browser: Any
     assert findings.location["y"] < line.location["y"] < charts.location["y"]
     expected = 1 + len(document["channels"])  # the cylinder balance and the crank speed
     assert int(browser.find_element(By.TAG_NAME, "body").get_attribute("data-charts")) == expected == 2
+
+
+def test_a_v_engines_balance_chart_names_its_cylinders_by_bank(browser: Any, tmp_path: Path) -> None:
+    """The bundled V12 sample (cylinder B3 misfiring) against a baseline of its healthy scene: the
+    finding says B3, the balance chart's axis reads A1 .. A6, B1 .. B6 under the bars, and hovering
+    over the ninth bar names it B3 in the legend, not 9."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    from monitor.scene import load_scene, simulate
+
+    scene = load_scene(ROOT / "recordings" / "scenes" / "12v32-baseline.toml").model_copy(
+        update={"duration_s": 6.0}
+    )
+    engine = load_engine(bundled_engines()["medium-speed-12v32"])
+    baseline = calibrate(simulate(scene, seed=5).recording, engine, source="12v32-baseline")
+    diagnosis = diagnose(read_hdf5(SAMPLES / "12v32-misfire-b3.h5"), engine, baseline=baseline)
+    path = tmp_path / "v12.html"
+    path.write_text(recording_page(diagnosis_document(diagnosis, recording="12v32-misfire-b3.h5")), "utf-8")
+    browser.get(path.as_uri())
+    assert "cylinder B3" in browser.find_element(By.ID, "findings").text
+    names = [f"A{k}" for k in range(1, 7)] + [f"B{k}" for k in range(1, 7)]
+    ticks = browser.execute_script(
+        "var u = enginePages.charts[0], a = u.axes[0];"
+        "return a.values(u, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12], 0, 1, 1);"
+    )
+    assert ticks == names
+    # the cursor at the ninth bar's place (x = 9 on the chart's scale): the legend names B3
+    area = browser.find_element(By.CSS_SELECTOR, "#chart-balance .u-over")
+    left, width = browser.execute_script(
+        "var u = enginePages.charts[0]; return [u.valToPos(9, 'x'), u.over.clientWidth];"
+    )
+    ActionChains(browser).move_to_element_with_offset(area, int(left - width / 2), 0).perform()
+    legend = browser.find_element(By.CSS_SELECTOR, "#chart-balance .u-legend").text
+    assert re.sub(r"\s+", "", legend).startswith("cylinderB3strength"), legend

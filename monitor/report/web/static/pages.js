@@ -76,8 +76,9 @@
     }
     var box = panel(parent, "Cylinder balance: each cylinder's strength against those firing alike (1 = healthy)",
       "chart-balance");
+    var names = b.names || null;  // a V engine's bank names; the legend says B3 where the axis does
     chart(box, [
-      { label: "cylinder" },
+      { label: "cylinder", value: function (u, v) { return names && v !== null && names[v - 1] !== undefined ? names[v - 1] : v; } },
       { label: "strength", stroke: COLOURS[0], fill: "rgba(31,119,180,0.35)",
         paths: uPlot.paths.bars({ size: [0.6, 80] }) },
       { label: "- 1 s.e.", stroke: "#555", width: 0, points: { show: true, size: 6 } },
@@ -85,7 +86,7 @@
       { label: "warning below", stroke: "#e6a100", dash: [6, 4] },
       { label: "alarm below", stroke: "#c0392b", dash: [6, 4] }
     ], [xs, ys, lo, hi, warn, alarm], { xLabel: "cylinder", yLabel: "strength [-]", integerX: true,
-      xNames: b.names,
+      xNames: names,
       extra: { scales: { x: { time: false, range: [0.5, n + 0.5] }, y: { range: [Math.min(0, Math.min.apply(null, lo.filter(function (v) { return v !== null; }).concat([0]))), 1.4] } } } });
   }
 
