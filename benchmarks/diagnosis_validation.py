@@ -456,13 +456,15 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
     by = defaultdict(list)
     for o in outcomes:
         by[(o.truth, o.duration_s)].append(o)
+    vee = sum(1 for o in everything if o.vee and o.load_told)
     lines = [
         "# Diagnosis validation on engines it was not built with",
         "",
         "Written by `make bench-diagnosis` (`python -m benchmarks.diagnosis_validation --cases "
-        f"{cases} --off-point-cases {off_point}`) on {datetime.now(UTC):%Y-%m-%d}: {cases} cases at their "
-        f"baseline's operating point and {off_point} off it, in {seconds / 60:.1f} min on {workers} "
-        "worker(s). Every number below comes from that run.",
+        f"{cases} --off-point-cases {off_point}" + (f" --vee-cases {vee}" if vee else "") + "`) on "
+        f"{datetime.now(UTC):%Y-%m-%d}: {cases} cases at their baseline's operating point and {off_point} "
+        "off it" + (f", {vee} V engines' cases at theirs" if vee else "") + f", in {seconds / 60:.1f} min on "
+        f"{workers} worker(s). Every number below comes from that run.",
         "",
         "Each case is simulated by `validation.simulator`, written apart from the product's scenes and "
         "physics (its own gas model, structure, sensors and noise): a random engine of 1 to 12 "
