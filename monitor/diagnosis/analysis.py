@@ -36,6 +36,7 @@ __all__ = [
     "bearing_sensors",
     "bearings_unjudged",
     "engine_orders",
+    "firing_together",
     "phase_partners",
     "vibration_channels",
 ]
@@ -48,6 +49,10 @@ POOR_FIT = 4.0
 #: 0.13 at a 55 deg V12's order 3, the least a bank angle of the class makes; firing angles rounded to
 #: a tenth of a degree leave at most 0.02 at order 12 (k times 0.1 deg in radians) [-].
 ADD_UP = 0.05
+#: Two cylinders whose firing phases differ by less than this at the highest order the cylinder balance
+#: uses are hardly told apart by the crank speed: their columns differ by under ``2 sin(TOGETHER / 2)``
+#: (0.77) of a column at that order and by proportionally less at every lower one [rad].
+TOGETHER = math.radians(45.0)
 
 
 def _bearing_of(channel: Channel) -> int | None:
@@ -401,3 +406,40 @@ def phase_partners(engine: Engine) -> list[int | None]:
         match = int(np.argmin(distance))
         partners.append(match if distance[match] < math.radians(1.0) else None)
     return partners
+
+
+def firing_together(engine: Engine, highest_order: float) -> str:
+    """A reason's clause naming the cylinders that fire too nearly together for the crank-speed orders
+    up to ``highest_order`` to tell them apart ("" if none do).
+
+    Two cylinders ``d`` apart in their firing angles (on the cycle) differ at order ``k`` by the phase
+    ``k d``: under :data:`TOGETHER` at the highest order, their differences from each other are hardly
+    seen. A V engine whose bank angle is, or is near, a multiple of its banks' firing interval (a 90 deg
+    V16 firing each bank every 90 deg) fires its cylinders in such pairs.
+
+    Parameters
+    ----------
+    engine : Engine
+    highest_order : float
+        The highest crank-speed order the balance used [-].
+
+    Returns
+    -------
+    str
+    """
+    cycle = 2 * math.pi * engine.cycle_revolutions
+    angles = np.mod(engine.firing_angles, cycle)
+    names = engine.cylinder_names
+    pairs = []
+    for a in range(engine.cylinders):
+        for b in range(a + 1, engine.cylinders):
+            apart = abs(float(angles[a] - angles[b]))
+            apart = min(apart, cycle - apart)
+            if apart * highest_order < TOGETHER:
+                pairs.append(f"{names[a]} and {names[b]} ({math.degrees(apart):.1f} deg)")
+    if not pairs:
+        return ""
+    return (
+        f"; cylinders that fire too nearly together for the crank-speed orders up to {highest_order:g} "
+        f"to tell apart: {', '.join(pairs)}"
+    )

@@ -39,6 +39,7 @@ from monitor.diagnosis.analysis import (
     analyse,
     bearing_sensors,
     bearings_unjudged,
+    firing_together,
     vibration_channels,
 )
 from monitor.diagnosis.balance import CylinderBalance, Transfer
@@ -283,15 +284,14 @@ def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
             )
     if engine.cylinders > 1:
         balance = analysis.balance
+        together = firing_together(engine, float(balance.orders.max())) if balance is not None else ""
         if balance is None:
             reasons.append("the cylinders were not compared (see the notes)")
         elif not balance.separable or balance.chi2_reduced > MISFIT:
-            reasons.append("the crank-speed orders do not resolve the cylinders (see the notes)")
+            reasons.append("the crank-speed orders do not resolve the cylinders (see the notes)" + together)
         elif (worst := float(np.max(balance.contrast_error))) > RESOLVED:
-            reasons.append(
-                f"the cylinders' differences are uncertain by up to {100 * worst:.0f} % (one standard "
-                "error): too little to call them healthy"
-            )
+            uncertain = f"the cylinders' differences are uncertain by up to {100 * worst:.0f} %"
+            reasons.append(uncertain + " (one standard error): too little to call them healthy" + together)
         if balance is not None and (doubt := missing_firing_doubt(balance)) is not None:
             reasons.append(doubt)
     elif analysis.balance is None and engine.combustion is not None:

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import math
+import re
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -297,3 +298,26 @@ def test_the_firing_harmonics_left_to_the_engine_are_where_its_cylinders_add_up(
     a threshold of 0.14 or more would lose it; a threshold at round-off would keep every order."""
     recording = read_recording(SAMPLES / "12v32-misfire-b3.h5")
     assert engine_orders(load_engine(engine_id), recording, firing_only=True) == expected
+
+
+def test_cylinders_firing_nearly_together_are_named_as_the_crank_speed_cannot_part() -> None:
+    """The validation simulator's V engines (their bank angle near a multiple of the banks' firing
+    interval): a V16 of 89.5 deg fires eight pairs 0.5 deg apart, named with orders up to 8; a V20 of
+    77 deg fires ten pairs 5.0 deg apart, whose phases part by 5 deg x k: under TOGETHER (45 deg) up to
+    order 8.5, not at order 10 (the V20's highest, n / 2); an even 54 deg V16 has no such pair."""
+    from monitor.diagnosis.analysis import TOGETHER, firing_together
+    from validation.simulator.description import engine_description
+    from validation.simulator.vee_engine import engine_of_seed
+
+    def engine(seed: int) -> Engine:
+        return _validation_engine(engine_description(engine_of_seed(seed, True)))
+
+    v16 = firing_together(engine(300046), 8.0)
+    pairs = re.findall(r"([AB]\d+) and ([AB]\d+) \((\d+\.\d) deg\)", v16)
+    assert len(pairs) == 8 and {a[0] + b[0] for a, b, _ in pairs} == {"AB"}, v16
+    assert {apart for *_, apart in pairs} == {"0.5"}
+    v20 = engine(300058)
+    assert math.degrees(TOGETHER) == 45.0
+    assert firing_together(v20, 8.5).count(" deg)") == 10
+    assert firing_together(v20, 10.0) == ""
+    assert firing_together(engine(300070), 8.0) == ""
