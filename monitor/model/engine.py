@@ -533,27 +533,38 @@ class Engine(_Strict):
 
     @cached_property
     def bearing_share(self) -> FloatArray:
-        """Share of each throw's force carried by each bearing, shape (bearings, cylinders).
+        """Share of each rod's force carried by each bearing, shape (bearings, cylinders).
 
-        Lever rule on a statically determinate throw: the throw's force acts at
-        its cylinder's axial position between its two bearings; without bearing
-        positions the throw is taken as midway (half to each bearing).
+        Lever rule on a statically determinate throw, each rod by its own place: Newton's law on the
+        throw (moments about one of its bearings) splits each connecting rod's force by where it acts
+        on the pin, and the two rods of a side-by-side V push in other directions at other times, so
+        they cannot be split as one force at the throw's middle. The throw's middle is midway in its
+        bay; a side-by-side V's rods stand half the bank offset either side of it (in line and
+        fork-and-blade: at it). The bearings are a cylinder pitch apart unless their positions are
+        given; without a pitch every rod is taken as midway (half to each bearing).
         """
         share = np.zeros((self.bearing_count, self.cylinders))
         positions = self.bearings.positions_m
+        pitch = self.geometry.cylinder_pitch_m
+        place = self.cylinder_positions
+        throw = np.asarray(self.cylinder_throw)
+        middle = np.array([place[throw == k].mean() for k in throw])  # each cylinder's throw's middle [m]
         for c, (b1, b2) in enumerate(self.throw_bearings):
-            if positions is None or self.geometry.cylinder_pitch_m is None:
+            if pitch is None:
                 w2 = 0.5
+            elif positions is None:
+                w2 = 0.5 + (place[c] - middle[c]) / pitch * (1.0 if b2 > b1 else -1.0)
             else:
                 z1, z2 = positions[b1 - 1], positions[b2 - 1]
-                # cylinder axis position measured from bearing 1; cylinder 1 midway in its bay
-                zc = positions[0] + 0.5 * (positions[1] - positions[0]) + self.cylinder_positions[c]
+                # throw 1's middle midway in the first bay, each rod at its place from it
+                zc = positions[0] + 0.5 * (positions[1] - positions[0]) + place[c] - middle[0]
                 w2 = (zc - z1) / (z2 - z1) if z2 != z1 else 0.5
-                if not 0.0 <= w2 <= 1.0:
-                    raise EngineDescriptionError(
-                        f"bearings.positions_m: cylinder {c + 1} at {zc:.4g} m lies outside its "
-                        f"bearings {b1} and {b2} ({z1:.4g}, {z2:.4g} m)"
-                    )
+            if not 0.0 <= w2 <= 1.0:
+                raise EngineDescriptionError(
+                    f"cylinder {self.cylinder_names[c]}: its rod, {place[c] - middle[c]:.4g} m from its "
+                    f"throw's middle, lies outside its bearings {b1} and {b2} ({w2:.3g} of the way from "
+                    f"{b1}): check bearings.positions_m and vee.bank_offset_m"
+                )
             share[b1 - 1, c] += 1.0 - w2
             share[b2 - 1, c] += w2
         return share

@@ -74,8 +74,29 @@ def test_a_v12_names_its_cylinders_by_bank_and_shares_its_throws_and_bearings() 
     np.testing.assert_allclose(engine.cylinder_positions[:6], SPACING * np.arange(6), atol=1e-15)
     np.testing.assert_allclose(engine.cylinder_positions[6:], SPACING * np.arange(6) + 0.07, atol=1e-15)
     np.testing.assert_allclose(np.degrees(engine.cylinder_axes), [-30.0] * 6 + [30.0] * 6, atol=1e-12)
-    # each bearing carries the two cylinders of each throw beside it, half each (no bearing positions)
-    assert engine.bearing_share.sum(axis=1).tolist() == [1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0]
+    # each bearing carries the two cylinders of each throw beside it: one rod's worth from each throw's
+    # pair, 1 at the ends (the shares of a pair add to round-off)
+    np.testing.assert_allclose(engine.bearing_share.sum(axis=1), [1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("offset", [0.07, -0.05, 0.0])
+def test_each_rod_of_a_side_by_side_throw_is_shared_by_its_own_place_on_the_pin(offset: float) -> None:
+    """The statics of one throw solved on its own: bearings a pitch apart, the throw's middle midway,
+    its rods half the bank offset either side; for a unit force on one rod, the two reactions from
+    force and moment balance (np.linalg.solve) are that rod's shares. A rod's force differs from its
+    partner's in direction and time, so splitting their sum at the middle (half each) is wrong by
+    offset / (2 pitch) of each rod's force; fork-and-blade (offset 0) is half each."""
+    engine = parse_engine(_vee(12, 60.0, TWELVE, rods="side-by-side", bank_offset_m=offset))
+    for c in range(engine.cylinders):
+        throw = engine.cylinder_throw[c]
+        b1, b2 = engine.throw_bearings[c]
+        z1, z2 = throw * SPACING, (throw + 1) * SPACING  # the bearings around throw k, its middle midway
+        z = 0.5 * (z1 + z2) + (offset / 2 if engine.cylinder_names[c][0] == "B" else -offset / 2)
+        # R1 + R2 = 1 (forces), R2 (z2 - z1) = 1 (z - z1) (moments about bearing b1)
+        reactions = np.linalg.solve([[1.0, 1.0], [0.0, z2 - z1]], [1.0, z - z1])
+        np.testing.assert_allclose(engine.bearing_share[[b1 - 1, b2 - 1], c], reactions, rtol=0, atol=1e-12)
+        others = np.delete(engine.bearing_share[:, c], [b1 - 1, b2 - 1])
+        assert not others.any()
 
 
 def test_a_v12_of_60_deg_fires_evenly_every_60_deg() -> None:
