@@ -76,7 +76,9 @@ def test_a_v12_names_its_cylinders_by_bank_and_shares_its_throws_and_bearings() 
     np.testing.assert_allclose(np.degrees(engine.cylinder_axes), [-30.0] * 6 + [30.0] * 6, atol=1e-12)
     # each bearing carries the two cylinders of each throw beside it: one rod's worth from each throw's
     # pair, 1 at the ends (the shares of a pair add to round-off)
-    np.testing.assert_allclose(engine.bearing_share.sum(axis=1), [1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(
+        engine.bearing_share.sum(axis=1), [1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0], atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("offset", [0.07, -0.05, 0.0])
