@@ -10,6 +10,7 @@ why the bearings are not judged when none does (:func:`bearings_unjudged`).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from typing import Literal, TypeAlias
 import numpy as np
 
 from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfer, cylinder_balance
+from monitor.diagnosis.shares import fire_together
 from monitor.errors import DiagnosisError, ModelError
 from monitor.io.recording import Channel, Recording
 from monitor.model.crankshaft import EngineModel
@@ -49,10 +51,6 @@ POOR_FIT = 4.0
 #: 0.13 at a 55 deg V12's order 3, the least a bank angle of the class makes; firing angles rounded to
 #: a tenth of a degree leave at most 0.02 at order 12 (k times 0.1 deg in radians) [-].
 ADD_UP = 0.05
-#: Two cylinders whose firing phases differ by less than this at the highest order the cylinder balance
-#: uses are hardly told apart by the crank speed: their columns differ by under ``2 sin(TOGETHER / 2)``
-#: (0.77) of a column at that order and by proportionally less at every lower one [rad].
-TOGETHER = math.radians(45.0)
 
 
 def _bearing_of(channel: Channel) -> int | None:
@@ -413,9 +411,10 @@ def firing_together(engine: Engine, highest_order: float) -> str:
     up to ``highest_order`` to tell them apart ("" if none do).
 
     Two cylinders ``d`` apart in their firing angles (on the cycle) differ at order ``k`` by the phase
-    ``k d``: under :data:`TOGETHER` at the highest order, their differences from each other are hardly
-    seen. A V engine whose bank angle is, or is near, a multiple of its banks' firing interval (a 90 deg
-    V16 firing each bank every 90 deg) fires its cylinders in such pairs.
+    ``k d``: under :data:`~monitor.diagnosis.shares.TOGETHER` at the highest order, their differences
+    from each other are hardly seen. A V engine whose bank angle is, or is near, a multiple of its
+    banks' firing interval (a 90 deg V16 firing each bank every 90 deg) fires its cylinders in such
+    pairs; the cylinder balance judges each pair as one (:mod:`monitor.diagnosis.shares`).
 
     Parameters
     ----------
@@ -431,12 +430,10 @@ def firing_together(engine: Engine, highest_order: float) -> str:
     angles = np.mod(engine.firing_angles, cycle)
     names = engine.cylinder_names
     pairs = []
-    for a in range(engine.cylinders):
-        for b in range(a + 1, engine.cylinders):
+    for group in fire_together(engine.firing_angles, engine.cycle_revolutions, highest_order):
+        for a, b in itertools.pairwise(group):
             apart = abs(float(angles[a] - angles[b]))
-            apart = min(apart, cycle - apart)
-            if apart * highest_order < TOGETHER:
-                pairs.append(f"{names[a]} and {names[b]} ({math.degrees(apart):.1f} deg)")
+            pairs.append(f"{names[a]} and {names[b]} ({math.degrees(min(apart, cycle - apart)):.1f} deg)")
     if not pairs:
         return ""
     return (

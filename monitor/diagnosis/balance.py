@@ -26,11 +26,12 @@ weighted problem's, scaled by the reduced chi-square when the residual is
 larger than the block spread explains (model error).  The condition number of
 the column-normalised problem says whether the cylinders can be told apart.
 
-Each cylinder is reported against the mean of the cylinders that fire alike
-(within :data:`ALIKE` of the median strength), itself excluded, so one or two
-faulty cylinders move neither the reference nor the healthy cylinders'
-shares: a misfiring cylinder is near 0 %, a cylinder 30 % weak near 70 %, the
-others near 100 %.
+Each cylinder is reported against the mean of the cylinders of its own bank
+that fire alike, itself excluded, and cylinders that fire too nearly
+together to be told apart are judged as one (:mod:`monitor.diagnosis.shares`),
+so one or two faulty cylinders move neither the reference nor the healthy
+cylinders' shares: a misfiring cylinder is near 0 %, a cylinder 30 % weak
+near 70 %, the others near 100 %.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from monitor.diagnosis.shares import ALIKE, fire_together, relative_shares
 from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
 from monitor.model.engine import Engine
@@ -52,11 +54,10 @@ from monitor.signal.spectrum import OrderSpectrum
 from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
-__all__ = ["CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
+__all__ = ["ALIKE", "CrankCalibration", "CylinderBalance", "Transfer", "cylinder_balance", "measured_torque"]
 
 Transfer = Literal["rigid", "shaft-line"]
 
-ALIKE = 0.15  # cylinders within this fraction of the median strength form the reference [-]
 # the model's relative uncertainty of the engine's torque at each order at nominal strengths, where no
 # baseline measured it: engine files differ from engines (masses and inertia by up to 10 %, combustion
 # timing by a few degrees, the load by 10 %), so the firing harmonics, where every cylinder adds, are
@@ -141,7 +142,7 @@ class CylinderBalance:
         Estimated strength (1 = as the model at the given load; 0 = motored) [-].
     strength_covariance : ndarray, shape (n_cylinders, n_cylinders)
     relative : ndarray, shape (n_cylinders,)
-        Strength over the mean of the cylinders that fire alike, itself excluded [-].
+        Strength over the mean of its bank's cylinders that fire alike, itself excluded [-].
     relative_error : ndarray, shape (n_cylinders,)
         Standard error of ``relative`` [-].
     contrast_error : ndarray, shape (n_cylinders,)
@@ -188,6 +189,11 @@ class CylinderBalance:
         carry beside ``standard_error`` (0 where a baseline calibrated the order) [same unit].
     names : list of str
         Each cylinder's name (:attr:`monitor.model.engine.Engine.cylinder_names`).
+    banks : list of str
+        Each cylinder's bank (:attr:`monitor.model.engine.Engine.cylinder_banks`; ``""`` in line).
+    together : list of tuple of int
+        Groups of cylinders (indices) that fire too nearly together to be told apart, each judged as
+        one (:func:`monitor.diagnosis.shares.fire_together`).
     """
 
     strength: FloatArray
@@ -216,10 +222,17 @@ class CylinderBalance:
     gas_part: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
     wheel_error: FloatArray = field(default_factory=lambda: np.zeros(0))
     names: list[str] = field(default_factory=list)
+    banks: list[str] = field(default_factory=list)
+    together: list[tuple[int, ...]] = field(default_factory=list)
 
     def name(self, c: int) -> str:
         """Cylinder ``c``'s name (index; ``A3`` on a V engine), its number when no names were given."""
         return self.names[c] if c < len(self.names) else str(c + 1)
+
+    def group(self, c: int) -> tuple[int, ...]:
+        """The cylinders (indices) judged as one with cylinder ``c``: its group in :attr:`together`,
+        else itself alone."""
+        return next((g for g in self.together if c in g), (c,))
 
     def calibration(self) -> CrankCalibration:
         """This (healthy) balance's calibration of the model where the cylinders add up.
@@ -315,20 +328,19 @@ def cylinder_balance(
     highest_order : float, optional
         Highest order used; default ``n_cylinders / R`` [-].
     model_uncertainty : float, optional
-        The model's relative uncertainty: each order's weight carries ``model_uncertainty`` times the
-        engine's predicted value at nominal strengths beside the measurement's standard error [-].
+        The model's relative uncertainty: each order's weight carries it times the engine's value at
+        nominal strengths beside the measurement's standard error [-].
     timing_uncertainty : float, optional
         The combustion timing's uncertainty [rad] (:data:`TIMING_UNCERTAINTY`).
     imbalance : float, optional
         Each healthy cylinder's own share of its combustion torque [-] (:data:`IMBALANCE`).
     level_uncertainty : float, optional
-        Two or more cylinders: the cylinders' mean strength is taken as 1 (the model at the stated
-        load) with this standard error, beside the orders (:data:`LEVEL_UNCERTAINTY`; 0: not) [-].
+        Two or more cylinders: their mean strength is 1 (the model at the stated load) to this
+        standard error, beside the orders (:data:`LEVEL_UNCERTAINTY`; 0: not) [-].
     calibration : CrankCalibration, optional
-        A healthy baseline's calibration of the model (same transfer): at the orders it holds the
-        model's combustion is multiplied by its factor (the inertia and fixed torques are the
-        model's at this recording's speed), and the model's uncertainty there is
-        :data:`CALIBRATED_UNCERTAINTY` beside the factor's own error.
+        A healthy baseline's calibration of the model (same transfer): at its orders the model's
+        combustion times its factor (the inertia and fixed torques the model's at this speed), and
+        the model's uncertainty :data:`CALIBRATED_UNCERTAINTY` beside the factor's own error.
 
     Returns
     -------
@@ -378,11 +390,12 @@ def cylinder_balance(
         combustion=combustion,
     )
     strength, covariance, chi2 = _fit(design, rhs, y, spread, level_uncertainty)
-    condition = _condition(design, se, y)
-    relative, relative_error, contrast_error = _relative(strength, covariance)
+    relative, relative_error, contrast_error, together = _shares(strength, covariance, engine, orders)
     predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
     return CylinderBalance(
         names=engine.cylinder_names,
+        banks=engine.cylinder_banks,
+        together=together,
         strength=strength,
         strength_covariance=covariance,
         relative=relative,
@@ -394,7 +407,7 @@ def cylinder_balance(
         predicted=predicted,
         standard_error=se,
         unit=unit,
-        condition=condition,
+        condition=(condition := _condition(design, se, y)),
         chi2_reduced=chi2,
         separable=condition <= SEPARABLE_CONDITION,
         strength_meaning=parts.strength,
@@ -409,6 +422,15 @@ def cylinder_balance(
         gas_part=inertia_factor * (H * gas).sum(axis=0),
         wheel_error=spread.wheel,
     )
+
+
+def _shares(
+    strength: FloatArray, covariance: FloatArray, engine: Engine, orders: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, list[tuple[int, ...]]]:
+    """Each cylinder's share, its two errors (:func:`monitor.diagnosis.shares.relative_shares`), and
+    the groups that fire too nearly together for the orders used to tell apart."""
+    together = fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max()))
+    return (*relative_shares(strength, covariance, engine.cylinder_banks, together), together)
 
 
 def _cylinder_orders(
@@ -570,39 +592,3 @@ def _condition(design: ComplexArray, se: FloatArray, y: ComplexArray) -> float:
     geometry = np.vstack([design.real, design.imag]) / np.concatenate([own, own])[:, None]
     singular = np.linalg.svd(geometry / np.linalg.norm(geometry, axis=0), compute_uv=False)
     return float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
-
-
-def _relative(strength: FloatArray, covariance: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Each strength over the mean of the cylinders that fire alike, itself excluded, with its errors.
-
-    Those that fire alike are within :data:`ALIKE` of the median strength, so one or two faulty
-    cylinders do not move the reference. Two errors, first order in the covariance: of the ratio
-    itself, and of the contrast ``(s_c - reference) / reference`` with the reference's level held
-    (a change of every strength alike moves it by nothing): whether the cylinder differs from the
-    others.
-    """
-    n = strength.size
-    if n < 2:
-        error = np.sqrt(np.maximum(np.diag(covariance), 0.0))
-        return np.ones(1), error, error
-    median = float(np.median(strength))
-    alike = np.abs(strength - median) <= ALIKE * abs(median)
-    relative = np.empty(n)
-    error = np.empty(n)
-    contrast = np.empty(n)
-    for c in range(n):
-        group = alike.copy()
-        group[c] = False
-        if not group.any():
-            group = np.ones(n, dtype=bool)
-            group[c] = False
-        m = int(group.sum())
-        reference = float(strength[group].mean())
-        gradient = np.where(group, -strength[c] / (reference**2 * m), 0.0)
-        gradient[c] = 1.0 / reference
-        relative[c] = strength[c] / reference
-        error[c] = math.sqrt(max(float(gradient @ covariance @ gradient), 0.0))
-        difference = np.where(group, -1.0 / (reference * m), 0.0)
-        difference[c] = 1.0 / reference
-        contrast[c] = math.sqrt(max(float(difference @ covariance @ difference), 0.0))
-    return relative, error, contrast

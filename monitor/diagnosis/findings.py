@@ -265,14 +265,30 @@ def missing_firing_findings(
 
 
 def _named(balance: CylinderBalance, c: int, partner: int | None) -> str:
-    """The subject: ``cylinder 3`` (``cylinder B3`` on a V), or it and its 360 deg partner."""
-    named = f"cylinder {balance.name(c)}"
-    return named if partner is None else f"{named} or cylinder {balance.name(partner)}"
+    """The subject: ``cylinder 3`` (``cylinder B3`` on a V), or it and its 360 deg partner, or the
+    cylinders that fire together with it (judged as one)."""
+    others = [o for o in balance.group(c) if o != c] or ([partner] if partner is not None else [])
+    return " or ".join(f"cylinder {balance.name(o)}" for o in [c, *others])
+
+
+def _either(balance: CylinderBalance, c: int, partner: int | None) -> str:
+    """Why a finding names more than one cylinder ("" when it names one)."""
+    if len(balance.group(c)) > 1:
+        return "; they fire too nearly together for the crank speed to tell apart, judged as one"
+    return "" if partner is None else "; the cycle phase is unknown, so either may be it"
+
+
+def _reference(balance: CylinderBalance, c: int) -> str:
+    """What cylinder ``c``'s share is of: the cylinders that fire alike, on a V those of its bank."""
+    bank = balance.banks[c] if c < len(balance.banks) and len(balance.group(c)) == 1 else ""
+    return f"bank {bank}'s cylinders that fire alike" if bank else "the cylinders that fire alike"
 
 
 def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) -> list[Finding]:
     findings = []
     for c in range(balance.strength.size):
+        if balance.group(c)[0] != c:  # judged as one with the group's first cylinder
+            continue
         partner = partners[c] if partners is not None else None
         named = _named(balance, c, partner)
         r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
@@ -304,9 +320,9 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                 subject=named,
                 severity=severity,
                 summary=(
-                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of the cylinders that "
-                    f"fire alike ({what}; {balance.strength_meaning} from the crank-speed orders)"
-                    + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
+                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of {_reference(balance, c)} "
+                    f"({what}; {balance.strength_meaning} from the crank-speed orders)"
+                    + _either(balance, c, partner)
                 ),
                 confidence=confidence,
                 evidence=[

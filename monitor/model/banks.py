@@ -47,6 +47,7 @@ __all__ = [
     "ANGLE_TOLERANCE_DEG",
     "Vee",
     "bank_axes",
+    "cylinder_banks",
     "cylinder_names",
     "cylinder_throws",
     "to_engine_frame",
@@ -112,6 +113,24 @@ def cylinder_names(cylinders: int, vee: Vee | None) -> list[str]:
         return [str(c) for c in range(1, cylinders + 1)]
     half = cylinders // 2
     return [f"A{k}" for k in range(1, half + 1)] + [f"B{k}" for k in range(1, half + 1)]
+
+
+def cylinder_banks(cylinders: int, vee: Vee | None) -> list[str]:
+    """Each cylinder's bank, by index: ``""`` in line (one bank), ``"A"`` or ``"B"`` on a V.
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+
+    Returns
+    -------
+    list of str
+    """
+    if vee is None:
+        return [""] * cylinders
+    half = cylinders // 2
+    return ["A"] * half + ["B"] * half
 
 
 def cylinder_throws(cylinders: int, vee: Vee | None) -> list[int]:

@@ -41,7 +41,14 @@ from pydantic import (
 )
 
 from monitor.errors import EngineDescriptionError
-from monitor.model.banks import Vee, bank_axes, cylinder_names, cylinder_throws, vee_firing_angles
+from monitor.model.banks import (
+    Vee,
+    bank_axes,
+    cylinder_banks,
+    cylinder_names,
+    cylinder_throws,
+    vee_firing_angles,
+)
 from monitor.model.quantities import (
     AngleDeg,
     Inertia,
@@ -458,6 +465,11 @@ class Engine(_Strict):
     def cylinder_names(self) -> list[str]:
         """Each cylinder's name, by index: ``1..n`` in line, ``A1..Am, B1..Bm`` on a V."""
         return cylinder_names(self.cylinders, self.vee)
+
+    @cached_property
+    def cylinder_banks(self) -> list[str]:
+        """Each cylinder's bank, by index: ``""`` in line, ``"A"`` or ``"B"`` on a V."""
+        return cylinder_banks(self.cylinders, self.vee)
 
     @cached_property
     def firing_order(self) -> list[int]:

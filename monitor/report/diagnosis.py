@@ -85,6 +85,10 @@ def diagnosis_document(diagnosis: Diagnosis, *, recording: str = "") -> dict[str
             "transfer": balance.transfer,
             "strength_meaning": balance.strength_meaning,
             "names": [balance.name(c) for c in range(balance.strength.size)],
+            # each cylinder's bank ("" in line): "relative" is against its own bank's cylinders
+            "banks": list(balance.banks),
+            # cylinders that fire too nearly together to tell apart, each group judged as one
+            "judged_as_one": [[balance.name(c) for c in g] for g in balance.together],
             "strength": balance.strength,
             "strength_standard_error": balance.strength_error,
             "relative": balance.relative,
@@ -165,6 +169,11 @@ def diagnosis_table(diagnosis: Diagnosis, *, recording: str = "", max_rows: int 
                 f"{balance.name(c):>8} {balance.strength[c]:9.3f} {balance.strength_error[c]:6.3f} "
                 f"{100 * balance.relative[c]:8.1f}% {196 * balance.relative_error[c]:9.1f}%"
             )
+        if any(balance.banks):
+            lines.append("  (of alike: against the cylinders of its own bank that fire alike)")
+        if balance.together:
+            judged = ", ".join("+".join(balance.name(c) for c in g) for g in balance.together)
+            lines.append(f"  (fire too nearly together to tell apart, each judged as one: {judged})")
     for comparison in diagnosis.comparisons:
         size = np.abs(comparison.predicted)
         if size.size == 0:

@@ -406,8 +406,9 @@ def plot_diagnosis(
         polar.set_ylim(0, max(1.3, float(np.max(balance.relative)) + 0.2))
         polar.set_theta_zero_location("N")
         polar.set_theta_direction(-1)
+        against = "its bank's cylinders" if any(balance.banks) else "the cylinders"
         polar.set_title(
-            "cylinder strength against the cylinders that fire alike\n(at its firing angle in the cycle)"
+            f"cylinder strength against {against} that fire alike\n(at its firing angle in the cycle)"
         )
     else:
         polar.set_title("no cylinder balance")

@@ -305,7 +305,8 @@ def test_cylinders_firing_nearly_together_are_named_as_the_crank_speed_cannot_pa
     interval): a V16 of 89.5 deg fires eight pairs 0.5 deg apart, named with orders up to 8; a V20 of
     77 deg fires ten pairs 5.0 deg apart, whose phases part by 5 deg x k: under TOGETHER (45 deg) up to
     order 8.5, not at order 10 (the V20's highest, n / 2); an even 54 deg V16 has no such pair."""
-    from monitor.diagnosis.analysis import TOGETHER, firing_together
+    from monitor.diagnosis.analysis import firing_together
+    from monitor.diagnosis.shares import TOGETHER
     from validation.simulator.description import engine_description
     from validation.simulator.vee_engine import engine_of_seed
 

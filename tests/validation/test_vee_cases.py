@@ -76,3 +76,15 @@ def test_vee_worn_bearing_knocks_where_its_planar_load_is_least() -> None:
     truth = case.truth
     assert truth["class"] == "worn_bearing" and truth["reversal"] in ("plane", "minimum")
     assert truth["burst_count"] > 0 and truth["channel"] == f"mb{truth['bearing']}-vertical"
+
+
+def test_a_weak_cylinder_of_a_v20_is_named_against_its_own_bank() -> None:
+    """Seed 300040: a V20 at 765 rpm, 10 s, one cylinder at 73 % of its heat release. Against both
+    banks its share carried the banks' poorly known levels and it went unnamed (exit 0); against its
+    own bank it is a warning on the right cylinder."""
+    from benchmarks.diagnosis_validation import run_ways
+
+    (outcome,) = run_ways(300040, 10.0, "baseline point", (True,), vee=True)
+    assert outcome.truth == "weak" and outcome.strength == pytest.approx(0.73, abs=0.01)
+    assert outcome.named and outcome.exit_code == 1, outcome.findings
+    assert abs(outcome.share - outcome.strength) < 0.1  # the share read, against the heat release put in
