@@ -105,8 +105,8 @@ def _look(channel: Channel) -> _Look:
             if buffer is not None:
                 block = buffer[: min(n, start + _BLOCK) - start]
                 data.read_into(start, block)
-            else:
-                block = np.asarray(channel.data[start : min(n, start + _BLOCK)], dtype=np.float64)
+            else:  # in its own dtype: a float32 sample at a limit stored in float64 is at it to float32's
+                block = np.asarray(channel.data[start : min(n, start + _BLOCK)])  # precision, not float64's
         except FormatError as error:  # a file's reader refuses the block
             look.unusable = str(error).split(": ", 1)[-1]
             return look

@@ -89,6 +89,24 @@ def test_a_clipped_accelerometer_is_a_sensor_finding_and_the_misfire_is_still_na
     assert "mb5-vertical" not in diagnosis.spectra.spectra
 
 
+def test_a_clipped_float32_accelerometer_is_found_against_its_float64_range(misfire: Recording) -> None:
+    """A logger stores its samples in float32 and its range in float64: a sample clipped at the
+    range reads a float32 rounding off it. Cast to float64 before the check, the validation
+    population's clipped sensors were read as knocking bearings (seed 300052: 20712 samples at the
+    limits, no clipped span found)."""
+    from monitor.diagnosis.sensors import screen_sensors
+
+    data = np.asarray(misfire.channel("mb5-vertical").data, dtype=np.float64)
+    near = np.float32(0.3 * float(np.max(np.abs(data))))
+    limit = float(near) + 0.25 * float(np.spacing(near))  # a quarter of a float32 step above one
+    stored = np.clip(data, -limit, limit).astype(np.float32)
+    assert float(stored.max()) == float(near) < limit  # the float32 rounding the check has to allow for
+    clipped = _spoiled(misfire, "mb5-vertical", stored, range=(-limit, limit))
+    _, faults, _ = screen_sensors(clipped)
+    assert [(f.channel, f.fault) for f in faults] == [("mb5-vertical", "unusable samples")]
+    assert "clipped" in faults[0].detail
+
+
 def test_a_dead_sensor_is_named_dead(engine, misfire: Recording, baseline: Baseline) -> None:  # type: ignore[no-untyped-def]
     flat = np.full(misfire.channel("mb2-vertical").data.shape, 0.0012)
     diagnosis = diagnose(_spoiled(misfire, "mb2-vertical", flat), engine, baseline=baseline)
