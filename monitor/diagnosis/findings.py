@@ -184,7 +184,7 @@ def cylinder_findings(balance: CylinderBalance, partners: list[int | None] | Non
     for missing in missing_firing_findings(balance, partners):
         weaker = missing.evidence[0]["cylinder"]
         share = max(missing.evidence[0]["measured"], MISFIRE_BELOW)
-        same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]
+        same = [f for f in findings if f.evidence[0]["cylinder"] - 1 in balance.group(weaker - 1)]
         if not any(f.severity == "alarm" and f.evidence[0]["measured"] < share for f in same):
             findings = [f for f in findings if f not in same] + [missing]
     if balance.strength.size == 2 and len(findings) == 2:
@@ -226,8 +226,7 @@ def missing_firing_findings(
     if not _lacks_most(test) or float(test.explained[c]) < PATTERN_EXPLAINED:
         return []
     e = max(float(test.share_error[c]), 1e-12)
-    partner = partners[c] if partners is not None else None
-    named = _named(balance, c, partner)
+    named = _named(balance, c, partners)
     what = "misfiring" if share < MISFIRE_BELOW else f"misfiring, or nearly: {NEARLY_PATTERN}"
     return [
         Finding(
@@ -237,8 +236,7 @@ def missing_firing_findings(
             summary=(
                 f"{named} at {round(100 * share)} % +- {round(196 * e)} % of the others' firing impulse "
                 f"({what}; the pattern of a missing impulse in the crank-speed orders, "
-                "whatever the model's level)"
-                + ("" if partner is None else "; the cycle phase is unknown, so either may be it")
+                "whatever the model's level)" + _either(balance, c, partners)
             ),
             confidence=confidence_beyond((CYLINDER_ALARM[0] - share) / e),
             evidence=[
@@ -264,18 +262,20 @@ def missing_firing_findings(
     ]
 
 
-def _named(balance: CylinderBalance, c: int, partner: int | None) -> str:
-    """The subject: ``cylinder 3`` (``cylinder B3`` on a V), or it and its 360 deg partner, or the
-    cylinders that fire together with it (judged as one)."""
-    others = [o for o in balance.group(c) if o != c] or ([partner] if partner is not None else [])
-    return " or ".join(f"cylinder {balance.name(o)}" for o in [c, *others])
+def _named(balance: CylinderBalance, c: int, partners: list[int | None] | None) -> str:
+    """The subject: ``cylinder 3`` (``cylinder B3`` on a V), with the cylinders that fire together
+    with it (judged as one) and, where the cycle phase is unknown, their 360 deg partners."""
+    group = balance.group(c)
+    named = [c, *(o for o in group if o != c)]
+    named += [p for m in group if partners is not None and (p := partners[m]) is not None and p not in named]
+    return " or ".join(f"cylinder {balance.name(o)}" for o in named)
 
 
-def _either(balance: CylinderBalance, c: int, partner: int | None) -> str:
+def _either(balance: CylinderBalance, c: int, partners: list[int | None] | None) -> str:
     """Why a finding names more than one cylinder ("" when it names one)."""
-    if len(balance.group(c)) > 1:
-        return "; they fire too nearly together for the crank speed to tell apart, judged as one"
-    return "" if partner is None else "; the cycle phase is unknown, so either may be it"
+    together = "; they fire too nearly together for the crank speed to tell apart, judged as one"
+    phase = "; the cycle phase is unknown, so either may be it"
+    return together * (len(balance.group(c)) > 1) + phase * (partners is not None and partners[c] is not None)
 
 
 def _reference(balance: CylinderBalance, c: int) -> str:
@@ -289,8 +289,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
     for c in range(balance.strength.size):
         if balance.group(c)[0] != c:  # judged as one with the group's first cylinder
             continue
-        partner = partners[c] if partners is not None else None
-        named = _named(balance, c, partner)
+        named = _named(balance, c, partners)
         r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
         contrast = max(float(balance.contrast_error[c]), 1e-12)
         severity, threshold = "healthy", None
@@ -322,7 +321,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                 summary=(
                     f"{named} at {round(100 * r)} % +- {round(196 * e)} % of {_reference(balance, c)} "
                     f"({what}; {balance.strength_meaning} from the crank-speed orders)"
-                    + _either(balance, c, partner)
+                    + _either(balance, c, partners)
                 ),
                 confidence=confidence,
                 evidence=[
@@ -335,7 +334,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                         "unit": "-",
                         "contrast_standard_error": contrast,
                         "orders": balance.orders.tolist(),
-                        "strength": float(balance.strength[c]),
+                        "strength": float(balance.strength[list(balance.group(c))].mean()),
                         "cylinder": c + 1,
                         "cylinder_name": balance.name(c),
                         "condition_number": balance.condition,

@@ -131,7 +131,7 @@ def _look(channel: Channel) -> _Look:
             distinct = np.unique(np.concatenate([distinct, np.unique(block)[: DEAD_STEPS + 1]]))
         look.count += block.size
         look.total += float(np.add.reduce(block, dtype=np.float64))
-        look.squares += float(np.einsum("i,i->", block, block, dtype=np.float64))
+        look.squares += float(np.einsum("i,i->", block, block, dtype=np.float64, casting="same_kind"))
     look.values = distinct
     return look
 

@@ -147,6 +147,9 @@ def relative_shares(
         for candidates in (alike & mates, mates, single & ~members, alike & grouped & ~members, ~members):
             if candidates.any():
                 break
+        else:  # one group holds every cylinder: nothing to tell it from
+            relative[members], error[members], contrast[members] = 1.0, math.inf, math.inf
+            continue
         m = int(candidates.sum())
         own = np.where(members, 1.0 / len(unit), 0.0)
         value = float(own @ strength)

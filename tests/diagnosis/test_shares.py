@@ -154,3 +154,46 @@ def test_where_every_cylinder_is_paired_each_pair_is_judged_against_the_other_pa
     assert relative[5] == pytest.approx(1.0, rel=1e-12)
     # a pair's mean against the six other whole pairs: INSIDE^2 (1/2 + 1/12) / 1^2, no 10 in it
     assert contrast[0] == pytest.approx(INSIDE * math.sqrt(0.5 + 1 / 12), rel=1e-9)
+
+
+def test_one_group_of_every_cylinder_has_nothing_to_be_told_from() -> None:
+    relative, error, contrast = relative_shares(np.array([0.9, 1.1]), 1e-4 * np.eye(2), None, [(0, 1)])
+    assert relative == pytest.approx([1.0, 1.0]) and np.all(np.isinf(error)) and np.all(np.isinf(contrast))
+
+
+@pytest.mark.parametrize("picked", [0, 4])  # A1 or B1
+def test_a_pair_misfire_found_by_its_pattern_on_either_member_is_one_finding(
+    picked: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The missing-impulse test may pick either member of a pair (their columns are nearly alike):
+    its alarm stands in for the balance's finding on the pair, whichever member it picked."""
+    from monitor.diagnosis import findings
+
+    strength = [0.5, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0]
+    names = ["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"]
+    balance = dataclasses.replace(
+        _balance(strength, strength, 0.03, 0.03), names=names, banks=["A"] * 4 + ["B"] * 4, together=[(0, 4)]
+    )
+    missing = findings.Finding(
+        kind="cylinder",
+        subject="",
+        severity="alarm",
+        summary="",
+        confidence=1.0,
+        evidence=[{"cylinder": picked + 1, "measured": 0.05}],
+    )
+    monkeypatch.setattr(findings, "missing_firing_findings", lambda *_: [missing])
+    found = [f for f in findings.cylinder_findings(balance) if f.kind == "cylinder"]
+    assert found == [missing], [f.subject for f in found]
+
+
+def test_a_pair_with_an_unknown_cycle_phase_names_every_candidate() -> None:
+    strength = [0.6, 1.0, 1.0, 1.0, 0.6, 1.0, 1.0, 1.0]
+    names = ["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"]
+    balance = dataclasses.replace(
+        _balance(strength, strength, 0.03, 0.03), names=names, banks=["A"] * 4 + ["B"] * 4, together=[(0, 4)]
+    )
+    partners: list[int | None] = [3, None, None, 0, 7, None, None, 4]  # A1-A4 and B1-B4 a revolution apart
+    (found,) = [f for f in cylinder_findings(balance, partners) if f.kind == "cylinder"]
+    assert found.subject == "cylinder A1 or cylinder B1 or cylinder A4 or cylinder B4"
+    assert "judged as one" in found.summary and "cycle phase is unknown" in found.summary

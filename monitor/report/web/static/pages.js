@@ -74,7 +74,7 @@
       warn.push(0.85);
       alarm.push(0.5);
     }
-    var box = panel(parent, "Cylinder balance: each cylinder's strength against those firing alike (1 = healthy)",
+    var box = panel(parent, "Cylinder balance: each cylinder's strength against those firing alike, on a V those of its own bank (1 = healthy)",
       "chart-balance");
     var names = b.names || null;  // a V engine's bank names; the legend says B3 where the axis does
     chart(box, [
