@@ -116,7 +116,8 @@ def cylinder_names(cylinders: int, vee: Vee | None) -> list[str]:
 
 
 def cylinder_banks(cylinders: int, vee: Vee | None) -> list[str]:
-    """Each cylinder's bank, by index: ``""`` in line (one bank), ``"A"`` or ``"B"`` on a V.
+    """Each cylinder's bank, by index: ``""`` in line (one bank), ``"A"`` or ``"B"`` on a V (its name's
+    letter, :func:`cylinder_names`).
 
     Parameters
     ----------
@@ -127,10 +128,7 @@ def cylinder_banks(cylinders: int, vee: Vee | None) -> list[str]:
     -------
     list of str
     """
-    if vee is None:
-        return [""] * cylinders
-    half = cylinders // 2
-    return ["A"] * half + ["B"] * half
+    return [name[0] if vee is not None else "" for name in cylinder_names(cylinders, vee)]
 
 
 def cylinder_throws(cylinders: int, vee: Vee | None) -> list[int]:
