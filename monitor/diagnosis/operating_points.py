@@ -8,9 +8,13 @@ recording's own load (:meth:`OperatingPoints.reference_at`).
 
 The points are one family along one dimension, the load: an engine on a generator keeps its speed
 and changes its load; one on a fixed-pitch propeller changes both along its propeller curve, where
-the speed follows the load.  Either way the reference is interpolated by load, and the speed with it
-(a recording whose speed lies further than the bearings' speed tolerance from the interpolated speed
-has its bearing orders left uncompared, as against a single point).
+the speed follows the load.  Either way the reference is interpolated by load.  The sensors'
+transfers are interpolated only between points at comparable speeds (within the bearings' speed
+tolerance): a transfer holds at the frequencies of its orders at its point's speed, and a structural
+mode between two points' frequencies makes the straight line between them meaningless.  Between
+points further apart in speed (a propeller curve) the nearest point's transfers are used, their
+errors widened by the interpolation's uncertainty, and a recording whose speed lies further than that
+tolerance from the nearest point's has its bearing orders left uncompared, as against a single point.
 
 Between two points each quantity the diagnosis takes from the baseline (the cylinders' reference
 strengths, the crank-speed model's calibration factors, each sensor's transfer and rms velocity) is
@@ -40,6 +44,7 @@ import numpy as np
 
 from monitor.diagnosis.balance import CrankCalibration
 from monitor.diagnosis.baseline import BASELINE_FORMAT, Baseline, SensorBaseline
+from monitor.diagnosis.bearings import SPEED_TOLERANCE
 from monitor.diagnosis.impact_reference import between, loudest
 from monitor.errors import DiagnosisError
 
@@ -82,6 +87,9 @@ class Reference:
     relative_uncertainty : float
         The interpolation's uncertainty of the sensors' transfers over all their orders, relative to
         the transfer's size over them, largest over the sensors [-].
+    transfers_at : float or None
+        Between points whose speeds differ by more than the bearings' speed tolerance: the load of
+        the nearest point, whose transfers (and speed) the reference keeps [-]; else None.
     """
 
     baseline: Baseline
@@ -90,6 +98,7 @@ class Reference:
     upper: float
     extrapolated: bool
     relative_uncertainty: float
+    transfers_at: float | None = None
 
     def note(self) -> str:
         """What the reference is, in a sentence of the diagnosis' notes."""
@@ -101,10 +110,17 @@ class Reference:
             )
         if self.lower == self.upper:
             return f"the reference is the point calibrated at load {self.lower:.2f}"
-        return (
+        said = (
             f"the reference is interpolated at load {self.load:.2f} between the points calibrated at "
             f"{self.lower:.2f} and {self.upper:.2f} (its own uncertainty "
             f"{100 * self.relative_uncertainty:.0f} % of the transfers)"
+        )
+        if self.transfers_at is None:
+            return said
+        return (
+            f"{said}; the sensors' transfers are the point at {self.transfers_at:.2f}'s, at its speed "
+            f"(the points' speeds are more than {100 * SPEED_TOLERANCE:g} % apart: a structure's response "
+            "between them is no straight line)"
         )
 
 
@@ -263,12 +279,14 @@ class OperatingPoints:
         weight = (load - low.load) / (high.load - low.load)
         nearest = low if weight <= 0.5 else high
         reference = _blend(low, high, weight, nearest, uncertainty_only=False)
-        between = replace(
-            reference.baseline,
-            load=load,
-            source=f"{low.source or low.load} and {high.source or high.load} interpolated at load {load:.2f}",
+        apart = None if _comparable_speeds(low, high) else nearest.load
+        source = (
+            f"{_name(low)} and {_name(high)} interpolated at load {load:.2f}"
+            if apart is None
+            else f"{_name(nearest)} (its transfers, at load {load:.2f})"
         )
-        return Reference(between, load, low.load, high.load, False, reference.relative_uncertainty)
+        between = replace(reference.baseline, load=load, source=source)
+        return Reference(between, load, low.load, high.load, False, reference.relative_uncertainty, apart)
 
     def mean_strength_at(self, load: float) -> float:
         """The calibrated points' median strength over the cylinders, interpolated at a load (clamped) [-].
@@ -296,11 +314,23 @@ def _between(a: Any, b: Any, weight: float) -> Any:
     return (1 - weight) * np.asarray(a) + weight * np.asarray(b)
 
 
+def _name(point: Baseline) -> str:
+    """A calibrated point as the notes name it: its recording, else its load."""
+    return point.source or f"the point calibrated at load {point.load:.2f}"
+
+
+def _comparable_speeds(a: Baseline, b: Baseline) -> bool:
+    """Whether two points' speeds lie within the bearings' speed tolerance of each other."""
+    return abs(b.speed_rpm / a.speed_rpm - 1.0) <= SPEED_TOLERANCE
+
+
 def _blend(
     low: Baseline, high: Baseline, weight: float, nearest: Baseline, *, uncertainty_only: bool
 ) -> _Blend:
     """``low`` and ``high`` interpolated at ``weight`` (0 at low); the uncertainty its distance from
-    ``nearest``.  With ``uncertainty_only`` the values stay the nearest's and only the errors grow."""
+    ``nearest``.  With ``uncertainty_only`` the values stay the nearest's and only the errors grow; so
+    do the sensors' transfers and the speed between points whose speeds are not comparable."""
+    fixed = uncertainty_only or not _comparable_speeds(low, high)
     sensors = {}
     worst = 0.0
     for name, s in nearest.sensors.items():
@@ -314,10 +344,8 @@ def _blend(
         size = float(np.linalg.norm(s.transfer))  # over the orders, as the sensor's orders weigh them
         if size > 0:
             worst = max(worst, float(np.linalg.norm(spread)) / size)
-        transfer = s.transfer if uncertainty_only else line
-        error = (
-            s.transfer_error if uncertainty_only else _between(lo.transfer_error, hi.transfer_error, weight)
-        )
+        transfer = s.transfer if fixed else line
+        error = s.transfer_error if fixed else _between(lo.transfer_error, hi.transfer_error, weight)
         rms = (
             s.velocity_rms if uncertainty_only else float(_between(lo.velocity_rms, hi.velocity_rms, weight))
         )
@@ -342,6 +370,7 @@ def _blend(
     speed = nearest.speed_rpm
     if not uncertainty_only and len(low.strengths) == len(high.strengths):
         strengths = [float(v) for v in _between(low.strengths, high.strengths, weight)]
+    if not fixed:  # the speed the transfers hold at
         speed = float(_between(low.speed_rpm, high.speed_rpm, weight))
     crank = _blend_crank(low.crank, high.crank, weight, nearest.crank, uncertainty_only=uncertainty_only)
     baseline = replace(nearest, speed_rpm=speed, strengths=strengths, sensors=sensors, crank=crank)

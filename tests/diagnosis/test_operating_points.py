@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -148,6 +149,34 @@ def test_the_interpolation_adds_its_distance_from_the_nearest_point_to_the_error
     at = points.reference_at(1.0)
     assert at.baseline.sensors["mb1"].transfer_error[0] == pytest.approx(0.1)
     assert at.relative_uncertainty == 0.0 and not at.extrapolated
+
+
+def test_between_points_at_speeds_apart_the_nearest_points_transfers_and_speed_are_kept() -> None:
+    """A propeller curve: the point at 0.5 runs at 750 rpm (H = 2), the one at 1.0 at 825 rpm (H = 4),
+    10 % apart, beyond the bearings' 5 % tolerance. A transfer holds at its point's order frequencies, so
+    at 0.6 the reference keeps the nearest point's H = 2 and 750 rpm (a recording at the interpolated
+    780 rpm has its bearing orders uncompared), the error still widened by the line's distance,
+    hypot(0.1, 0.4); at 0.9 the other point's; the strengths and the rms velocity are still
+    interpolated in load (worked by hand)."""
+    slow = one_sensor_point(0.5, transfer=2.0)
+    fast = replace(one_sensor_point(1.0, transfer=4.0, rms=3.0), speed_rpm=825.0, strengths=[2.0, 2.0])
+    points = OperatingPoints.of([slow, fast])
+    near_slow = points.reference_at(0.6)
+    sensor = near_slow.baseline.sensors["mb1"]
+    assert sensor.transfer[0] == pytest.approx(2.0)
+    assert sensor.transfer_error[0] == pytest.approx(math.hypot(0.1, 0.4))
+    assert near_slow.baseline.speed_rpm == 750.0
+    assert sensor.velocity_rms == pytest.approx(1.4)
+    assert near_slow.baseline.strengths == pytest.approx([1.2, 1.2])
+    assert near_slow.transfers_at == 0.5
+    assert "the sensors' transfers are the point at 0.50's" in near_slow.note()
+    near_fast = points.reference_at(0.9)
+    assert near_fast.baseline.sensors["mb1"].transfer[0] == pytest.approx(4.0)
+    assert near_fast.baseline.speed_rpm == 825.0 and near_fast.transfers_at == 1.0
+    # within the tolerance (4 % apart) the transfers and the speed are interpolated as before
+    close = OperatingPoints.of([slow, replace(fast, speed_rpm=780.0)]).reference_at(0.6)
+    assert close.baseline.sensors["mb1"].transfer[0] == pytest.approx(2.4)
+    assert close.baseline.speed_rpm == pytest.approx(756.0) and close.transfers_at is None
 
 
 def test_beyond_the_calibrated_loads_the_nearest_point_is_used_its_error_widened_and_said() -> None:
