@@ -54,13 +54,13 @@ from monitor.diagnosis.findings import (
     missing_firing_doubt,
     missing_firing_findings,
     sensor_finding,
-    single_cylinder_findings,
     with_elsewhere,
     worse,
 )
 from monitor.diagnosis.impact_reference import engine_level, reference_profile
 from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.diagnosis.sensors import SensorFault, level_faults, screen_sensors, without
+from monitor.diagnosis.single_cylinder import single_cylinder_verdict
 from monitor.diagnosis.zones import (
     DEFAULT_BAND_HZ,
     DEFAULT_BOUNDARIES_MM_S,
@@ -611,8 +611,8 @@ def _cylinder_findings(
 ) -> list[Finding]:
     """The cylinders' findings from the balance, where it fits the model (else none: inconclusive).
 
-    ``load`` is the load stated (None: none, the baseline's or rated assumed); a single cylinder reading
-    low (a warning) at a load nobody stated is put in ``undecided``, not named: a lower load reads alike.
+    ``load`` is the load stated (None: none, the baseline's or rated assumed); a single cylinder's
+    verdict weighs it (:func:`~monitor.diagnosis.single_cylinder.single_cylinder_verdict`).
     """
     balance = analysis.balance
     # a balance the model does not describe even within its uncertainty names no cylinder: inconclusive
@@ -622,41 +622,7 @@ def _cylinder_findings(
     if balance is not None and balance.separable and engine.cylinders > 1:  # a misfire is never hidden
         return missing_firing_findings(balance, analysis.partners)
     if balance is not None and fits and engine.cylinders == 1:
-        single = (
-            # a calibrated model gives the strength against the baseline's directly
-            (
-                1.0
-                if baseline.crank is not None and baseline.crank.orders.size
-                else float(baseline.strengths[0])
-            )
-            if baseline is not None and len(baseline.strengths) == 1
-            else None
-        )
-        at = load if load is not None else (baseline.load if baseline is not None else 1.0)
-        findings = single_cylinder_findings(balance, at, single)
-        # an alarm (below a fifth of the model's rated firing) is no load a running engine is set to
-        low_warning = findings and findings[0].severity == "warning" and float(balance.strength[0]) < 1.0
-        if load is None and low_warning:
-            measured = round(100 * float(findings[0].evidence[0]["measured"]))
-            undecided.append(
-                f"cylinder 1 reads {measured} % of "
-                + (f"its baseline's at the baseline's load {at:.2f}" if single is not None else "the model's")
-                + " and no load was stated: a single cylinder's weaker firing and a lower load read alike; "
-                "state the load set (--load)"
-                + ("" if single is not None else " or compare against a baseline")
-            )
-            return []
-        notes.append(
-            "a single cylinder is judged against the load "
-            + (
-                f"stated ({load:.2f})"
-                if load is not None
-                else f"{'of its baseline' if baseline is not None else 'rated'}, none stated"
-            )
-            + ": state the load set (the fuel or the governor's setting), not the power delivered, or a "
-            "weak cylinder reads as a lower load"
-        )
-        return findings
+        return single_cylinder_verdict(balance, baseline, load, notes, undecided)
     return []
 
 

@@ -408,6 +408,29 @@ def test_a_single_cylinder_at_a_lower_load_nobody_stated_is_inconclusive(
         assert undecided[0].startswith("inconclusive: cylinder 1 reads ")
 
 
+@pytest.mark.parametrize("stated", [None, 1.0], ids=str)
+def test_a_single_cylinder_at_a_higher_load_nobody_stated_is_a_note_not_a_finding(
+    tmp_path: Path, stated: float | None
+) -> None:
+    """Calibrated at 40 % load and recorded at full load, the healthy cylinder reads far above its
+    baseline's at the baseline's load, a "stronger than the model" warning until this rule. Told
+    nothing, a higher load reads alike and no fault makes a cylinder stronger: healthy, and a note
+    says what it read; told 1.0, healthy with no such note."""
+    engine_file = _single_cylinder_with_flywheel(tmp_path)
+    engine = load_engine(engine_file)
+    effects: dict[str, dict[str, object]] = {"inertia": {}, "gas": {}, "crank_speed": {}}
+    baseline = calibrate(_single_cylinder_run(engine_file, 0.4, effects), engine, load=0.4)
+    diagnosis = diagnose(
+        _single_cylinder_run(engine_file, 1.0, effects), engine, baseline=baseline, load=stated
+    )
+    assert diagnosis.status == "healthy" and diagnosis.findings == [], (diagnosis.findings, diagnosis.notes)
+    said = [n for n in diagnosis.notes if "a higher load than that reads alike" in n]
+    assert len(said) == (1 if stated is None else 0), diagnosis.notes
+    if stated is None:
+        read = int(said[0].removeprefix("cylinder 1 reads ").split(" %")[0])
+        assert read > 150, said  # above the warning limit against a baseline (150 %, by its margin)
+
+
 def _single_cylinder_with_flywheel(folder: Path) -> Path:
     """The paper-003 two-stroke with a flywheel (a shaft line, so the crank speed has a response)."""
     source = (ROOT / "recordings" / "engines" / "zubaydi-1cyl-2stroke.toml").read_text()
