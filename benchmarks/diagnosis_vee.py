@@ -13,13 +13,13 @@ from collections.abc import Sequence
 from typing import Protocol
 
 from benchmarks.diagnosis_operating import ROWS, cell
+from benchmarks.judging import CLASSES
 
 #: The first seed of the V engines' cases (dated, like the others, by their seed modulo 100,000
 #: minutes after 2026-01-01).
 VEE_FIRST_SEED = 300_000
 #: Their recordings' lengths, in turn [s].
 VEE_DURATIONS = (10.0, 30.0)
-CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault")
 
 
 class VeeCase(Protocol):

@@ -26,6 +26,7 @@ from benchmarks.diagnosis_validation import (
     run_case,
     run_ways,
 )
+from benchmarks.judging import named, vibrating
 
 # The draw: SAMPLE_SIZE distinct seeds, uniform over [FIRST_SEED, END_SEED), from
 # numpy.random.default_rng(DRAW_SEED); each case as long as the benchmark makes it (case_length:
@@ -192,3 +193,20 @@ def test_a_healthy_run_at_a_steady_point_off_the_baseline_raises_no_alarm(off_po
     healthy = [o for o in judged(off_point) if o.truth == "healthy" and o.operating in STEADY]
     assert {o.load_told for o in healthy} == {True, False}  # the draw holds 1, diagnosed both ways
     assert not [o for o in healthy if o.alarm], healthy  # required: none
+
+
+def test_a_healthy_case_whose_structure_vibrates_in_zone_c_or_d_is_judged_as_a_zone() -> None:
+    """The benchmark's truth of a healthy case: its own vibration at 23 mm/s on one channel is zone D of
+    the default limits (7.1/11/18 mm/s), so the case is of class vibration_zone on that channel, and a
+    zone finding there names it; at 10.9 mm/s (zone B) the case stays healthy, as does a worn bearing
+    whatever its vibration."""
+    truth = {"class": "healthy", "channel": None, "velocity_mm_s": {"mb1": 4.1, "mb2": 23.4, "mb4": 12.0}}
+    zoned = vibrating(truth)
+    assert (zoned["class"], zoned["channel"]) == ("vibration_zone", "mb2")
+    assert named(zoned, [("vibration_zone", "mb2", "alarm")])
+    assert not named(zoned, [("vibration_zone", "mb4", "warning")])
+    assert not named(zoned, [])
+    quiet = {**truth, "velocity_mm_s": {"mb1": 4.1, "mb2": 10.9}}
+    assert vibrating(quiet) is quiet
+    worn = {**truth, "class": "worn_bearing", "bearing": 2}
+    assert vibrating(worn) is worn

@@ -8,8 +8,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from benchmarks.diagnosis_validation import Outcome, _named, at_point, classify
+from benchmarks.diagnosis_validation import Outcome, at_point
 from benchmarks.diagnosis_vee import vee_section
+from benchmarks.judging import classify, named
 from validation.simulator import Case, description_engine, healthy_twin, law_loads, random_case
 from validation.simulator.vee_engine import random_vee_engine
 
@@ -50,8 +51,8 @@ def test_findings_on_a_vee_cylinder_match_the_truth() -> None:
     finding = SimpleNamespace(kind="cylinder", subject="cylinder B3", summary="low torque (misfiring)")
     assert classify(finding) == ("misfire", "B3")
     truth = {"class": "misfire", "cylinder": "B3"}
-    assert _named(truth, [("misfire", "B3", "alarm")])
-    assert not _named(truth, [("misfire", "A3", "alarm")])
+    assert named(truth, [("misfire", "B3", "alarm")])
+    assert not named(truth, [("misfire", "A3", "alarm")])
 
 
 def _outcome(truth: str, named: bool, vee: bool, exit_code: int) -> Outcome:

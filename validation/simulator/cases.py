@@ -15,6 +15,7 @@ from validation.simulator.channels import (
     angle_channels,
     bearing_channel,
     structural_response,
+    velocity_mm_s,
     worn_bearing_bursts,
 )
 from validation.simulator.crank import CrankRun, LoadStep, operating_load, run_crank
@@ -117,6 +118,12 @@ def _simulate(
         "channel": None,
         "strength": None,
         "sensor_fault": None,
+    }
+    # the structure's own vibration, against which a zone finding is judged (not a fault: a healthy
+    # engine near a structural resonance vibrates as it does)
+    truth["velocity_mm_s"] = {
+        install.channel_name(s): round(float(v), 3)
+        for s, v in enumerate(velocity_mm_s(clean, install.sample_rate))
     }
     if scenario.fault == "worn_bearing":
         bursts, details = worn_bearing_bursts(

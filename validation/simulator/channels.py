@@ -119,6 +119,24 @@ def structural_response(
     return clean, index[first:]
 
 
+def velocity_mm_s(clean: FloatArray, fs: float, band_hz: tuple[float, float] = (2.0, 1000.0)) -> FloatArray:
+    """Each sensor's rms vibration velocity over a band, of its clean structural acceleration [mm/s].
+
+    The truth a zone finding is judged against: the structure's own vibration before noise, hum and
+    the converter, integrated in the frequency domain (a Hann-windowed periodogram of the whole
+    record, power-normalised, divided by ``(2 pi f)^2``).  ``clean`` is in m/s^2, shape (s, samples).
+    """
+    n = clean.shape[1]
+    window = np.hanning(n)
+    spectrum = np.fft.rfft((clean - clean.mean(axis=1, keepdims=True)) * window, axis=1)
+    frequency = np.fft.rfftfreq(n, 1.0 / fs)
+    band = (frequency >= band_hz[0]) & (frequency <= band_hz[1])
+    # one-sided power per bin, the window's power taken out: sum over bins = mean square
+    power = 2.0 * np.abs(spectrum[:, band]) ** 2 / (n * float(np.sum(window**2)))
+    velocity = power / (2 * math.pi * frequency[band]) ** 2
+    return np.sqrt(velocity.sum(axis=1)) * 1e3
+
+
 def worn_bearing_bursts(
     run: CrankRun,
     cycle: float,
