@@ -191,14 +191,15 @@ class Missed(Case, Protocol):
     error: str
 
 
-def missed_table(outcomes: Sequence[Missed], *, limit: int = 250) -> list[str]:
-    """The cases off the baseline's point not named, either way (Markdown lines, at most ``limit``)."""
+def missed_table(outcomes: Sequence[Missed], *, limit: int = 250, vee: bool = False) -> list[str]:
+    """The cases off the baseline's point not named, either way (Markdown lines, at most ``limit``);
+    ``vee``: V engines' cases, which the simulator makes with ``vee=True``."""
     wrong = [o for o in judged(outcomes) if o.operating != "baseline point" and o.truth and not o.named]
     lines = [
         f"### Cases off the baseline's point not named ({len(wrong)} diagnoses)",
         "",
         "Seed, length and class reproduce a case: `validation.simulator.random_case(seed, duration_s=..., "
-        'operating="random")`.',
+        f'operating="random"{", vee=True" if vee else ""})`.',
         "",
         "| seed | length [s] | class | true | subject | load told | points | status | findings / error |",
         "|---|---|---|---|---|---|---|---|---|",

@@ -8,6 +8,7 @@ of the same engine to calibrate on (the case's healthy twin), the recording, and
 off by up to 10 %. Its verdict is compared with what the simulator put in.
 
     python -m benchmarks.diagnosis_validation [--cases 540] [--off-point-cases 540] [--vee-cases 0]
+        [--vee-off-point-cases 0]
 
 Cases off the baseline's operating point (another load or speed, a load step mid-recording, crank
 speed alone) are diagnosed told their load and not told it: benchmarks/diagnosis_operating.py. V
@@ -37,7 +38,13 @@ import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
 from benchmarks.diagnosis_operating import missed_table, operating_sections
-from benchmarks.diagnosis_vee import VEE_FIRST_SEED, vee_length, vee_section
+from benchmarks.diagnosis_vee import (
+    VEE_FIRST_SEED,
+    VEE_OFF_POINT_FIRST_SEED,
+    vee_length,
+    vee_off_point_section,
+    vee_section,
+)
 from benchmarks.judging import CLASSES, RULES, TRUE_CLASS, classify, named, rule_of, vibrating
 from monitor.diagnosis import Baseline, calibrate
 from monitor.diagnosis.findings import MISFIRE_BELOW
@@ -410,15 +417,20 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
     by = defaultdict(list)
     for o in outcomes:
         by[(o.truth, o.duration_s)].append(o)
-    vee = sum(1 for o in everything if o.vee and o.load_told)
+    vee = sum(1 for o in everything if o.vee and o.operating == "baseline point")
+    vee_off = len({o.seed for o in everything if o.vee and o.operating != "baseline point"})
     lines = [
         "# Diagnosis validation on engines it was not built with",
         "",
         "Written by `make bench-diagnosis` (`python -m benchmarks.diagnosis_validation --cases "
-        f"{cases} --off-point-cases {off_point}" + (f" --vee-cases {vee}" if vee else "") + "`) on "
-        f"{datetime.now(UTC):%Y-%m-%d}: {cases} cases at their baseline's operating point and {off_point} "
-        "off it" + (f", {vee} V engines' cases at theirs" if vee else "") + f", in {seconds / 60:.1f} min on "
-        f"{workers} worker(s). Every number below comes from that run.",
+        f"{cases} --off-point-cases {off_point}"
+        + (f" --vee-cases {vee}" if vee else "")
+        + (f" --vee-off-point-cases {vee_off}" if vee_off else "")
+        + f"`) on {datetime.now(UTC):%Y-%m-%d}: {cases} cases at their baseline's operating point and "
+        f"{off_point} off it"
+        + (f", {vee} V engines' cases at theirs" if vee else "")
+        + (f" and {vee_off} off it" if vee_off else "")
+        + f", in {seconds / 60:.1f} min on {workers} worker(s). Every number below comes from that run.",
         "",
         "Each case is simulated by `validation.simulator`, written apart from the product's scenes and "
         "physics (its own gas model, structure, sensors and noise): a random engine of 1 to 12 "
@@ -511,6 +523,7 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
             f"{o.subject} | {o.status} | {said.replace('|', '/')} |"
         )
     lines += ["", *_operating_section([o for o in everything if not o.vee]), *vee_section(everything)]
+    lines += vee_off_point_section(everything, OPERATING_CLASSES)
     return "\n".join(lines)
 
 
@@ -592,6 +605,13 @@ def main(argv: list[str] | None = None) -> int:
         "--vee-cases", type=int, default=0, help="V engines' cases at their point (default 0)"
     )
     parser.add_argument("--vee-first-seed", type=int, default=VEE_FIRST_SEED)
+    parser.add_argument(
+        "--vee-off-point-cases",
+        type=int,
+        default=0,
+        help="V engines' cases off their baseline's point (default 0)",
+    )
+    parser.add_argument("--vee-off-point-first-seed", type=int, default=VEE_OFF_POINT_FIRST_SEED)
     parser.add_argument("--out", type=Path, default=DOCS / "diagnosis-validation.md")
     parser.add_argument(
         "--rules-doc",
@@ -610,12 +630,22 @@ def main(argv: list[str] | None = None) -> int:
         for i in range(args.off_point_cases)
     ]
     jobs += [(args.vee_first_seed + i, vee_length(i), "baseline point", True) for i in range(args.vee_cases)]
+    jobs += [
+        (args.vee_off_point_first_seed + i, off_point_length(i), "random", True)
+        for i in range(args.vee_off_point_cases)
+    ]
     outcomes: list[Outcome] = []
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         futures = [
             pool.submit(
-                run_ways, seed, duration, operating, ways[: 1 if vee else 2], across_law=True, vee=vee
+                run_ways,
+                seed,
+                duration,
+                operating,
+                ways[: 1 if vee and operating == "baseline point" else 2],
+                across_law=True,
+                vee=vee,
             )
             for seed, duration, operating, vee in jobs
         ]

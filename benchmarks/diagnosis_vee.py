@@ -12,12 +12,14 @@ from collections import Counter
 from collections.abc import Sequence
 from typing import Protocol
 
-from benchmarks.diagnosis_operating import ROWS, cell
+from benchmarks.diagnosis_operating import ROWS, cell, missed_table, operating_sections
 from benchmarks.judging import CLASSES
 
 #: The first seed of the V engines' cases (dated, like the others, by their seed modulo 100,000
 #: minutes after 2026-01-01).
 VEE_FIRST_SEED = 300_000
+#: The first seed of the V engines' cases off their baseline's point.
+VEE_OFF_POINT_FIRST_SEED = 310_000
 #: Their recordings' lengths, in turn [s].
 VEE_DURATIONS = (10.0, 30.0)
 
@@ -53,6 +55,12 @@ class VeeCase(Protocol):
     @property
     def load_told(self) -> bool: ...
 
+    @property
+    def operating(self) -> str: ...
+
+    @property
+    def seed(self) -> int: ...
+
 
 def vee_length(index: int) -> float:
     """The recording's length [s] of the ``index``-th V engine's case.
@@ -85,7 +93,7 @@ def vee_section(outcomes: Sequence[VeeCase]) -> list[str]:
     -------
     list of str
     """
-    vee = [o for o in outcomes if o.vee and o.load_told]
+    vee = [o for o in outcomes if o.vee and o.load_told and o.operating == "baseline point"]
     if not vee:
         return []
     failed = [o for o in vee if o.failed_at == "simulator"]
@@ -124,3 +132,37 @@ def vee_section(outcomes: Sequence[VeeCase]) -> list[str]:
         "",
     ]
     return lines
+
+
+def vee_off_point_section(outcomes: Sequence[VeeCase], classes: Sequence[str]) -> list[str]:
+    """The V engines' cases off their baseline's point, a table per operating-point class (Markdown
+    lines), empty when the run had none.
+
+    Parameters
+    ----------
+    outcomes : sequence of Outcome
+        Every outcome of the run; the V engines' off their point are picked out.
+    classes : sequence of str
+        The operating-point classes, in the order of their tables.
+
+    Returns
+    -------
+    list of str
+    """
+    off = [o for o in outcomes if o.vee and o.operating != "baseline point"]
+    if not off:
+        return []
+    failed = {o.seed for o in off if o.failed_at == "simulator"}
+    return [
+        "## V engines off their baseline's point",
+        "",
+        f"{len({o.seed for o in off})} cases of V engines (`--vee-off-point-cases`, seeds from "
+        f"{VEE_OFF_POINT_FIRST_SEED}, `validation.simulator.random_case(seed, duration_s=..., "
+        'operating="random", vee=True)`), drawn, calibrated and diagnosed as the in-line cases off '
+        "their point are (told the load and not, against one point and three). "
+        f"Cases the simulator could not make: {len(failed)}.",
+        "",
+        *operating_sections(off, classes),  # type: ignore[arg-type]
+        *missed_table(off, vee=True),  # type: ignore[arg-type]
+        "",
+    ]
