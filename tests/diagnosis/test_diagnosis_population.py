@@ -208,5 +208,7 @@ def test_a_healthy_case_whose_structure_vibrates_in_zone_c_or_d_is_judged_as_a_z
     assert not named(zoned, [])
     quiet = {**truth, "velocity_mm_s": {"mb1": 4.1, "mb2": 10.9}}
     assert vibrating(quiet) is quiet
+    # zone C alone (11 mm/s and above, below 18) is a zone too
+    assert vibrating({**truth, "velocity_mm_s": {"mb1": 4.1, "mb2": 11.0}})["class"] == "vibration_zone"
     worn = {**truth, "class": "worn_bearing", "bearing": 2}
     assert vibrating(worn) is worn

@@ -177,6 +177,10 @@ def test_between_points_at_speeds_apart_the_nearest_points_transfers_and_speed_a
     close = OperatingPoints.of([slow, replace(fast, speed_rpm=780.0)]).reference_at(0.6)
     assert close.baseline.sensors["mb1"].transfer[0] == pytest.approx(2.4)
     assert close.baseline.speed_rpm == pytest.approx(756.0) and close.transfers_at is None
+    # the limit is the bearings' 5 %: 4.9 % apart interpolates, 5.1 % keeps the nearest point's
+    for apart, kept in ((1.049, None), (1.051, 0.5)):
+        edge = OperatingPoints.of([slow, replace(fast, speed_rpm=750.0 * apart)]).reference_at(0.6)
+        assert edge.transfers_at == kept, apart
 
 
 def test_beyond_the_calibrated_loads_the_nearest_point_is_used_its_error_widened_and_said() -> None:
