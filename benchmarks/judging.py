@@ -14,19 +14,24 @@ from typing import Any
 
 from monitor.diagnosis.zones import DEFAULT_BOUNDARIES_MM_S, zone_of
 
-__all__ = ["CLASSES", "RULES", "TRUE_CLASS", "classify", "named", "rule_of", "vibrating"]
+__all__ = ["CLASSES", "RULES", "TRUE_CLASS", "classify", "named", "rule_of", "subjects", "vibrating"]
 
 CLASSES = ("healthy", "misfire", "weak", "worn_bearing", "sensor_fault", "vibration_zone")
 
 
 def classify(finding: Any) -> tuple[str, str]:
-    """A finding's class and subject in the simulator's terms."""
+    """A finding's class and subject in the simulator's terms.
+
+    Cylinders that fire too nearly together for the crank speed to tell apart are judged as one group
+    (:mod:`monitor.diagnosis.shares`), and its finding names them all: the subject is then the group's
+    names joined by " or " (``"A9 or B4"``), and it names each (:func:`subjects`).
+    """
     if finding.kind == "sensor":
         return "sensor_fault", finding.subject.removeprefix("sensor ")
     if finding.kind == "cylinder":
         # "(misfiring" or "(misfiring, or nearly", not "(weak, leaking or misfiring"
         what = "misfire" if "(misfiring" in finding.summary else "weak"
-        return what, finding.subject.split(" or ")[0].removeprefix("cylinder ")
+        return what, " or ".join(name.removeprefix("cylinder ") for name in finding.subject.split(" or "))
     if finding.kind == "main bearing":
         return "worn_bearing", finding.subject.removeprefix("main bearing ")
     return "vibration_zone", finding.subject
@@ -61,6 +66,11 @@ def rule_of(finding: Any, cylinders: int) -> str:
     return "vibration zone"
 
 
+def subjects(subject: str) -> list[str]:
+    """The subjects a finding's subject (as :func:`classify` gives it) names: one, or a group's members."""
+    return subject.split(" or ")
+
+
 def named(truth: dict[str, Any], findings: list[tuple[str, str, str]]) -> bool:
     """Whether the findings, as (class, subject, severity), name the truth's fault on its subject (a
     healthy run: no finding at all)."""
@@ -77,7 +87,7 @@ def named(truth: dict[str, Any], findings: list[tuple[str, str, str]]) -> bool:
     wanted = {"misfire": ("misfire",), "weak": ("weak", "misfire"), "worn_bearing": ("worn_bearing",)}.get(
         kind, (kind,)
     )
-    return any(c in wanted and s == str(subject) for c, s, _ in findings)
+    return any(c in wanted and str(subject) in subjects(s) for c, s, _ in findings)
 
 
 def vibrating(truth: dict[str, Any]) -> dict[str, Any]:
