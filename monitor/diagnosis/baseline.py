@@ -160,6 +160,11 @@ class Baseline:
                     "high_frequency_std": s.high_frequency.std.tolist() if s.high_frequency else None,
                     "high_frequency_cycles": s.high_frequency.cycles if s.high_frequency else 0,
                     "high_frequency_band_hz": list(s.high_frequency.band_hz) if s.high_frequency else None,
+                    "high_frequency_varying": (
+                        s.high_frequency.varying.tolist()
+                        if s.high_frequency is not None and s.high_frequency.varying is not None
+                        else None
+                    ),
                     "velocity_rms_mm_s": s.velocity_rms,
                 }
                 for name, s in self.sensors.items()
@@ -295,6 +300,15 @@ class Baseline:
                         float(s["sample_rate_hz"]),
                         # absent from baselines written before the profile was band-passed: no reference
                         tuple(s.get("high_frequency_band_hz") or (math.nan, math.nan)),
+                        # the baseline's speed: the reference's rings are carried from it to a recording's
+                        float(document["speed_rpm"]),
+                        # absent from baselines written before the varying part was measured: the
+                        # impacts are then judged on the whole power alone
+                        varying=(
+                            None
+                            if s.get("high_frequency_varying") is None
+                            else np.asarray(s["high_frequency_varying"], dtype=np.float64)
+                        ),
                     )
                     if s["high_frequency_mean"] is not None
                     else None

@@ -28,6 +28,17 @@ reference is the median of the recording's own profile (weaker, judged more
 strictly by :mod:`monitor.diagnosis.diagnose`).
 A sensor hears its neighbours' bearings too, so the windows of the bearing it
 sits on and of the bearings next to it are scored, and the worst is named.
+Away from the speed the baseline's reference was measured at (by more than
+:data:`REPEATING_SPEED_TOLERANCE`, or a reference made from points at other
+speeds), a span's significance is the smaller of its excess in the whole power
+and in the part that varies from cycle to cycle
+(:attr:`HighFrequencyPower.varying`, each against its own reference): two of
+the engine's own events that ring one resonance add in phase at one speed and
+cancel at another, so the part that repeats every cycle is not known there,
+while a knock, a little earlier or later each cycle, stands out in the varying
+part. At the reference's own speed the repeating part is known, and a knock
+that repeats as exactly as the engine's events is still heard in the whole
+power.
 """
 
 from __future__ import annotations
@@ -43,6 +54,7 @@ from monitor.signal.spectrum import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
+    "REPEATING_SPEED_TOLERANCE",
     "SPEED_TOLERANCE",
     "WINDOW_AFTER_DEG",
     "WINDOW_BEFORE_DEG",
@@ -50,6 +62,7 @@ __all__ = [
     "OrderDeviation",
     "impact_score",
     "order_deviations",
+    "repeats_at",
     "span_score",
 ]
 
@@ -61,6 +74,10 @@ KNOCK_SPAN_DEG = 2.0  # the span in crank angle for a profile whose speed is not
 FAMILY_FALSE_ALARM = 1e-4  # chance that noise alone lifts one span of a bearing's windows to significance [-]
 RELEVANT_FRACTION = 0.02  # orders predicted below this fraction of the channel's largest carry no evidence
 RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
+#: Largest relative speed difference at which the reference's repeating high-frequency part holds [-]:
+#: two rings that overlap for up to RING_S (10 ms) at the band's lowest 1 kHz are up to 10 periods
+#: apart, and a speed 1 % away moves one against the other by a tenth of a period.
+REPEATING_SPEED_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -225,6 +242,42 @@ def _reference(
     return np.full(bins, float(np.median(profile.mean))), np.full(bins, median_variance)
 
 
+def repeats_at(profile: HighFrequencyPower, reference: HighFrequencyPower) -> bool:
+    """Whether the reference's part that repeats every cycle holds at the profile's speed: every speed
+    it was measured at within :data:`REPEATING_SPEED_TOLERANCE` of the profile's (True where a speed
+    is not known).
+
+    Parameters
+    ----------
+    profile : HighFrequencyPower
+        The recording's.
+    reference : HighFrequencyPower
+        The baseline's, or one made from several calibrated points (its ``speed_span``).
+
+    Returns
+    -------
+    bool
+    """
+    speed = profile.speed_rpm
+    ends = reference.speed_span()
+    if not all(math.isfinite(s) and s > 0 for s in (speed, *ends)):
+        return True
+    return all(abs(end / speed - 1.0) <= REPEATING_SPEED_TOLERANCE for end in ends)
+
+
+def _span_significance(
+    profile: HighFrequencyPower, baseline: HighFrequencyPower | None, span: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Each span's power, its reference's, the standard error of their difference, and how many of
+    those the first stands above the second (spans centred on each bin)."""
+    variance = profile.std**2 / max(profile.cycles, 1)
+    reference, reference_variance = _reference(profile, baseline)
+    measured = _span_sums(profile.mean, span)
+    expected = np.maximum(_span_sums(reference, span), 1e-300)
+    error = np.sqrt(np.maximum(_span_sums(variance + reference_variance, span), 1e-300))
+    return measured, expected, error, (measured - expected) / error
+
+
 def impact_score(
     profile: HighFrequencyPower,
     reversals: FloatArray,
@@ -252,13 +305,19 @@ def impact_score(
     mask = window_bins(reversals, bins, cycle_revolutions)
     cycle_deg = 360.0 * cycle_revolutions
     span = _span_bins(profile, cycle_revolutions)
-    variance = profile.std**2 / max(profile.cycles, 1)
-    reference, reference_variance = _reference(profile, baseline)
     how = "baseline" if baseline is not None else "own median"
-    measured = _span_sums(profile.mean, span)
-    expected = np.maximum(_span_sums(reference, span), 1e-300)
-    error = np.sqrt(np.maximum(_span_sums(variance + reference_variance, span), 1e-300))
-    z = np.where(mask, (measured - expected) / error, -np.inf)
+    measured, expected, error, z = _span_significance(profile, baseline, span)
+    varying = profile.varying_part()
+    theirs = baseline.varying_part() if baseline is not None else None
+    if (
+        baseline is not None
+        and varying is not None
+        and theirs is not None
+        and not repeats_at(profile, baseline)
+    ):
+        # the engine's own rings repeat; how they add is not known at this speed (module docstring)
+        z = np.minimum(z, _span_significance(varying, theirs, span)[3])
+    z = np.where(mask, z, -np.inf)
     peak = int(np.argmax(z))
     tested = max(1.0, float(mask.sum()) / span)  # about independent spans in the windows
     needed = NormalDist().inv_cdf((1.0 - FAMILY_FALSE_ALARM) ** (1.0 / tested))

@@ -44,7 +44,13 @@ from monitor.diagnosis.analysis import (
 )
 from monitor.diagnosis.balance import CylinderBalance, Transfer
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import SPEED_TOLERANCE, OrderDeviation, impact_score, order_deviations
+from monitor.diagnosis.bearings import (
+    SPEED_TOLERANCE,
+    OrderDeviation,
+    impact_score,
+    order_deviations,
+    repeats_at,
+)
 from monitor.diagnosis.findings import (
     BearingResult,
     Finding,
@@ -538,6 +544,16 @@ def _bearing_result(
         known = calibration.high_frequency if calibration is not None else None
         matched = reference_profile(known, profile, R, level)
         notes += matched.notes(channel.name)
+        reference = matched.reference
+        if reference is not None and reference.varying is not None and not repeats_at(profile, reference):
+            low, high = reference.speed_span()
+            said = f"{low:.0f} rpm" if round(low) == round(high) else f"{low:.0f} to {high:.0f} rpm"
+            note = (
+                f"the bearings' impacts are judged also on the part of the high-frequency power that varies "
+                f"from cycle to cycle: the reference was measured at {said}, the recording runs at "
+                f"{profile.speed_rpm:.0f} rpm, where the engine's own rings may add otherwise"
+            )
+            notes += [note] if note not in notes else []
         for neighbour in (b - 1, b, b + 1):
             if not 1 <= neighbour <= engine.bearing_count:
                 continue

@@ -194,13 +194,26 @@ def between(
     def line(a: FloatArray, b: FloatArray) -> FloatArray:
         return np.asarray((1.0 - weight) * a + weight * b, dtype=np.float64)
 
+    varying = (
+        None if low_on.varying is None or high_on.varying is None else line(low_on.varying, high_on.varying)
+    )
     return replace(
         high_on,
         mean=line(low_on.mean, high_on.mean),
         std=line(low_on.std, high_on.std),
         cycles=min(low_on.cycles, high_on.cycles),
         speed_rpm=float(line(np.asarray(low_on.speed_rpm), np.asarray(high_on.speed_rpm))),
+        varying=varying,
+        speeds_rpm=_speeds([low_on, high_on]),
     )
+
+
+def _speeds(profiles: Sequence[HighFrequencyPower]) -> tuple[float, float]:
+    """The lowest and the highest speed of the profiles' spans (NaN where one is not known)."""
+    ends = [end for p in profiles for end in p.speed_span()]
+    if not all(math.isfinite(end) for end in ends):
+        return (math.nan, math.nan)
+    return (min(ends), max(ends))
 
 
 def loudest(profiles: Sequence[HighFrequencyPower | None]) -> HighFrequencyPower | None:
@@ -224,7 +237,7 @@ def loudest(profiles: Sequence[HighFrequencyPower | None]) -> HighFrequencyPower
     first = profiles[0] if profiles else None
     if first is None:
         return None
-    means, stds = [first.mean], [first.std]
+    means, stds, varying, used = [first.mean], [first.std], [first.varying], [first]
     for other in profiles[1:]:
         if other is None or other.mean.size < first.mean.size:
             continue
@@ -233,12 +246,23 @@ def loudest(profiles: Sequence[HighFrequencyPower | None]) -> HighFrequencyPower
             continue
         means.append(theirs.mean)
         stds.append(theirs.std)
+        varying.append(theirs.varying)
+        used.append(theirs)
     if len(means) == 1:
         return first
     stacked = np.stack(means)
     pick = np.argmax(stacked, axis=0)
     column = np.arange(first.mean.size)
-    return replace(first, mean=stacked[pick, column], std=np.stack(stds)[pick, column])
+    # the varying part's loudest on its own: none where a profile lacks it
+    known = [v for v in varying if v is not None]
+    most = np.max(np.stack(known), axis=0) if len(known) == len(varying) else None
+    return replace(
+        first,
+        mean=stacked[pick, column],
+        std=np.stack(stds)[pick, column],
+        varying=most,
+        speeds_rpm=_speeds(used),
+    )
 
 
 def reference_profile(
@@ -277,7 +301,10 @@ def reference_profile(
         levels[EVENT_CLASS:] = np.maximum(levels[EVENT_CLASS:], engine)
         levels = np.minimum(levels, max(engine, 1.0))
     raise_by = np.maximum(levels[classes], 1.0)
-    reference = replace(reference, mean=raise_by * reference.mean, std=raise_by * reference.std)
+    varying = None if reference.varying is None else raise_by * reference.varying
+    reference = replace(
+        reference, mean=raise_by * reference.mean, std=raise_by * reference.std, varying=varying
+    )
     moved_deg = 6.0 * abs(profile.speed_rpm - reference.speed_rpm) * RING_S
     if math.isfinite(moved_deg):
         reference = widened(reference, moved_deg, cycle_revolutions)
@@ -313,4 +340,9 @@ def widened(profile: HighFrequencyPower, angle_deg: float, cycle_revolutions: in
     means = np.stack([np.roll(profile.mean, int(k)) for k in shifts])
     highest = np.argmax(means, axis=0)
     source = (np.arange(bins) - shifts[highest]) % bins  # the bin each highest came from
-    return replace(profile, mean=profile.mean[source], std=profile.std[source])
+    varying = (
+        None
+        if profile.varying is None
+        else np.max(np.stack([np.roll(profile.varying, int(k)) for k in shifts]), axis=0)
+    )
+    return replace(profile, mean=profile.mean[source], std=profile.std[source], varying=varying)

@@ -3,6 +3,28 @@
 The samples are band-passed in time (:func:`impact_band`, 1-10 kHz) and the mean square of each bin of
 the cycle accumulated over the cycles (:class:`HighFrequencyProfiler`), in the same pass over the
 samples as the resampling (:mod:`monitor.signal.resample`): :class:`HighFrequencyPower`.
+
+The part that varies from cycle to cycle.  The engine's own events (a valve's seating, the
+combustion's pressure rise) start at fixed crank angles, and the rings they leave repeat, cycle
+after cycle, at the same angle with the same phase; a bearing's knock comes when the journal crosses
+its clearance, a little earlier or later each cycle, and a ring of 1-10 kHz shifted by a tenth of a
+millisecond is out of phase.  Two of the engine's events that ring the same resonance add in phase
+at one speed and cancel at another a few per cent away (the validation case 200472: a two-stroke's
+exhaust opening and the next cylinder's firing, 7 deg apart, on an 860 Hz mode of the bearing's
+frame: their power at 146 rpm seven times that at 153), which no interpolation between calibrated
+points follows.  So each bin is also sampled at ``q`` fixed angles (about one per input sample at
+the slowest speed, linear interpolation of the band-passed samples), the synchronous average
+``ybar`` of each angle over the cycles kept, and the bin's varying power is
+
+    v = C / (C - 1) (mean over the bin's angles and the cycles of y^2 - mean over its angles of ybar^2),
+
+the mean square of the samples less the synchronous average's power, unbiased for ``C`` cycles of
+noise independent from cycle to cycle (:attr:`HighFrequencyPower.varying`).  The linear
+interpolation damps the band's top (white noise reads 0.5 to 1 of its power, by where the angle falls
+between two samples), so a varying part is compared with varying parts only; and where an angle falls
+elsewhere between the samples from cycle to cycle a ring near the band's top loses some of its
+coherence: the repeating part is then underestimated and the varying part overestimated, never the
+other way.
 """
 
 from __future__ import annotations
@@ -71,6 +93,14 @@ class HighFrequencyPower:
         The pass band's edges [Hz] (NaN for a profile whose band is not known).
     speed_rpm : float
         Mean speed over the cycles averaged [rpm] (NaN where not known): turns a bin's angle to time.
+    varying : ndarray or None, shape (bins,)
+        Each bin's power less that of its synchronous average over the cycles: the part that does not
+        repeat from cycle to cycle (module docstring) [unit^2]; None where not measured (a baseline
+        written before it was).
+    speeds_rpm : tuple of float
+        The lowest and the highest speed of the profiles this one was made from [rpm] (a reference
+        interpolated between, or the loudest over, calibrated points; :meth:`speed_span`); NaN: its
+        own ``speed_rpm`` alone.
     """
 
     mean: FloatArray
@@ -79,6 +109,24 @@ class HighFrequencyPower:
     sample_rate: float
     band_hz: tuple[float, float] = (math.nan, math.nan)
     speed_rpm: float = math.nan
+    varying: FloatArray | None = None
+    speeds_rpm: tuple[float, float] = (math.nan, math.nan)
+
+    def speed_span(self) -> tuple[float, float]:
+        """The lowest and the highest speed the profile's power was measured at [rpm] (NaN: unknown)."""
+        if all(math.isfinite(s) for s in self.speeds_rpm):
+            return self.speeds_rpm
+        return (self.speed_rpm, self.speed_rpm)
+
+    def varying_part(self) -> HighFrequencyPower | None:
+        """The profile of the part that varies from cycle to cycle (None where it was not measured).
+
+        Its spread is the whole power's: the synchronous average's removal takes the repeating part's
+        share of the cycles' spread away and leaves the rest, so the whole's spread bounds it.
+        """
+        if self.varying is None:
+            return None
+        return replace(self, mean=self.varying, varying=None)
 
     @property
     def bin_angle(self) -> FloatArray:
@@ -100,7 +148,8 @@ class HighFrequencyPower:
             return self
         mean = self.mean.reshape(bins, k).mean(axis=1)
         std = np.sqrt((self.std.reshape(bins, k) ** 2).sum(axis=1)) / k
-        return replace(self, mean=mean, std=std)
+        varying = None if self.varying is None else self.varying.reshape(bins, k).mean(axis=1)
+        return replace(self, mean=mean, std=std, varying=varying)
 
 
 def impact_band(sample_rate: float) -> tuple[CentredFir, tuple[float, float]]:
@@ -164,6 +213,34 @@ def _bin_power(
             counts[i % m] += 1.0
 
 
+@numba.njit(cache=True, nogil=True)
+def _bin_synchronous(
+    x: FloatArray, edges: FloatArray, m: int, q: int, sums: FloatArray, power: FloatArray, seen: FloatArray
+) -> None:
+    """Add ``x`` at ``q`` angles evenly inside each bin (linear interpolation) to ``sums[bin % m, k]``,
+    its mean square over the bin's angles to ``power[bin % m]`` and 1 to ``seen[bin % m]``, for the
+    bins whose samples the block holds on both sides; the first bin is a whole number of cycles from
+    the grid's start.
+    """  # pragma: no cover - compiled
+    n = x.size
+    for i in range(edges.size - 1):
+        e0 = edges[i]
+        width = (edges[i + 1] - e0) / q
+        if e0 < 0.0 or edges[i + 1] >= n - 1:
+            continue
+        b = i % m
+        acc = 0.0
+        for k in range(q):
+            p = e0 + (k + 0.5) * width
+            j = int(p)
+            f = p - j
+            v = float(x[j]) * (1.0 - f) + float(x[j + 1]) * f
+            sums[b, k] += v
+            acc += v * v
+        power[b] += acc / q
+        seen[b] += 1.0
+
+
 class HighFrequencyProfiler:
     """The high-frequency profile of a channel resampled block by block, accumulated a block at a time.
 
@@ -192,6 +269,10 @@ class HighFrequencyProfiler:
         self.split = max(1, (per_revolution * cycle_revolutions) // samples_per_cycle)
         self.bins = samples_per_cycle * self.split
         self._sum, self._squares, self._counts = np.zeros(self.bins), np.zeros(self.bins), np.zeros(self.bins)
+        # the synchronous average's angles: about one per input sample at the slowest speed
+        self.angles_per_bin = max(1, math.ceil(sample_rate * cycle_revolutions / (slowest * self.bins)))
+        self._synchronous = np.zeros((self.bins, self.angles_per_bin))
+        self._power, self._seen = np.zeros(self.bins), np.zeros(self.bins)
 
     @property
     def margin(self) -> int:
@@ -205,7 +286,11 @@ class HighFrequencyProfiler:
         if self.split > 1:
             finer = np.arange((fine.size - 1) * self.split + 1) / self.split
             fine = np.interp(finer, np.arange(fine.size), fine)
-        _bin_power(self.band.apply(x), fine, self.bins, self._sum, self._squares, self._counts)
+        band_passed = self.band.apply(x)
+        _bin_power(band_passed, fine, self.bins, self._sum, self._squares, self._counts)
+        _bin_synchronous(
+            band_passed, fine, self.bins, self.angles_per_bin, self._synchronous, self._power, self._seen
+        )
 
     def result(self, cycles: int, speed_rpm: float) -> HighFrequencyPower:
         """The profile of the blocks given, ``cycles`` cycles at a mean ``speed_rpm``."""
@@ -215,5 +300,14 @@ class HighFrequencyProfiler:
         mean = self._sum / counts
         variance = np.maximum(self._squares / counts - mean**2, 0.0) * counts / np.maximum(counts - 1, 1)
         return HighFrequencyPower(
-            mean, np.sqrt(variance), cycles, float(self.sample_rate), self.band_hz, speed_rpm
+            mean, np.sqrt(variance), cycles, float(self.sample_rate), self.band_hz, speed_rpm, self._varying()
         )
+
+    def _varying(self) -> FloatArray:
+        """Each bin's power less its synchronous average's, unbiased (module docstring); a bin seen in
+        fewer than two cycles keeps its whole power (nothing tells what repeats)."""
+        seen = np.maximum(self._seen, 1.0)
+        total = self._power / seen
+        repeating = np.mean((self._synchronous / seen[:, None]) ** 2, axis=1)
+        varying = np.maximum(total - repeating, 0.0) * seen / np.maximum(seen - 1.0, 1.0)
+        return np.where(self._seen >= 2, varying, total)
