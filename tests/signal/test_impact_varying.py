@@ -56,19 +56,20 @@ def test_a_ring_that_repeats_every_cycle_leaves_the_varying_part_as_the_noise_al
     rng: np.random.Generator,
 ) -> None:
     """White noise, a 2 kHz ring of 5 sigma at the same angle of every cycle (sample for sample), and a
-    3 kHz knock of 5 sigma delayed 0 to 2 ms at random, of random sign:
+    9 kHz knock of 5 sigma delayed 0 to 2 ms at random, of random sign:
 
     - the repeating ring lifts the whole power tens of times over the noise, and leaves the varying
       part as the noise alone makes it: in the synchronous average's deviations the ring cancels
       exactly, so the varying part with and without it agrees to round-off (1e-9 of the noise's);
     - the knock lifts the varying part by at least 90 % of what it lifts the whole power (its
-      synchronous average is near nothing; the linear interpolation keeps over 98 % of a 3 kHz ring's
-      power at 51.2 kHz, and the last few per cent are the average's 1 / C).
+      synchronous average is near nothing; each angle reads its nearest sample, which keeps every
+      frequency's power, and the average takes its 1 / C). A linear interpolation between samples
+      would keep about 80 % of a 9 kHz ring's power at 51.2 kHz.
     """
     n = int(SECONDS * FS)
     start = 0.0117
     noise = SIGMA * rng.standard_normal(n)
-    ring, knock = _burst(2000.0), _burst(3000.0)
+    ring, knock = _burst(2000.0), _burst(9000.0)
     repeating, varying = np.zeros(n), np.zeros(n)
     for cycle in range(int(SECONDS * RATE)):
         first = _at_bin(start, cycle, EVENT_BIN)
