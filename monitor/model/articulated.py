@@ -53,6 +53,7 @@ from monitor.types import FloatArray
 __all__ = ["ArticulatedRod", "SlaveStroke"]
 
 _NEWTON_STEPS = 50  # at most, for a dead centre; it converges quadratically in a handful
+_SETTLED_RAD = 1e-10  # a Newton step this small has settled: the next is below round-off [rad]
 _SWEEP = 720  # crank angles swept for the dead centres' first guesses (every half degree)
 
 
@@ -241,8 +242,11 @@ class ArticulatedRod:
             _, ds, d2s = self.slave_position(angle)
             step = float(ds) / float(d2s)
             angle -= step
-            if abs(step) < 1e-15:
-                return angle
+            # converged: one step more is quadratically below round-off (a fixed 1e-15 rad was below
+            # the spacing of doubles near 2 pi, where the steps dither without ever getting under it)
+            if abs(step) < _SETTLED_RAD:
+                _, ds, d2s = self.slave_position(angle)
+                return angle - float(ds) / float(d2s)
         raise ModelError(
             f"articulated rod: no dead centre of the slave near {math.degrees(start):.1f} deg crank angle"
         )
