@@ -10,8 +10,8 @@ after cycle, at the same angle with the same phase; a bearing's knock comes when
 its clearance, a little earlier or later each cycle, and a ring of 1-10 kHz shifted by a tenth of a
 millisecond is out of phase.  Two of the engine's events that ring the same resonance add in phase
 at one speed and cancel at another a few per cent away (the validation case 200472: a two-stroke's
-exhaust opening and the next cylinder's firing, 7 deg apart, on an 860 Hz mode of the bearing's
-frame: their power at 146 rpm seven times that at 153), which no interpolation between calibrated
+exhaust opening and the next cylinder's firing, 7 deg apart, on a resonance of the bearing's frame
+below 1 kHz, in phase at 146 rpm and cancelling near 153), which no interpolation between calibrated
 points follows.  So each bin is also sampled at ``q`` fixed angles (about one per input sample at
 the slowest speed, each the band-passed sample nearest to it), the synchronous average ``ybar`` of
 each angle over the cycles kept, and the bin's varying power is

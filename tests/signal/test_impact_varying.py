@@ -122,7 +122,11 @@ def test_away_from_the_references_speed_a_knock_must_stand_out_in_the_varying_pa
     # a knock span of 1.5 ms at 1000 rpm is 9 deg, 13 bins: the event's 3 at 7 and 10 at 1
     assert same.score == pytest.approx((3 * 7.0 + 10) / 13, rel=1e-9)
     assert same.significance > 20.0 > same.significance_needed
+    # the limit, pinned from both sides: 0.9 % away the repeating part holds, 1.1 % away it does not
     assert REPEATING_SPEED_TOLERANCE == 0.01
+    assert repeats_at(repeating, _flat(np.ones(bins), None, 1009.0))
+    assert not repeats_at(repeating, _flat(np.ones(bins), None, 1011.0))
+    assert not repeats_at(repeating, _flat(np.ones(bins), None, 989.0))
     spanning = between(
         _flat(np.ones(bins), np.full(bins, 0.7), 900.0), _flat(np.ones(bins), np.full(bins, 0.7), 1100.0), 0.5
     )
@@ -139,7 +143,6 @@ def test_away_from_the_references_speed_a_knock_must_stand_out_in_the_varying_pa
         assert knock.angle_deg == pytest.approx(390.0, abs=4.5)  # every 9 deg span holding the 3 bins alike
         old = impact_score(repeating, window, 1, 2, replace(reference, varying=None))
         assert old.significance > 20.0 > old.significance_needed
-    assert repeats_at(repeating, _flat(np.ones(bins), None, 1009.0))
 
 
 def test_the_varying_part_follows_the_profile_through_the_reference() -> None:
