@@ -189,6 +189,7 @@ class Missed(Case, Protocol):
     status: str
     findings: str
     error: str
+    inconclusive: str
 
 
 def missed_table(outcomes: Sequence[Missed], *, limit: int = 250, vee: bool = False) -> list[str]:
@@ -209,5 +210,32 @@ def missed_table(outcomes: Sequence[Missed], *, limit: int = 250, vee: bool = Fa
         lines.append(
             f"| {o.seed} | {o.duration_s:g} | {o.operating} | {o.truth} | {o.subject} | "
             f"{'yes' if o.load_told else 'no'} | {o.points} | {o.status} | {said} |"
+        )
+    return lines
+
+
+def unjudged_table(outcomes: Sequence[Missed], *, vee: bool = False) -> list[str]:
+    """The healthy runs off the baseline's point that did not exit 0 for want of evidence (inconclusive,
+    no finding), each with the product's reason (Markdown lines): the "healthy runs exit 0" rows'
+    misses that the list of cases not named leaves out (a healthy run without findings is named)."""
+    left = [
+        o
+        for o in judged(outcomes)
+        if o.operating != "baseline point" and o.truth == "healthy" and o.named and o.exit_code != 0
+    ]
+    lines = [
+        f"### Healthy runs off the baseline's point left inconclusive ({len(left)} diagnoses)",
+        "",
+        "Seed, length and class reproduce a case: `validation.simulator.random_case(seed, duration_s=..., "
+        f'operating="random"{", vee=True" if vee else ""})`. The reason is the product\'s own.',
+        "",
+        "| seed | length [s] | class | cylinders | load told | points | why |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for o in sorted(left, key=lambda o: (o.operating, o.seed, o.points, not o.load_told)):
+        why = (o.inconclusive or o.status).replace("|", "/")
+        lines.append(
+            f"| {o.seed} | {o.duration_s:g} | {o.operating} | {o.cylinders} | "
+            f"{'yes' if o.load_told else 'no'} | {o.points} | {why} |"
         )
     return lines

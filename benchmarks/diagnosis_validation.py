@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
-from benchmarks.diagnosis_operating import missed_table, operating_sections
+from benchmarks.diagnosis_operating import missed_table, operating_sections, unjudged_table
 from benchmarks.diagnosis_vee import (
     VEE_FIRST_SEED,
     VEE_OFF_POINT_FIRST_SEED,
@@ -588,6 +588,8 @@ def _operating_section(everything: list[Outcome]) -> list[str]:
         "",
         *operating_sections(everything, OPERATING_CLASSES),
         *missed_table(everything),
+        "",
+        *unjudged_table(everything),
         "",
     ]
     return lines

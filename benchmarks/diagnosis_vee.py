@@ -12,7 +12,7 @@ from collections import Counter
 from collections.abc import Sequence
 from typing import Protocol
 
-from benchmarks.diagnosis_operating import ROWS, cell, missed_table, operating_sections
+from benchmarks.diagnosis_operating import ROWS, cell, missed_table, operating_sections, unjudged_table
 from benchmarks.judging import CLASSES
 
 #: The first seed of the V engines' cases (dated, like the others, by their seed modulo 100,000
@@ -164,5 +164,7 @@ def vee_off_point_section(outcomes: Sequence[VeeCase], classes: Sequence[str]) -
         "",
         *operating_sections(off, classes),  # type: ignore[arg-type]
         *missed_table(off, vee=True),  # type: ignore[arg-type]
+        "",
+        *unjudged_table(off, vee=True),  # type: ignore[arg-type]
         "",
     ]
