@@ -8,7 +8,11 @@ strengths move to make up the difference (more than in proportion: the compressi
 gas torque changes with the charge pressure).  The load estimated is the one at which the
 cylinders' median strength equals the reference's: the balance is fitted on the recording's own
 crank-speed orders at loads over the model's range, the mismatch bracketed and its root found by
-the secant rule.
+the secant rule.  A mismatch that changes sign more than once over the range tells no load: the
+reference then switches between calibrated points whose crank-speed calibrations differ, or the
+compression's and the combustion's torque nearly cancel at the orders fitted, and the first root
+is as likely the wrong one (validation case 200472, a healthy nine-cylinder two-stroke: its mismatch
+against three points crosses zero three times, the first far below the load it ran at).
 
 The median, not the mean: one misfiring cylinder of six moves the mean by a sixth and the median
 hardly at all, so a fault does not read as a lower load (its standard error is taken as
@@ -88,7 +92,7 @@ def estimate_load(
     -------
     LoadEstimate or None
         None without crank-speed orders, for a single cylinder (its strength is the load), or when
-        no load in the model's range matches.
+        no load in the model's range matches, or several do.
     """
     speed = spectra.spectra.get(SPEED_CHANNEL)
     if speed is None or speed.orders.size < 2 or engine.cylinders < 2 or engine.combustion is None:
@@ -120,8 +124,8 @@ def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate
     """The load where the mismatch falls through zero, bracketed on :data:`LOADS`, by the secant rule."""
     gaps = np.array([mismatch(float(load))[0] for load in LOADS])
     crossing = np.flatnonzero((gaps[:-1] > 0) & (gaps[1:] <= 0))
-    if crossing.size == 0:
-        return None
+    if crossing.size == 0 or np.count_nonzero(np.diff(gaps > 0)) > 1:
+        return None  # no match, or matches at several loads: the strengths do not tell which
     i = int(crossing[0])
     a, b, fa, fb = float(LOADS[i]), float(LOADS[i + 1]), float(gaps[i]), float(gaps[i + 1])
     for _ in range(4):  # the secant rule, kept inside the bracket (fa > 0 >= fb)

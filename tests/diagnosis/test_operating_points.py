@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -268,3 +269,30 @@ def test_a_stated_and_an_estimated_load_disagree_beyond_2_joint_errors(
         assert said[0].startswith(
             f"the load stated (0.50 +- 0.10) and the load estimated ({estimated:.2f} +- 0.05)"
         )
+
+
+@pytest.mark.parametrize(
+    ("gap", "root"),
+    [
+        (lambda load: 0.6 - load, 0.6),  # the strengths fall with the model's load: one match
+        (lambda load: np.cos(3 * np.pi * load), None),  # three matches (1/6, 1/2, 5/6): none told
+        (lambda load: load - 0.6, None),  # strengths rising with the model's load: no load matches
+    ],
+    ids=["one crossing", "three crossings", "rising"],
+)
+def test_a_load_is_estimated_only_where_one_load_matches(
+    gap: Callable[[float], float], root: float | None
+) -> None:
+    """The mismatch (the cylinders' median strength less the reference's) against the model's load: one
+    fall through zero over 0.1-1.1 tells the load; several crossings (the reference switching between
+    calibrated points, or compression and combustion nearly cancelling at the orders fitted) tell none,
+    as the first root found is as likely the wrong one."""
+    from monitor.diagnosis.load_estimate import _root
+
+    estimate = _root(lambda load: (float(gap(load)), 0.05, "the model's strengths"))
+    if root is None:
+        assert estimate is None
+    else:
+        assert estimate is not None
+        assert estimate.load == pytest.approx(root, abs=1e-6)  # a straight line: the secant rule's root
+        assert estimate.standard_error == pytest.approx(0.05, rel=1e-6)  # slope -1
