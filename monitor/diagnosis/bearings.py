@@ -64,6 +64,7 @@ __all__ = [
     "order_deviations",
     "repeats_at",
     "span_score",
+    "varying_note",
 ]
 
 SPEED_TOLERANCE = 0.05  # largest relative speed difference at which a calibrated transfer is used [-]
@@ -263,6 +264,34 @@ def repeats_at(profile: HighFrequencyPower, reference: HighFrequencyPower) -> bo
     if not all(math.isfinite(s) and s > 0 for s in (speed, *ends)):
         return True
     return all(abs(end / speed - 1.0) <= REPEATING_SPEED_TOLERANCE for end in ends)
+
+
+def varying_note(profile: HighFrequencyPower, reference: HighFrequencyPower | None) -> str | None:
+    """What the diagnosis says where a knock must stand out in the power's varying part too: the
+    reference holds one and its repeating part does not hold at the profile's speed (:func:`repeats_at`).
+
+    Parameters
+    ----------
+    profile : HighFrequencyPower
+        The recording's.
+    reference : HighFrequencyPower or None
+        The one its impacts are judged against.
+
+    Returns
+    -------
+    str or None
+        The note, with the speeds [rpm] the reference was measured at and the recording's; None where
+        the whole power alone decides.
+    """
+    if reference is None or reference.varying is None or repeats_at(profile, reference):
+        return None
+    low, high = reference.speed_span()
+    said = f"{low:.0f} rpm" if round(low) == round(high) else f"{low:.0f} to {high:.0f} rpm"
+    return (
+        "the bearings' impacts are judged also on the part of the high-frequency power that varies from "
+        f"cycle to cycle: the reference was measured at {said}, the recording runs at "
+        f"{profile.speed_rpm:.0f} rpm, where the engine's own rings may add otherwise"
+    )
 
 
 def _span_significance(

@@ -49,7 +49,7 @@ from monitor.diagnosis.bearings import (
     OrderDeviation,
     impact_score,
     order_deviations,
-    repeats_at,
+    varying_note,
 )
 from monitor.diagnosis.findings import (
     BearingResult,
@@ -544,16 +544,8 @@ def _bearing_result(
         known = calibration.high_frequency if calibration is not None else None
         matched = reference_profile(known, profile, R, level)
         notes += matched.notes(channel.name)
-        reference = matched.reference
-        if reference is not None and reference.varying is not None and not repeats_at(profile, reference):
-            low, high = reference.speed_span()
-            said = f"{low:.0f} rpm" if round(low) == round(high) else f"{low:.0f} to {high:.0f} rpm"
-            note = (
-                f"the bearings' impacts are judged also on the part of the high-frequency power that varies "
-                f"from cycle to cycle: the reference was measured at {said}, the recording runs at "
-                f"{profile.speed_rpm:.0f} rpm, where the engine's own rings may add otherwise"
-            )
-            notes += [note] if note not in notes else []
+        if (note := varying_note(profile, matched.reference)) is not None and note not in notes:
+            notes.append(note)
         for neighbour in (b - 1, b, b + 1):
             if not 1 <= neighbour <= engine.bearing_count:
                 continue

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from monitor.diagnosis.baseline import Baseline, SensorBaseline
-from monitor.diagnosis.bearings import REPEATING_SPEED_TOLERANCE, impact_score, repeats_at
+from monitor.diagnosis.bearings import REPEATING_SPEED_TOLERANCE, impact_score, repeats_at, varying_note
 from monitor.diagnosis.impact_reference import between, loudest, widened
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.impact import HighFrequencyPower
@@ -143,6 +143,26 @@ def test_away_from_the_references_speed_a_knock_must_stand_out_in_the_varying_pa
         assert knock.angle_deg == pytest.approx(390.0, abs=4.5)  # every 9 deg span holding the 3 bins alike
         old = impact_score(repeating, window, 1, 2, replace(reference, varying=None))
         assert old.significance > 20.0 > old.significance_needed
+
+
+def test_the_diagnosis_says_where_a_knock_must_stand_out_in_the_varying_part_too() -> None:
+    """The note names the speeds the reference was measured at (one, or the points' span) and the
+    recording's; none at the reference's own speed or against a reference without a varying part."""
+    bins = 64
+    recording = _flat(np.ones(bins), np.full(bins, 0.7), 1053.0)
+    one = _flat(np.ones(bins), np.full(bins, 0.7), 1000.0)
+    assert varying_note(recording, one) == (
+        "the bearings' impacts are judged also on the part of the high-frequency power that varies from "
+        "cycle to cycle: the reference was measured at 1000 rpm, the recording runs at 1053 rpm, where the "
+        "engine's own rings may add otherwise"
+    )
+    spanning = between(one, _flat(np.ones(bins), np.full(bins, 0.7), 1100.0), 0.5)
+    assert spanning is not None
+    said = varying_note(recording, spanning)
+    assert said is not None and "measured at 1000 to 1100 rpm, the recording runs at 1053 rpm" in said
+    assert varying_note(recording, _flat(np.ones(bins), np.full(bins, 0.7), 1050.0)) is None  # 0.3 % away
+    assert varying_note(recording, replace(one, varying=None)) is None
+    assert varying_note(recording, None) is None
 
 
 def test_the_varying_part_follows_the_profile_through_the_reference() -> None:
