@@ -29,6 +29,17 @@ Its derivatives in the crank angle follow by the chain rule from ``K' = C' + r (
 (found by Newton's method on ``s'`` with ``s''``, from the highest and lowest of a sweep): its
 displacement from its own TDC is ``s_TDC - s``.
 
+The loads a force on the slave piston puts on the crank (massless rods, frictionless pins; the
+piston's axial force ``F`` positive towards the crank, as :mod:`monitor.model.forces` signs it): the
+slave rod is a two-force member along ``e = (S - K) / l``, so its compression is ``F / (e . w)`` and
+the slave's bore takes ``N_s = -C (e . v)`` across it. The master rod is then held at three pins: the
+knuckle (``-C e``), the master piston pin, which takes a force across the master's bore alone
+(``Q x``, its piston carrying no axial force of the slave's), and the crank pin. Its moments about
+the crank pin give ``Q = -C ((K - C) x e) / (L cos b)`` (``a x b = a_x b_y - a_y b_x``), the master
+bore takes ``Q`` too, and the force on the crank pin is ``Q x - C e``; its moment about the
+crankshaft axis in the direction of rotation (from ``y`` towards ``x``), ``C_y F_x - C_x F_y``, is the
+torque, which virtual work gives independently as ``-F ds/da`` (the tests compare the two).
+
 With ``r = 0`` the slave rod hangs on the crank pin: the slave is then a slider-crank of rod ``l`` at
 the bank angle (side-by-side or fork-and-blade rods), the limit the tests check.
 
@@ -50,7 +61,7 @@ from monitor.errors import ModelError
 from monitor.model.kinematics import check_rod_ratio, cos_rod_angle
 from monitor.types import FloatArray
 
-__all__ = ["ArticulatedRod", "SlaveStroke"]
+__all__ = ["ArticulatedRod", "SlaveLoads", "SlaveStroke"]
 
 _NEWTON_STEPS = 50  # at most, for a dead centre; it converges quadratically in a handful
 _SETTLED_RAD = 1e-10  # a Newton step this small has settled: the next is below round-off [rad]
@@ -81,6 +92,33 @@ class SlaveStroke:
     tdc_offset: float
     stroke: float
     top: float
+
+
+@dataclass(frozen=True)
+class SlaveLoads:
+    """What an axial force on the slave piston puts on the crank, in the master's frame (module
+    docstring). Every array has the crank angle's shape.
+
+    Attributes
+    ----------
+    pin_force_x, pin_force_y : ndarray
+        The force of the master rod on the crank pin, across and along the master's bore [N].
+    torque : ndarray
+        Its moment about the crankshaft axis, in the direction of rotation [N m].
+    slave_rod_force : ndarray
+        The slave rod's compression [N].
+    slave_guide_force : ndarray
+        The slave bore's force on the slave piston, along the slave's ``x`` (``v``) [N].
+    master_guide_force : ndarray
+        The master bore's force on the master piston along ``x`` that the slave's force calls for [N].
+    """
+
+    pin_force_x: FloatArray
+    pin_force_y: FloatArray
+    torque: FloatArray
+    slave_rod_force: FloatArray
+    slave_guide_force: FloatArray
+    master_guide_force: FloatArray
 
 
 @dataclass(frozen=True)
@@ -191,6 +229,47 @@ class ArticulatedRod:
         ds = p1 - q * q1 / h
         d2s = p2 - (q1**2 + q * q2) / h - q**2 * q1**2 / h**3
         return s.reshape(shape), ds.reshape(shape), d2s.reshape(shape)
+
+    def slave_loads(self, crank_angle: npt.ArrayLike, axial_force: npt.ArrayLike) -> SlaveLoads:
+        """The loads an axial force on the slave piston puts on the crank (module docstring).
+
+        Parameters
+        ----------
+        crank_angle : array_like
+            From the master's TDC [rad].
+        axial_force : array_like
+            On the slave piston along its bore, positive towards the crank (gas and inertia), broadcast
+            against the crank angle [N].
+
+        Returns
+        -------
+        SlaveLoads
+        """
+        a = np.asarray(crank_angle, dtype=np.float64)
+        force = np.broadcast_to(np.asarray(axial_force, dtype=np.float64), a.shape).ravel()
+        flat = np.atleast_1d(a).ravel()
+        knuckle = self._knuckle(flat)[0]
+        place = self.slave_position(flat)[0]
+        w, v = self._axis, self._normal
+        rod = (place[:, None] * w - knuckle) / self.slave_length  # e, knuckle to slave pin (unit)
+        compression = force / (rod @ w)
+        lam = self.crank_radius / self.master_length
+        crank = self.crank_radius * np.stack([np.sin(flat), np.cos(flat)], axis=-1)
+        lever = knuckle - crank  # K - C
+        height = self.master_length * cos_rod_angle(flat, lam)  # (P - C)_y
+        master = -compression * (lever[:, 0] * rod[:, 1] - lever[:, 1] * rod[:, 0]) / height
+        pin = -compression[:, None] * rod
+        pin[:, 0] += master
+        torque = crank[:, 1] * pin[:, 0] - crank[:, 0] * pin[:, 1]  # the crank turns from y towards x
+        shape = a.shape
+        return SlaveLoads(
+            pin_force_x=pin[:, 0].reshape(shape),
+            pin_force_y=pin[:, 1].reshape(shape),
+            torque=torque.reshape(shape),
+            slave_rod_force=compression.reshape(shape),
+            slave_guide_force=(-compression * (rod @ v)).reshape(shape),
+            master_guide_force=master.reshape(shape),
+        )
 
     def slave_displacement(self, crank_angle: npt.ArrayLike) -> FloatArray:
         """The slave piston's displacement from its own TDC towards the crank [m].
