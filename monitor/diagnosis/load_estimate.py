@@ -8,11 +8,13 @@ strengths move to make up the difference (more than in proportion: the compressi
 gas torque changes with the charge pressure).  The load estimated is the one at which the
 cylinders' median strength equals the reference's: the balance is fitted on the recording's own
 crank-speed orders at loads over the model's range, the mismatch bracketed and its root found by
-the secant rule.  A mismatch that changes sign more than once over the range tells no load: the
-reference then switches between calibrated points whose crank-speed calibrations differ, or the
+the secant rule.  A mismatch that falls through zero more than once over the range tells no load:
+the reference then switches between calibrated points whose crank-speed calibrations differ, or the
 compression's and the combustion's torque nearly cancel at the orders fitted, and the first root
 is as likely the wrong one (validation case 200472, a healthy nine-cylinder two-stroke: its mismatch
-against three points crosses zero three times, the first far below the load it ran at).
+against three points falls through zero twice, first far below the load it ran at).  A rise through
+zero is no match (the strengths would have to grow with the model's load): a mismatch near zero at
+an end of the range, where its errors are largest, does not hide the one fall.
 
 The median, not the mean: one misfiring cylinder of six moves the mean by a sixth and the median
 hardly at all, so a fault does not read as a lower load (its standard error is taken as
@@ -124,7 +126,7 @@ def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate
     """The load where the mismatch falls through zero, bracketed on :data:`LOADS`, by the secant rule."""
     gaps = np.array([mismatch(float(load))[0] for load in LOADS])
     crossing = np.flatnonzero((gaps[:-1] > 0) & (gaps[1:] <= 0))
-    if crossing.size == 0 or np.count_nonzero(np.diff(gaps > 0)) > 1:
+    if crossing.size != 1:
         return None  # no match, or matches at several loads: the strengths do not tell which
     i = int(crossing[0])
     a, b, fa, fb = float(LOADS[i]), float(LOADS[i + 1]), float(gaps[i]), float(gaps[i + 1])

@@ -275,16 +275,19 @@ def test_a_stated_and_an_estimated_load_disagree_beyond_2_joint_errors(
     ("gap", "root"),
     [
         (lambda load: 0.6 - load, 0.6),  # the strengths fall with the model's load: one match
-        (lambda load: np.cos(3 * np.pi * load), None),  # three matches (1/6, 1/2, 5/6): none told
+        (lambda load: np.cos(3 * np.pi * load), None),  # falls through zero at 1/6 and 5/6: none told
         (lambda load: load - 0.6, None),  # strengths rising with the model's load: no load matches
+        (lambda load: -0.001 if load < 0.15 else 0.6 - load, 0.6),  # a rise at the end, within its errors
+        (lambda load: math.nan if abs(load - 0.3) < 1e-9 else 0.6 - load, 0.6),  # one load not fitted
     ],
-    ids=["one crossing", "three crossings", "rising"],
+    ids=["one fall", "two falls", "rising", "near zero at an end", "a load not fitted"],
 )
 def test_a_load_is_estimated_only_where_one_load_matches(
     gap: Callable[[float], float], root: float | None
 ) -> None:
     """The mismatch (the cylinders' median strength less the reference's) against the model's load: one
-    fall through zero over 0.1-1.1 tells the load; several crossings (the reference switching between
+    fall through zero over 0.1-1.1 tells the load, whatever else it does where it does not fall (a rise
+    near zero at an end, a load the balance could not fit); two falls (the reference switching between
     calibrated points, or compression and combustion nearly cancelling at the orders fitted) tell none,
     as the first root found is as likely the wrong one."""
     from monitor.diagnosis.load_estimate import _root
