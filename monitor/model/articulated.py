@@ -31,13 +31,13 @@ displacement from its own TDC is ``s_TDC - s``.
 
 The loads a force on the slave piston puts on the crank (massless rods, frictionless pins; the
 piston's axial force ``F`` positive towards the crank, as :mod:`monitor.model.forces` signs it): the
-slave rod is a two-force member along ``e = (S - K) / l``, so its compression is ``F / (e . w)`` and
-the slave's bore takes ``N_s = -C (e . v)`` across it. The master rod is then held at three pins: the
-knuckle (``-C e``), the master piston pin, which takes a force across the master's bore alone
-(``Q x``, its piston carrying no axial force of the slave's), and the crank pin. Its moments about
-the crank pin give ``Q = -C ((K - C) x e) / (L cos b)`` (``a x b = a_x b_y - a_y b_x``), the master
-bore takes ``Q`` too, and the force on the crank pin is ``Q x - C e``; its moment about the
-crankshaft axis in the direction of rotation (from ``y`` towards ``x``), ``C_y F_x - C_x F_y``, is the
+slave rod is a two-force member along ``e = (S - K) / l``, so its compression is ``T = F / (e . w)``
+and the slave's bore takes ``N_s = -T (e . v)`` across it. The master rod is then held at three pins:
+the knuckle (``-T e``), the master piston pin, which takes a force across the master's bore alone
+(``Q x``, its piston carrying no axial force of the slave's), and the crank pin ``C``. Its moments
+about the crank pin give ``Q = -T ((K - C) x e) / (L cos b)`` (``a x b = a_x b_y - a_y b_x``), the
+master bore takes ``Q`` too, and the force on the crank pin is ``G = Q x - T e``; its moment about the
+crankshaft axis in the direction of rotation (from ``y`` towards ``x``), ``C_y G_x - C_x G_y``, is the
 torque, which virtual work gives independently as ``-F ds/da`` (the tests compare the two).
 
 With ``r = 0`` the slave rod hangs on the crank pin: the slave is then a slider-crank of rod ``l`` at
@@ -97,7 +97,7 @@ class SlaveStroke:
 @dataclass(frozen=True)
 class SlaveLoads:
     """What an axial force on the slave piston puts on the crank, in the master's frame (module
-    docstring). Every array has the crank angle's shape.
+    docstring). Every array has the shape of the crank angle and the force broadcast together.
 
     Attributes
     ----------
@@ -239,14 +239,16 @@ class ArticulatedRod:
             From the master's TDC [rad].
         axial_force : array_like
             On the slave piston along its bore, positive towards the crank (gas and inertia), broadcast
-            against the crank angle [N].
+            with the crank angle [N].
 
         Returns
         -------
         SlaveLoads
         """
-        a = np.asarray(crank_angle, dtype=np.float64)
-        force = np.broadcast_to(np.asarray(axial_force, dtype=np.float64), a.shape).ravel()
+        a, force_at = np.broadcast_arrays(
+            np.asarray(crank_angle, dtype=np.float64), np.asarray(axial_force, dtype=np.float64)
+        )
+        force = force_at.ravel()
         flat = np.atleast_1d(a).ravel()
         knuckle = self._knuckle(flat)[0]
         place = self.slave_position(flat)[0]

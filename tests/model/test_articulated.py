@@ -177,20 +177,33 @@ def test_the_slave_torque_of_the_rods_statics_is_virtual_works() -> None:
 
 
 def test_the_linkage_is_in_equilibrium_under_the_slave_force() -> None:
-    """The forces on the pistons and rods together: the slave's axial force, both bores' and the crank
-    pin's reaction sum to zero (round-off of the force)."""
+    """The forces on the pistons and rods together (massless): the slave's axial force, both bores' and
+    the crank pin's reaction sum to zero, and so do their moments about the crankshaft axis, where the
+    master bore's force enters (the slave's axial force acts along a line through the axis). Both to
+    round-off of the force and of its moment."""
     force = np.linspace(-2.0e5, 1.0e6, 37)  # inertia pulls, gas pushes [N]
     angles = np.linspace(0.0, 2 * math.pi, 37)
     loads = ROD.slave_loads(angles, force)
     w = np.array([math.sin(ROD.bank_angle), math.cos(ROD.bank_angle)])
     v = np.array([math.cos(ROD.bank_angle), -math.sin(ROD.bank_angle)])
-    total = (
-        -force[:, None] * w
-        + loads.slave_guide_force[:, None] * v
-        + loads.master_guide_force[:, None] * np.array([1.0, 0.0])
-        - np.stack([loads.pin_force_x, loads.pin_force_y], axis=-1)
-    )
+    pin = np.stack([loads.pin_force_x, loads.pin_force_y], axis=-1)
+    guide = loads.master_guide_force[:, None] * np.array([1.0, 0.0])
+    total = -force[:, None] * w + loads.slave_guide_force[:, None] * v + guide - pin
     np.testing.assert_allclose(total, 0.0, rtol=0, atol=1e-9 * 1.0e6)
+
+    def moment(at: np.ndarray, f: np.ndarray) -> np.ndarray:  # about the axis, from x towards y
+        return np.asarray(at[:, 0] * f[:, 1] - at[:, 1] * f[:, 0])
+
+    radius, length = ROD.crank_radius, ROD.master_length
+    crank = radius * np.stack([np.sin(angles), np.cos(angles)], axis=-1)
+    master_pin = np.stack([0 * angles, crank[:, 1] + np.sqrt(length**2 - crank[:, 0] ** 2)], axis=-1)
+    slave_pin = ROD.slave_position(angles)[0][:, None] * w
+    turning = (
+        moment(slave_pin, -force[:, None] * w + loads.slave_guide_force[:, None] * v)
+        + moment(master_pin, guide)
+        - moment(crank, pin)
+    )
+    np.testing.assert_allclose(turning, 0.0, rtol=0, atol=1e-9 * 1.0e6 * length)
 
 
 def test_a_slave_rod_on_the_crank_pin_loads_it_as_a_slider_crank_at_the_bank_angle() -> None:

@@ -29,7 +29,7 @@ def test_only_healthy_runs_off_the_point_left_inconclusive_are_listed_with_their
     ]
     lines = unjudged_table(outcomes)
     assert lines[0] == "### Healthy runs off the baseline's point left inconclusive (1 diagnoses)"
-    rows = [line for line in lines if line.startswith("| 2")]
+    rows = lines[lines.index("|---|---|---|---|---|---|---|") + 1 :]
     assert rows == [
         "| 200059 | 10 | load step | 1 | no | 3 | "
         "a single cylinder's weaker firing and a lower load read alike |"
