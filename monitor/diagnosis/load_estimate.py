@@ -10,11 +10,13 @@ cylinders' median strength equals the reference's: the balance is fitted on the 
 crank-speed orders at loads over the model's range, the mismatch bracketed and its root found by
 the secant rule.  A mismatch that falls through zero more than once over the range tells no load:
 the reference then switches between calibrated points whose crank-speed calibrations differ, or the
-compression's and the combustion's torque nearly cancel at the orders fitted, and the first root
-is as likely the wrong one (validation case 200472, a healthy nine-cylinder two-stroke: its mismatch
-against three points falls through zero twice, first far below the load it ran at).  A rise through
-zero is no match (the strengths would have to grow with the model's load): a mismatch near zero at
-an end of the range, where its errors are largest, does not hide the one fall.
+compression's and the combustion's torque nearly cancel at the orders fitted, and the strengths
+alone do not say which root is the load: on the validation population the first was far below the
+load run in case 200472 (a healthy nine-cylinder two-stroke told its load, where it raised a false
+"check the load reading") and right in cases 200246 and 310054 (not told their load, where leaving
+the load unestimated named a misfire weak and missed a weak cylinder; docs/diagnosis-validation.md).
+A rise through zero is no match (the strengths would have to grow with the model's load): a mismatch
+near zero at an end of the range, where its errors are largest, does not hide the one fall.
 
 The median, not the mean: one misfiring cylinder of six moves the mean by a sixth and the median
 hardly at all, so a fault does not read as a lower load (its standard error is taken as

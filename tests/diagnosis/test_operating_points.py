@@ -289,7 +289,7 @@ def test_a_load_is_estimated_only_where_one_load_matches(
     fall through zero over 0.1-1.1 tells the load, whatever else it does where it does not fall (a rise
     near zero at an end, a load the balance could not fit); two falls (the reference switching between
     calibrated points, or compression and combustion nearly cancelling at the orders fitted) tell none,
-    as the first root found is as likely the wrong one."""
+    as the strengths alone do not say which root is the load."""
     from monitor.diagnosis.load_estimate import _root
 
     estimate = _root(lambda load: (float(gap(load)), 0.05, "the model's strengths"))
