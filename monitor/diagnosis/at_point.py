@@ -202,6 +202,12 @@ def _load_notes(stated: float | None, estimate: LoadEstimate | None, used: float
             f"load estimated from the crank-speed orders: {estimate.load:.2f} +- "
             f"{estimate.standard_error:.2f} (against {estimate.reference})"
         )
+        if estimate.other_matches:
+            others = ", ".join(f"{other:.2f}" for other in estimate.other_matches)
+            notes.append(
+                f"the cylinders' strengths also match the reference at load {others}: the lowest match "
+                "is taken, its standard error spanning the others"
+            )
     if stated is not None and estimate is not None:
         joint = math.hypot(LOAD_UNCERTAINTY, estimate.standard_error)
         if abs(stated - estimate.load) > AGREE * joint:

@@ -8,15 +8,17 @@ strengths move to make up the difference (more than in proportion: the compressi
 gas torque changes with the charge pressure).  The load estimated is the one at which the
 cylinders' median strength equals the reference's: the balance is fitted on the recording's own
 crank-speed orders at loads over the model's range, the mismatch bracketed and its root found by
-the secant rule.  A mismatch that falls through zero more than once over the range tells no load:
-the reference then switches between calibrated points whose crank-speed calibrations differ, or the
-compression's and the combustion's torque nearly cancel at the orders fitted, and the strengths
-alone do not say which root is the load: on the validation population the first was far below the
-load run in case 200472 (a healthy nine-cylinder two-stroke told its load, where it raised a false
-"check the load reading") and right in cases 200246 and 310054 (not told their load, where leaving
-the load unestimated named a misfire weak and missed a weak cylinder; docs/diagnosis-validation.md).
+the secant rule.  A mismatch may fall through zero more than once over the range: the reference
+then switches between calibrated points whose crank-speed calibrations differ, or the compression's
+and the combustion's torque nearly cancel at the orders fitted, and the strengths alone do not say
+which root is the load.  The lowest is kept, and its standard error widened to half the distance to
+the farthest other root, so that every root lies within two standard errors of the load reported:
+on the validation population the lowest was right in cases 200246 and 310054 (not told their load:
+leaving the load unestimated named a misfire weak and missed a weak cylinder) and far below the load
+run in case 200472 (a healthy nine-cylinder two-stroke told its load, whose "check the load reading"
+the widened error no longer raises; docs/diagnosis-validation.md).
 A rise through zero is no match (the strengths would have to grow with the model's load): a mismatch
-near zero at an end of the range, where its errors are largest, does not hide the one fall.
+near zero at an end of the range, where its errors are largest, does not hide a fall.
 
 The median, not the mean: one misfiring cylinder of six moves the mean by a sixth and the median
 hardly at all, so a fault does not read as a lower load (its standard error is taken as
@@ -58,11 +60,15 @@ class LoadEstimate:
         [-]
     reference : str
         What the cylinders' strengths were matched to.
+    other_matches : tuple of float
+        Loads above ``load`` where the mismatch also falls through zero [-], fraction of rated
+        (``standard_error`` spans them).
     """
 
     load: float
     standard_error: float
     reference: str
+    other_matches: tuple[float, ...] = ()
 
 
 ReferenceAt = Callable[[float], tuple[CrankCalibration | None, float, str]]
@@ -96,7 +102,7 @@ def estimate_load(
     -------
     LoadEstimate or None
         None without crank-speed orders, for a single cylinder (its strength is the load), or when
-        no load in the model's range matches, or several do.
+        no load in the model's range matches.
     """
     speed = spectra.spectra.get(SPEED_CHANNEL)
     if speed is None or speed.orders.size < 2 or engine.cylinders < 2 or engine.combustion is None:
@@ -125,11 +131,12 @@ def estimate_load(
 
 
 def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate | None:
-    """The load where the mismatch falls through zero, bracketed on :data:`LOADS`, by the secant rule."""
+    """The lowest load where the mismatch falls through zero, bracketed on :data:`LOADS`, by the secant
+    rule; its standard error spans the other falls."""
     gaps = np.array([mismatch(float(load))[0] for load in LOADS])
     crossing = np.flatnonzero((gaps[:-1] > 0) & (gaps[1:] <= 0))
-    if crossing.size != 1:
-        return None  # no match, or matches at several loads: the strengths do not tell which
+    if crossing.size == 0:
+        return None  # no match in the model's range
     i = int(crossing[0])
     a, b, fa, fb = float(LOADS[i]), float(LOADS[i + 1]), float(gaps[i]), float(gaps[i + 1])
     for _ in range(4):  # the secant rule, kept inside the bracket (fa > 0 >= fb)
@@ -148,7 +155,12 @@ def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate
     _, spread, words = mismatch(load)
     if not slope < 0:  # the strengths do not tell the load here
         return None
-    return LoadEstimate(float(load), float(spread / -slope), words)
+    # the other falls, linear in their brackets: they only widen the error
+    others = tuple(
+        float(LOADS[j] + gaps[j] * (LOADS[j + 1] - LOADS[j]) / (gaps[j] - gaps[j + 1])) for j in crossing[1:]
+    )
+    error = max([spread / -slope] + [(other - load) / 2 for other in others])
+    return LoadEstimate(float(load), float(error), words, others)
 
 
 def _reference_level(balance: CylinderBalance, calibration: CrankCalibration | None) -> float:

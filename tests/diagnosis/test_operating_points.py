@@ -275,21 +275,19 @@ def test_a_stated_and_an_estimated_load_disagree_beyond_2_joint_errors(
     ("gap", "root"),
     [
         (lambda load: 0.6 - load, 0.6),  # the strengths fall with the model's load: one match
-        (lambda load: np.cos(3 * np.pi * load), None),  # falls through zero at 1/6 and 5/6: none told
         (lambda load: load - 0.6, None),  # strengths rising with the model's load: no load matches
         (lambda load: -0.001 if load < 0.15 else 0.6 - load, 0.6),  # a rise at the end, within its errors
         (lambda load: math.nan if abs(load - 0.3) < 1e-9 else 0.6 - load, 0.6),  # one load not fitted
     ],
-    ids=["one fall", "two falls", "rising", "near zero at an end", "a load not fitted"],
+    ids=["one fall", "rising", "near zero at an end", "a load not fitted"],
 )
-def test_a_load_is_estimated_only_where_one_load_matches(
+def test_a_load_is_estimated_where_the_mismatch_falls_through_zero(
     gap: Callable[[float], float], root: float | None
 ) -> None:
-    """The mismatch (the cylinders' median strength less the reference's) against the model's load: one
+    """The mismatch (the cylinders' median strength less the reference's) against the model's load: a
     fall through zero over 0.1-1.1 tells the load, whatever else it does where it does not fall (a rise
-    near zero at an end, a load the balance could not fit); two falls (the reference switching between
-    calibrated points, or compression and combustion nearly cancelling at the orders fitted) tell none,
-    as the strengths alone do not say which root is the load."""
+    near zero at an end, a load the balance could not fit); a rise alone tells none (the strengths would
+    have to grow with the model's load)."""
     from monitor.diagnosis.load_estimate import _root
 
     estimate = _root(lambda load: (float(gap(load)), 0.05, "the model's strengths"))
@@ -299,3 +297,22 @@ def test_a_load_is_estimated_only_where_one_load_matches(
         assert estimate is not None
         assert estimate.load == pytest.approx(root, abs=1e-6)  # a straight line: the secant rule's root
         assert estimate.standard_error == pytest.approx(0.05, rel=1e-6)  # slope -1
+        assert estimate.other_matches == ()
+
+
+def test_of_several_matching_loads_the_lowest_is_taken_its_error_spanning_the_others() -> None:
+    """cos(3 pi load) falls through zero at 1/6 and 5/6 (and rises at 1/2): 1/6 is reported, and its
+    standard error is widened from the slope's 0.05 / 3 pi to half the distance to 5/6, so that both
+    matches lie within 2 standard errors; the notes name the other match.  The other root is placed
+    linearly in its 0.1-wide bracket (0.834 against 5/6: cos's curvature there is a 0.001 error)."""
+    from monitor.diagnosis.at_point import _load_notes
+    from monitor.diagnosis.load_estimate import _root
+
+    estimate = _root(lambda load: (float(np.cos(3 * np.pi * load)), 0.05, "the model's strengths"))
+    assert estimate is not None
+    assert estimate.load == pytest.approx(1 / 6, abs=1e-4)  # the secant rule's 1e-4 stop on the mismatch
+    assert estimate.other_matches == pytest.approx((5 / 6,), abs=2e-3)
+    assert estimate.standard_error == pytest.approx((5 / 6 - 1 / 6) / 2, abs=2e-3)
+    notes = _load_notes(0.8, estimate, 0.8, "stated")
+    assert any(n.startswith("the cylinders' strengths also match the reference at load 0.83") for n in notes)
+    assert not any("disagree beyond their uncertainties" in n for n in notes)  # 0.8 lies within the span
