@@ -40,6 +40,18 @@ master bore takes ``Q`` too, and the force on the crank pin is ``G = Q x - T e``
 crankshaft axis in the direction of rotation (from ``y`` towards ``x``), ``C_y G_x - C_x G_y``, is the
 torque, which virtual work gives independently as ``-F ds/da`` (the tests compare the two).
 
+The slave's moving masses (:meth:`ArticulatedRod.slave_train_forces`), at a constant crank speed
+``omega``: the slave rod split as :mod:`monitor.model.forces`' two-mass rod, its piston-pin share with
+the slave piston in ``m_s``, its knuckle-pin share ``m_k`` moving with the knuckle pin (the moment of
+inertia the split implies, ``m k (1 - k) l^2``; a rigid rod's own would add a small inertia torque).
+The slave piston's inertia along its bore towards the crank is ``m_s s'' omega^2`` (d'Alembert's
+``-m a`` with ``a = s'' omega^2 w``), added to its gas force as the axial force ``F``; the knuckle
+share's, ``-m_k K'' omega^2``, acts on the master rod at the knuckle pin, which carries it to the
+crank pin and the master bore as it carries the slave rod's ``-T e`` (the moments about the crank pin
+above, with the sum of the two in place of ``-T e``). What shakes the engine is their sum,
+``-(m_s s'' w + m_k K'') omega^2``. At a constant speed the inertia torque is the kinetic energy's
+``-dE/da`` with ``E = omega^2 (m_s s'^2 + m_k |K'|^2) / 2`` (the tests check it).
+
 With ``r = 0`` the slave rod hangs on the crank pin: the slave is then a slider-crank of rod ``l`` at
 the bank angle (side-by-side or fork-and-blade rods), the limit the tests check.
 
@@ -58,10 +70,10 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import ModelError
-from monitor.model.kinematics import check_rod_ratio, cos_rod_angle
+from monitor.model.kinematics import check_crank_speed, check_rod_ratio, cos_rod_angle
 from monitor.types import FloatArray
 
-__all__ = ["ArticulatedRod", "SlaveLoads", "SlaveStroke"]
+__all__ = ["ArticulatedRod", "SlaveLoads", "SlaveStroke", "SlaveTrainForces"]
 
 _NEWTON_STEPS = 50  # at most, for a dead centre; it converges quadratically in a handful
 _SETTLED_RAD = 1e-10  # a Newton step this small has settled: the next is below round-off [rad]
@@ -119,6 +131,30 @@ class SlaveLoads:
     slave_rod_force: FloatArray
     slave_guide_force: FloatArray
     master_guide_force: FloatArray
+
+
+@dataclass(frozen=True)
+class SlaveTrainForces:
+    """The slave's gas and inertia loads on the crank (:meth:`ArticulatedRod.slave_train_forces`), in
+    the master's frame, over the crank angle from the master's TDC.
+
+    Attributes
+    ----------
+    gas_force : ndarray
+        On the slave piston, towards the crank [N].
+    axial_force : ndarray
+        Gas, reciprocating inertia and weight on the slave piston along its bore, towards the crank [N].
+    loads : SlaveLoads
+        On the crank pin (with the knuckle share's inertia), its torque and the bores' forces.
+    inertia_force_x, inertia_force_y : ndarray
+        The slave's moving masses' inertia on the engine (``-m a``), what its free forces add up [N].
+    """
+
+    gas_force: FloatArray
+    axial_force: FloatArray
+    loads: SlaveLoads
+    inertia_force_x: FloatArray
+    inertia_force_y: FloatArray
 
 
 @dataclass(frozen=True)
@@ -220,15 +256,17 @@ class ArticulatedRod:
             ``s`` [m], ``ds/da`` [m/rad] and ``d2s/da2`` [m/rad^2], shaped as ``crank_angle``.
         """
         shape = np.shape(crank_angle)
-        k, k1, k2 = self._knuckle(crank_angle)
+        s, ds, d2s = self._place(self._knuckle(crank_angle))
+        return s.reshape(shape), ds.reshape(shape), d2s.reshape(shape)
+
+    def _place(self, knuckle: tuple[FloatArray, FloatArray, FloatArray]) -> tuple[FloatArray, ...]:
+        """The slave's place and its two derivatives from the knuckle pin's (module docstring)."""
+        k, k1, k2 = knuckle
         w, v = self._axis, self._normal
         p, p1, p2 = k @ w, k1 @ w, k2 @ w
         q, q1, q2 = k @ v, k1 @ v, k2 @ v
         h = np.sqrt((self.slave_length - q) * (self.slave_length + q))
-        s = p + h
-        ds = p1 - q * q1 / h
-        d2s = p2 - (q1**2 + q * q2) / h - q**2 * q1**2 / h**3
-        return s.reshape(shape), ds.reshape(shape), d2s.reshape(shape)
+        return p + h, p1 - q * q1 / h, p2 - (q1**2 + q * q2) / h - q**2 * q1**2 / h**3
 
     def slave_loads(self, crank_angle: npt.ArrayLike, axial_force: npt.ArrayLike) -> SlaveLoads:
         """The loads an axial force on the slave piston puts on the crank (module docstring).
@@ -248,22 +286,33 @@ class ArticulatedRod:
         a, force_at = np.broadcast_arrays(
             np.asarray(crank_angle, dtype=np.float64), np.asarray(axial_force, dtype=np.float64)
         )
-        force = force_at.ravel()
         flat = np.atleast_1d(a).ravel()
-        knuckle = self._knuckle(flat)[0]
-        place = self.slave_position(flat)[0]
+        knuckle = self._knuckle(flat)
+        return self._loads(flat, knuckle, self._place(knuckle)[0], force_at.ravel(), 0.0, a.shape)
+
+    def _loads(
+        self,
+        flat: FloatArray,
+        knuckle: tuple[FloatArray, FloatArray, FloatArray],
+        place: FloatArray,
+        force: FloatArray,
+        at_knuckle: FloatArray | float,
+        shape: tuple[int, ...],
+    ) -> SlaveLoads:
+        """The slave's axial ``force`` and a force ``at_knuckle`` (shape (n, 2), on the master rod at
+        the knuckle pin) carried to the crank pin (module docstring)."""
         w, v = self._axis, self._normal
-        rod = (place[:, None] * w - knuckle) / self.slave_length  # e, knuckle to slave pin (unit)
+        rod = (place[:, None] * w - knuckle[0]) / self.slave_length  # e, knuckle to slave pin (unit)
         compression = force / (rod @ w)
+        on_master = -compression[:, None] * rod + at_knuckle  # on the master rod at the knuckle pin
         lam = self.crank_radius / self.master_length
         crank = self.crank_radius * np.stack([np.sin(flat), np.cos(flat)], axis=-1)
-        lever = knuckle - crank  # K - C
+        lever = knuckle[0] - crank  # K - C
         height = self.master_length * cos_rod_angle(flat, lam)  # (P - C)_y
-        master = -compression * (lever[:, 0] * rod[:, 1] - lever[:, 1] * rod[:, 0]) / height
-        pin = -compression[:, None] * rod
+        master = (lever[:, 0] * on_master[:, 1] - lever[:, 1] * on_master[:, 0]) / height
+        pin = on_master.copy()
         pin[:, 0] += master
         torque = crank[:, 1] * pin[:, 0] - crank[:, 0] * pin[:, 1]  # the crank turns from y towards x
-        shape = a.shape
         return SlaveLoads(
             pin_force_x=pin[:, 0].reshape(shape),
             pin_force_y=pin[:, 1].reshape(shape),
@@ -271,6 +320,63 @@ class ArticulatedRod:
             slave_rod_force=compression.reshape(shape),
             slave_guide_force=(-compression * (rod @ v)).reshape(shape),
             master_guide_force=master.reshape(shape),
+        )
+
+    def slave_train_forces(
+        self,
+        crank_angle: npt.ArrayLike,
+        *,
+        crank_speed: float,
+        gas_force: npt.ArrayLike,
+        reciprocating_mass: float,
+        knuckle_mass: float,
+        gravity: float,
+    ) -> SlaveTrainForces:
+        """The slave's gas and inertia loads on the crank at a constant crank speed (module docstring).
+
+        Parameters
+        ----------
+        crank_angle : array_like, 1-D
+            From the master's TDC [rad].
+        crank_speed : float
+            omega [rad/s].
+        gas_force : array_like
+            On the slave piston, positive towards the crank, broadcast with the crank angle [N].
+        reciprocating_mass : float
+            The slave piston and its rod's piston-pin share [kg].
+        knuckle_mass : float
+            The slave rod's knuckle-pin share [kg].
+        gravity : float
+            [m/s^2]: the reciprocating weight along the slave's bore and the knuckle share's along the
+            master's, as :mod:`monitor.model.forces` takes each cylinder's weights; 0 leaves them out.
+
+        Returns
+        -------
+        SlaveTrainForces
+        """
+        flat = np.asarray(crank_angle, dtype=np.float64)
+        if flat.ndim != 1:
+            raise ModelError(f"crank angle of shape {flat.shape}: expected one dimension")
+        omega, _ = check_crank_speed(crank_speed)
+        if not all(math.isfinite(m) and m >= 0 for m in (reciprocating_mass, knuckle_mass)):
+            raise ModelError(
+                f"slave masses {reciprocating_mass!r} and {knuckle_mass!r} kg: expected finite and >= 0"
+            )
+        gas = np.broadcast_to(np.asarray(gas_force, dtype=np.float64), flat.shape)
+        knuckle = self._knuckle(flat)
+        place, _, d2s = self._place(knuckle)
+        w2 = omega * omega
+        # d'Alembert: the piston's inertia towards the crank is m s'' omega^2 (s'' < 0 at TDC pulls it away)
+        axial = gas + reciprocating_mass * (d2s * w2 + gravity)
+        at_knuckle = -knuckle_mass * (knuckle[2] * w2 + np.array([0.0, gravity]))
+        loads = self._loads(flat, knuckle, place, axial, at_knuckle, flat.shape)
+        inertia = -reciprocating_mass * w2 * d2s[:, None] * self._axis - knuckle_mass * w2 * knuckle[2]
+        return SlaveTrainForces(
+            gas_force=np.array(gas),
+            axial_force=axial,
+            loads=loads,
+            inertia_force_x=inertia[:, 0],
+            inertia_force_y=inertia[:, 1],
         )
 
     def slave_displacement(self, crank_angle: npt.ArrayLike) -> FloatArray:

@@ -8,6 +8,9 @@
 - The limit of a slave rod on the crank pin: a slider-crank at the bank angle.
 - The slave's loads on the crank: the torque of the statics of the rods against virtual work with the
   40-digit linkage's place differentiated numerically, and the whole linkage's equilibrium.
+- The slave's moving masses: the inertia torque against the kinetic energy's rate and the free force
+  against the momentum's, both from the 40-digit linkage; and the slave rod on the crank pin against
+  the two-mass slider-crank of :mod:`monitor.model.forces`.
 - Property tests (hypothesis) over the geometries a V engine has.
 """
 
@@ -225,3 +228,102 @@ def test_a_slave_rod_on_the_crank_pin_loads_it_as_a_slider_crank_at_the_bank_ang
     np.testing.assert_allclose(loads.pin_force_y, turned[:, 1], rtol=0, atol=1e-9 * force)
     np.testing.assert_allclose(loads.slave_rod_force, along, rtol=1e-12)
     np.testing.assert_allclose(loads.master_guide_force, 0.0, rtol=0, atol=1e-9 * force)
+
+
+def _linkage_derivatives(rod: ArticulatedRod, angle: float, order: int) -> tuple[float, np.ndarray]:
+    """The ``order``-th derivatives of the slave's place and of the knuckle pin's position in the crank
+    angle, differentiated numerically from the 40-digit linkage."""
+    at = mpmath.mpf(angle)
+    place = float(mpmath.diff(lambda x: _slave_place(rod, x), at, order))
+    pin = np.array([float(mpmath.diff(lambda x, i=i: _knuckle_pin(rod, x)[i], at, order)) for i in (0, 1)])
+    return place, pin
+
+
+def _knuckle_pin(rod: ArticulatedRod, angle: mpmath.mpf) -> tuple[mpmath.mpf, mpmath.mpf]:
+    """The knuckle pin's position by the master's loop closure in mpmath (as :func:`_slave_place`)."""
+    radius, master = mpmath.mpf(rod.crank_radius), mpmath.mpf(rod.master_length)
+    knuckle, turn = mpmath.mpf(rod.knuckle_radius), mpmath.mpf(rod.knuckle_angle)
+    crank = (radius * mpmath.sin(angle), radius * mpmath.cos(angle))
+    phi = mpmath.asin(crank[0] / master)
+    along = (-mpmath.sin(phi), mpmath.cos(phi))
+    across = (along[1], -along[0])
+    return (
+        crank[0] + knuckle * (along[0] * mpmath.cos(turn) + across[0] * mpmath.sin(turn)),
+        crank[1] + knuckle * (along[1] * mpmath.cos(turn) + across[1] * mpmath.sin(turn)),
+    )
+
+
+def test_the_slaves_inertia_torque_is_its_kinetic_energys_rate_and_its_free_force_its_momentums() -> None:
+    """At a constant speed (no gas, no weights) the slave's inertia torque is ``-dE/da``, ``E`` the kinetic
+    energy of its piston share and its knuckle share, and its force on the engine ``-sum m a``, with the
+    places' derivatives taken numerically from the 40-digit linkage (apart from the closed form and the
+    statics). A knuckle share left on the crank pin, or the piston's inertia with the wrong sign, misses
+    by a tenth of the scale; 1e-9 leaves room for mpmath's numerical derivatives."""
+    omega, piston, knuckle = 60.0, 120.0, 45.0  # 573 rpm, a medium-speed engine's masses [kg]
+    angles = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
+    forces = ROD.slave_train_forces(
+        angles, crank_speed=omega, gas_force=0.0, reciprocating_mass=piston, knuckle_mass=knuckle, gravity=0.0
+    )
+    w = np.array([math.sin(ROD.bank_angle), math.cos(ROD.bank_angle)])
+    torque, free = [], []
+    for a in angles:
+        (ds, dk), (d2s, d2k) = (_linkage_derivatives(ROD, float(a), n) for n in (1, 2))
+        torque.append(-(omega**2) * (piston * ds * d2s + knuckle * float(dk @ d2k)))
+        free.append(-(omega**2) * (piston * d2s * w + knuckle * d2k))
+    scale = (piston + knuckle) * ROD.crank_radius * omega**2
+    np.testing.assert_allclose(forces.loads.torque, torque, rtol=0, atol=1e-9 * scale * ROD.crank_radius)
+    np.testing.assert_allclose(forces.inertia_force_x, np.array(free)[:, 0], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(forces.inertia_force_y, np.array(free)[:, 1], rtol=0, atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize(
+    ("knuckle", "gravity"),
+    [(45.0, 0.0), (0.0, 9.80665)],
+    ids=["knuckle share, no weights", "weights, all reciprocating"],
+)
+def test_a_slave_rod_on_the_crank_pin_is_the_two_mass_slider_crank_at_the_bank_angle(
+    knuckle: float, gravity: float
+) -> None:
+    """With the knuckle radius 0 the slave's gas and inertia loads on the crank pin, its torque and its
+    free force are :func:`monitor.model.forces.crank_train_forces`' two-mass slider-crank at the bank
+    angle (its crank angle less the bank angle), turned into the master's frame. Weights are compared
+    with the rod's whole mass at the piston (each takes a rotating share's weight along its own frame's
+    ``-y``). To round-off of the forces' scale."""
+    from monitor.model.forces import CrankTrain, crank_kinematics, crank_train_forces
+
+    side = ArticulatedRod(0.2, 0.8, 0.0, 0.0, 0.7, math.radians(60.0))
+    angles = np.linspace(0.0, 4 * math.pi, 361)  # two revolutions: a four-stroke's gas cycle
+    gas = 4.0e5 * np.exp(-(((angles - math.radians(370.0)) / 0.3) ** 2))
+    omega, piston, rod = 50.0, 150.0, 60.0
+    share = knuckle / rod  # the rod's centre of gravity from its piston pin over its length
+    train = CrankTrain(0.2, 0.2 / 0.7, piston, rod, share, 1.0)
+    reference = crank_train_forces(
+        crank_kinematics(angles - side.bank_angle, 0.2, 0.2 / 0.7),
+        train,
+        crank_speed=omega,
+        gas_force=gas,
+        rod_model="two-mass",
+        gravity=gravity,
+    )
+    forces = side.slave_train_forces(
+        angles,
+        crank_speed=omega,
+        gas_force=gas,
+        reciprocating_mass=train.reciprocating_mass,
+        knuckle_mass=train.rotating_rod_mass,
+        gravity=gravity,
+    )
+    g = side.bank_angle
+
+    def turned(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.stack([x * math.cos(g) + y * math.sin(g), -x * math.sin(g) + y * math.cos(g)])
+
+    scale = 4.0e5 + (piston + rod) * 0.2 * omega**2
+    pin = turned(reference.pin_force_x, reference.pin_force_y)
+    np.testing.assert_allclose(forces.loads.pin_force_x, pin[0], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(forces.loads.pin_force_y, pin[1], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(forces.loads.torque, reference.torque, rtol=0, atol=1e-9 * scale * 0.2)
+    free = turned(reference.inertia_force_x, reference.inertia_force_y)
+    np.testing.assert_allclose(forces.inertia_force_x, free[0], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(forces.inertia_force_y, free[1], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(forces.axial_force, reference.piston_force, rtol=0, atol=1e-9 * scale)
