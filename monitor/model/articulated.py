@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -256,7 +257,7 @@ class ArticulatedRod:
             ``s`` [m], ``ds/da`` [m/rad] and ``d2s/da2`` [m/rad^2], shaped as ``crank_angle``.
         """
         shape = np.shape(crank_angle)
-        s, ds, d2s = self._place(self._knuckle(crank_angle))
+        s, ds, d2s = self._place(self._knuckle(np.ravel(crank_angle)))
         return s.reshape(shape), ds.reshape(shape), d2s.reshape(shape)
 
     def _place(self, knuckle: tuple[FloatArray, FloatArray, FloatArray]) -> tuple[FloatArray, ...]:
@@ -392,7 +393,7 @@ class ArticulatedRod:
         ndarray
             ``s_TDC - s`` [m], 0 at the slave's TDC, its stroke at its BDC.
         """
-        return np.asarray(self.stroke().top - self.slave_position(crank_angle)[0])
+        return np.asarray(self._stroke.top - self.slave_position(crank_angle)[0])
 
     def stroke(self) -> SlaveStroke:
         """The slave's dead centres and stroke (module docstring).
@@ -406,6 +407,11 @@ class ArticulatedRod:
         ModelError
             If Newton's method does not settle on a dead centre (a linkage that folds).
         """
+        return self._stroke
+
+    @cached_property
+    def _stroke(self) -> SlaveStroke:
+        """:meth:`stroke`, found once (a displacement asked for at every step of an integration)."""
         # Newton's method from the highest and lowest of a sweep of the crank angle: a linkage near
         # folding has more than one extremum, and the slider-crank's guess can settle on the wrong one
         sweep = np.linspace(0.0, 2 * math.pi, _SWEEP, endpoint=False)

@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -298,6 +299,11 @@ class ParametricCycle:
         Geometry [m], [m], [-].
     cycle_revolutions : int
         1 two-stroke, 2 four-stroke.
+    displacement : callable or None
+        The piston's displacement from its TDC [m] at crank angles from its firing TDC [rad], where it
+        is not the slider-crank's of ``crank_radius`` and ``rod_ratio`` (an articulated rod's slave,
+        :mod:`monitor.model.articulated`); its clearance volume is the slider-crank's (the same head
+        and piston), so its compression ratio follows from its own stroke.
     """
 
     combustion: Combustion
@@ -305,6 +311,7 @@ class ParametricCycle:
     crank_radius: float
     rod_ratio: float
     cycle_revolutions: int
+    displacement: Callable[[FloatArray], FloatArray] | None = None
 
     @classmethod
     def of(cls, engine: Engine) -> ParametricCycle:
@@ -321,6 +328,10 @@ class ParametricCycle:
 
     def volume(self, crank_angle: npt.ArrayLike) -> FloatArray:
         """Cylinder volume [m^3] at crank angles from firing TDC [rad]."""
+        if self.displacement is not None:
+            area = math.pi * self.bore**2 / 4
+            clearance = area * 2 * self.crank_radius / (self.combustion.compression_ratio - 1)
+            return clearance + area * self.displacement(np.asarray(crank_angle, dtype=np.float64))
         return cylinder_volume(
             crank_angle,
             bore=self.bore,

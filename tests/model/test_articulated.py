@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mpmath
@@ -159,9 +160,8 @@ def test_over_v_engine_geometries_the_dead_centres_are_the_places_extremes(
     ],
 )
 def test_a_linkage_that_cannot_work_is_refused_saying_why(fields: dict[str, float], said: str) -> None:
-    geometry = {**ROD.__dict__, **fields}
     with pytest.raises(ModelError, match=said):
-        ArticulatedRod(**geometry)
+        dataclasses.replace(ROD, **fields)
 
 
 def test_the_slave_torque_of_the_rods_statics_is_virtual_works() -> None:

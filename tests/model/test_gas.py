@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 
 import numpy as np
@@ -10,14 +11,47 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from monitor.errors import ModelError
+from monitor.model.articulated import ArticulatedRod
 from monitor.model.engine import load_engine
 from monitor.model.gas import ParametricCycle, gas_force, indicated_mean_effective_pressure, resample_trace
+from monitor.model.kinematics import piston_displacement
 from tests.conftest import shared_path
 
 
-@pytest.fixture(params=["man-b-w-7k98mc", "medium-speed-6l32", "kluczyk-1cyl-4stroke"])
+def _slave_cycle() -> ParametricCycle:
+    """The 6L32's cycle on the volume of an articulated rod's slave (knuckle pin a quarter of the rod
+    from the crank pin, V of 45 degrees): a longer stroke and a TDC away from the bank angle."""
+    master = ParametricCycle.of(load_engine("medium-speed-6l32"))
+    length = master.crank_radius / master.rod_ratio
+    rod = ArticulatedRod(
+        master.crank_radius, length, length / 4, math.radians(45.0), 0.75 * length, math.radians(45.0)
+    )
+    tdc = rod.stroke().tdc_angle
+    return dataclasses.replace(master, displacement=lambda theta: rod.slave_displacement(theta + tdc))
+
+
+@pytest.fixture(params=["man-b-w-7k98mc", "medium-speed-6l32", "kluczyk-1cyl-4stroke", "articulated slave"])
 def cycle(request: pytest.FixtureRequest) -> ParametricCycle:
+    if request.param == "articulated slave":
+        return _slave_cycle()
     return ParametricCycle.of(load_engine(request.param))
+
+
+def test_a_displacement_given_as_the_slider_cranks_is_the_default_volume() -> None:
+    """The displacement hook with the slider-crank's own displacement gives the same volume (to
+    round-off), and an articulated slave's, longer in stroke, a higher compression ratio on the same
+    clearance volume."""
+    master = ParametricCycle.of(load_engine("medium-speed-6l32"))
+    same = dataclasses.replace(
+        master, displacement=lambda theta: piston_displacement(theta, master.crank_radius, master.rod_ratio)
+    )
+    grid = np.linspace(0.0, 4 * math.pi, 721)
+    np.testing.assert_allclose(same.volume(grid), master.volume(grid), rtol=1e-14)
+    slave = _slave_cycle()
+    clearance = float(master.volume(0.0))
+    assert float(slave.volume(0.0)) == pytest.approx(clearance, rel=1e-12)  # at its own TDC
+    ratio = float(slave.volume(grid).max()) / clearance
+    assert ratio > master.combustion.compression_ratio
 
 
 def test_closed_cycle_matches_first_law_ode(cycle: ParametricCycle) -> None:
