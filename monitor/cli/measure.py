@@ -384,6 +384,7 @@ def run_tdc(args: argparse.Namespace) -> int:
     from monitor.errors import ModelError
     from monitor.io import open_recording
     from monitor.jobs.analyse import recording_engine
+    from monitor.model.banks import tdc_offsets
     from monitor.signal.reference import angle_reference
     from monitor.signal.tdc import PLAUSIBLE_FIRED_PEAK, pressure_peaks
 
@@ -397,7 +398,9 @@ def run_tdc(args: argparse.Namespace) -> int:
         if not channels:
             raise ModelError(f"the recording has no pressure channel of cylinder {args.cylinder}")
         channel = channels[0]
-        firing = float(engine.firing_angles[args.cylinder - 1])
+        # where its own TDC is: an articulated rod's slave's lies off its firing angle
+        own_tdc = engine.firing_angles + tdc_offsets(engine.cylinders, engine.vee, engine.articulated)
+        firing = float(own_tdc[args.cylinder - 1])
         # motored: every revolution searched (the compression TDCs give the higher peaks), no phase needed
         revolutions = 1 if args.motored else engine.cycle_revolutions
         reference = angle_reference(recording, cycle_revolutions=revolutions, cycle_phase=args.cycle_phase)

@@ -145,15 +145,15 @@ class Analysis:
 def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
     """Standard error of each bearing force order that the strengths' covariance gives [N].
 
-    ``dF_bk / ds_c = share_bc combustion_k exp(-i k phi_c)``; ``E |dF|^2 = g^H C g``.
+    ``dF_bk / ds_c = share_bc combustion_ck exp(-i k phi_c)``, cylinder ``c``'s combustion part (a
+    slave's its own); ``E |dF|^2 = g^H C g``.
     """
     n_orders = parts.orders.size
     if covariance is None:
         return np.zeros((engine.bearing_count, 2, n_orders))
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))  # (n_cyl, n_orders)
-    g = engine.bearing_share[:, :, None, None] * (
-        rotation[None, :, None, :] * parts.combustion[None, None, 1:3, :]
-    )  # (n_b, n_cyl, 2, n_orders)
+    combustion = parts.per_cylinder(engine.cylinders)[2]  # (n_cyl, 3, n_orders)
+    g = engine.bearing_share[:, :, None, None] * (rotation[None, :, None, :] * combustion[None, :, 1:3, :])
     variance = np.einsum("bcko,cd,bdko->bko", g, covariance, np.conj(g)).real
     return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
 

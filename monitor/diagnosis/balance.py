@@ -452,9 +452,10 @@ def _cylinder_orders(
     if np.max(np.abs(parts.orders[index] - orders)) > 1e-9:
         raise ModelError("the model's orders do not cover the measured ones: raise its max_order")
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, orders))  # (n_cyl, n_orders)
-    known = (parts.inertia[0, index] + parts.fixed[0, index])[None, :] * rotation
-    combustion = parts.combustion[0, index][None, :] * rotation
-    gas = parts.fixed[0, index][None, :] * rotation
+    inertia, fixed, burning = (part[:, 0, index] for part in parts.per_cylinder(engine.cylinders))  # torques
+    known = (inertia + fixed) * rotation
+    combustion = burning * rotation
+    gas = fixed * rotation
     return use, orders, known, combustion, gas
 
 

@@ -380,6 +380,30 @@ class ArticulatedRod:
             inertia_force_y=inertia[:, 1],
         )
 
+    def slave_inertia(
+        self, crank_angle: npt.ArrayLike, *, reciprocating_mass: float, knuckle_mass: float
+    ) -> FloatArray:
+        """The slave's moving masses' inertia about the crankshaft, ``m_s s'^2 + m_k |K'|^2`` (module
+        docstring): their kinetic energy is ``omega^2 / 2`` times it.
+
+        Parameters
+        ----------
+        crank_angle : array_like
+            From the master's TDC [rad].
+        reciprocating_mass, knuckle_mass : float
+            [kg], as :meth:`slave_train_forces` takes them.
+
+        Returns
+        -------
+        ndarray
+            [kg m^2], shaped as ``crank_angle``.
+        """
+        flat = np.ravel(np.asarray(crank_angle, dtype=np.float64))
+        knuckle = self._knuckle(flat)
+        ds = self._place(knuckle)[1]
+        inertia = reciprocating_mass * ds**2 + knuckle_mass * np.sum(knuckle[1] ** 2, axis=-1)
+        return np.asarray(inertia.reshape(np.shape(crank_angle)))
+
     def slave_displacement(self, crank_angle: npt.ArrayLike) -> FloatArray:
         """The slave piston's displacement from its own TDC towards the crank [m].
 

@@ -16,10 +16,13 @@ Conventions (docs/engines.md says them with a figure).
   are an in-line cylinder's at its own crank angle; :func:`to_engine_frame` turns them into the
   engine's frame, where the main bearings' vertical (``y``) and horizontal (``x``) are.
 - Rods: ``side-by-side`` (each bank's rod on its own length of the crank pin, so the B bank stands
-  ``bank_offset_m`` further along the shaft than the A bank) or ``fork-and-blade`` (both rods in one
-  plane: no offset). Articulated master-and-slave rods move the slave's piston otherwise
-  (:mod:`monitor.model.articulated`); the crank train does not model them yet and a description
-  with them is refused.
+  ``bank_offset_m`` further along the shaft than the A bank), ``fork-and-blade`` (both rods in one
+  plane: no offset) or ``articulated``: the leading bank's rod is the master, on the crank pin; the
+  trailing bank's, the slave, hangs on the master's knuckle pin (``knuckle_radius_m`` from the crank
+  pin's centre, ``knuckle_angle_deg`` from the master rod's axis towards the slave bank), so its piston
+  moves otherwise (:mod:`monitor.model.articulated`: a longer stroke, its TDC away from the bank
+  angle). Both rods run in one plane. A trailing cylinder's firing angle stays the crank's (a bank
+  angle after its master's): its own TDC's offset is the slave's kinematics', not the firing order's.
 
 Firing angles from the firing order, when ``firing.angles_deg`` does not give them: evenly spaced
 (720 or 360 degrees over ``n``) if that puts each throw's two cylinders a bank angle apart; otherwise
@@ -40,16 +43,21 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
-from monitor.model.quantities import between
+from monitor.model.articulated import ArticulatedRod
+from monitor.model.quantities import Length, Mass, between
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
     "ANGLE_TOLERANCE_DEG",
     "Vee",
+    "articulated_rod",
     "bank_axes",
     "cylinder_banks",
     "cylinder_names",
     "cylinder_throws",
+    "slave_cylinders",
+    "slave_masses",
+    "tdc_offsets",
     "to_engine_frame",
     "vee_firing_angles",
 ]
@@ -72,7 +80,7 @@ class Vee(BaseModel):
     leading_bank: Literal["A", "B"] = Field(
         default="A", description="the bank whose axis the crank pin passes first as the crank turns"
     )
-    rods: Rods = Field(description="'side-by-side' or 'fork-and-blade' connecting rods")
+    rods: Rods = Field(description="'side-by-side', 'fork-and-blade' or 'articulated' connecting rods")
     bank_offset_m: Annotated[float, AfterValidator(between(-1.0, 1.0, "m", "was it given in mm?"))] = Field(
         default=0.0,
         description=(
@@ -80,21 +88,155 @@ class Vee(BaseModel):
             "B bank's cylinders stand than the A bank's"
         ),
     )
+    knuckle_radius_m: (
+        Annotated[float, AfterValidator(between(0.0, 2.0, "m", "was it given in mm?"))] | None
+    ) = Field(default=None, description="articulated rods: crank pin centre to knuckle pin centre")
+    knuckle_angle_deg: Annotated[float, AfterValidator(between(-180.0, 180.0, "deg"))] | None = Field(
+        default=None,
+        description="articulated rods: the knuckle pin's angle from the master rod's axis, to the slaves",
+    )
+    slave_rod_length_m: Length | None = Field(
+        default=None, description="articulated rods: knuckle pin centre to slave piston pin centre"
+    )
+    slave_rod_kg: Mass | None = Field(default=None, description="articulated rods: the slave rod's mass")
+    slave_rod_cg_from_piston_pin_m: Length | None = Field(
+        default=None, description="articulated rods: the slave rod's centre of gravity from its piston pin"
+    )
 
     @model_validator(mode="after")
     def _arrangement(self) -> Vee:
-        """Refuse an arrangement the crank train does not model, or an offset where rods share a plane."""
-        if self.rods == "articulated":
+        """Refuse an offset where rods share a plane, and articulated rods without their geometry (or
+        its fields with other rods)."""
+        if self.rods != "side-by-side" and self.bank_offset_m != 0.0:
             raise ValueError(
-                "rods = 'articulated': the master-and-slave rod's slave motion is not in the crank train "
-                "yet; expected 'side-by-side' or 'fork-and-blade'"
-            )
-        if self.rods == "fork-and-blade" and self.bank_offset_m != 0.0:
-            raise ValueError(
-                f"bank_offset_m = {self.bank_offset_m!r} with fork-and-blade rods: both rods run in one "
+                f"bank_offset_m = {self.bank_offset_m!r} with {self.rods} rods: both rods run in one "
                 "plane, so the banks stand at the same place along the shaft (expected 0)"
             )
+        given = {name: getattr(self, name) for name in _SLAVE_FIELDS}
+        if self.rods == "articulated":
+            missing = [name for name, value in given.items() if value is None]
+            if missing:
+                raise ValueError(
+                    f"rods = 'articulated' needs {', '.join(missing)} (the slave rod and its pin)"
+                )
+            if not self.slave_rod_cg_from_piston_pin_m < self.slave_rod_length_m:  # type: ignore[operator]
+                raise ValueError(
+                    f"slave_rod_cg_from_piston_pin_m = {self.slave_rod_cg_from_piston_pin_m!r}: expected "
+                    f"less than the slave rod's length {self.slave_rod_length_m!r} m"
+                )
+        elif any(value is not None for value in given.values()):
+            stray = [name for name, value in given.items() if value is not None]
+            raise ValueError(f"{', '.join(stray)}: for rods = 'articulated' only (rods = {self.rods!r})")
         return self
+
+
+_SLAVE_FIELDS = (
+    "knuckle_radius_m",
+    "knuckle_angle_deg",
+    "slave_rod_length_m",
+    "slave_rod_kg",
+    "slave_rod_cg_from_piston_pin_m",
+)
+
+
+def slave_cylinders(cylinders: int, vee: Vee | None) -> npt.NDArray[np.bool_]:
+    """Which cylinders, by index, hang on an articulated rod's knuckle pin: the trailing bank's.
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+
+    Returns
+    -------
+    ndarray of bool, shape (cylinders,)
+        None of them in line or with side-by-side or fork-and-blade rods.
+    """
+    if vee is None or vee.rods != "articulated":
+        return np.zeros(cylinders, dtype=bool)
+    return np.asarray(_leads(vee, cylinders) == 0.0)
+
+
+def tdc_offsets(cylinders: int, vee: Vee | None, rod: ArticulatedRod | None) -> FloatArray:
+    """How far each cylinder's own TDC lies after the crank angle its firing angle names, by index:
+    an articulated rod's slave's ``tdc_offset`` (:class:`~monitor.model.articulated.SlaveStroke`), 0
+    for every other cylinder [rad].
+
+    Parameters
+    ----------
+    cylinders : int
+    vee : Vee or None
+    rod : ArticulatedRod or None
+        The engine's (``Engine.articulated``).
+
+    Returns
+    -------
+    ndarray, shape (cylinders,)
+    """
+    offsets = np.zeros(cylinders)
+    if rod is not None:
+        offsets[slave_cylinders(cylinders, vee)] = rod.stroke().tdc_offset
+    return offsets
+
+
+def slave_masses(vee: Vee, piston_kg: float) -> tuple[float, float]:
+    """An articulated slave's moving masses, its rod split as the two-mass rod
+    (:mod:`monitor.model.articulated`).
+
+    Parameters
+    ----------
+    vee : Vee
+        With articulated rods.
+    piston_kg : float
+        The piston assembly's mass [kg].
+
+    Returns
+    -------
+    reciprocating, knuckle : float
+        The piston and the rod's piston-pin share; the rod's knuckle-pin share [kg].
+    """
+    if (
+        vee.slave_rod_kg is None
+        or vee.slave_rod_cg_from_piston_pin_m is None
+        or vee.slave_rod_length_m is None
+    ):
+        raise ValueError(f"rods = {vee.rods!r}: no slave rod")
+    share = vee.slave_rod_cg_from_piston_pin_m / vee.slave_rod_length_m
+    return piston_kg + vee.slave_rod_kg * (1 - share), vee.slave_rod_kg * share
+
+
+def articulated_rod(vee: Vee | None, crank_radius: float, rod_length: float) -> ArticulatedRod | None:
+    """The master and slave rods of a V engine with articulated rods (module docstring), else None.
+
+    Parameters
+    ----------
+    vee : Vee or None
+    crank_radius : float
+        [m].
+    rod_length : float
+        The master rod's, crank pin to piston pin [m].
+
+    Returns
+    -------
+    ArticulatedRod or None
+
+    Raises
+    ------
+    ModelError
+        For a linkage that cannot work (:class:`~monitor.model.articulated.ArticulatedRod`).
+    """
+    if vee is None or vee.rods != "articulated":
+        return None
+    assert vee.knuckle_radius_m is not None and vee.knuckle_angle_deg is not None
+    assert vee.slave_rod_length_m is not None
+    return ArticulatedRod(
+        crank_radius=crank_radius,
+        master_length=rod_length,
+        knuckle_radius=vee.knuckle_radius_m,
+        knuckle_angle=math.radians(vee.knuckle_angle_deg),
+        slave_length=vee.slave_rod_length_m,
+        bank_angle=math.radians(vee.bank_angle_deg),
+    )
 
 
 def cylinder_names(cylinders: int, vee: Vee | None) -> list[str]:

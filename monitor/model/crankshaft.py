@@ -8,6 +8,18 @@ exact and costs one complex multiplication per order.  Four-stroke gas
 quantities repeat over two revolutions (half orders); inertia quantities
 repeat every revolution.
 
+Articulated rods.  On a V engine with master-and-slave rods the trailing
+bank's cylinders (the slaves) are another function of their own crank angle,
+the same for all of them: :meth:`EngineModel.slave_rows` gives it over the
+grid of a slave's nominal crank angle (from where its crank points along its
+bore, a bank angle after its master's TDC, which its firing angle names),
+through :class:`monitor.model.articulated.ArticulatedRod` at the master's
+crank angle a bank angle on, and turned from the master's axes into the
+slave's.  Its cycle is timed from its own TDC, ``tdc_offset`` off the
+nominal one, on its own volume; it burns the fuel a master burns at the load.
+The slave's rod is the two-mass rod whatever ``rod_model`` says (its
+rigid-body inertia torque is left out).
+
 Main bearings.  Crank throw ``c`` carries the force of its rod on the crank
 pin plus the centrifugal force of its net unbalance (crank pin and webs less
 counterweights, ``U_c omega^2`` outwards along the crank).  Its two main
@@ -31,14 +43,17 @@ References
 
 from __future__ import annotations
 
+import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 
 from monitor.errors import DataQualityWarning, ModelError
 from monitor.fourier import cycle_grid
+from monitor.model.articulated import ArticulatedRod
+from monitor.model.banks import slave_masses
 from monitor.model.engine import Engine
 from monitor.model.forces import (
     STANDARD_GRAVITY,
@@ -87,6 +102,18 @@ class _Setup:
     alpha: FloatArray
     gas_basis: tuple[FloatArray, FloatArray] | None
     measured_pressure: FloatArray | None
+
+
+@dataclass(frozen=True)
+class _Slave:
+    """An articulated rod's slave cylinder over the grid of its own crank angle (module docstring)."""
+
+    rod: ArticulatedRod
+    master_angle: FloatArray  # the master's crank angle at each of the grid's [rad]
+    gas_basis: tuple[FloatArray, FloatArray] | None  # on the slave's own volume, from its own TDC
+    measured_pressure: FloatArray | None
+    reciprocating_mass: float  # the slave piston and its rod's piston-pin share [kg]
+    knuckle_mass: float  # the slave rod's knuckle-pin share [kg]
 
 
 class EngineModel:
@@ -153,6 +180,101 @@ class EngineModel:
             raise ModelError(f"gas = {gas!r}: expected 'auto', 'parametric', 'measured' or 'none'")
         self._setup = _Setup(alpha, basis, measured)
         self._ambient = (engine.combustion.ambient_pressure_bar if engine.combustion else 1.013) * 1e5
+        self._slave = self._slave_setup(alpha)
+
+    def _slave_setup(self, alpha: FloatArray) -> _Slave | None:
+        """The slave cylinder's grid, gas basis and masses (None without articulated rods)."""
+        rod, vee = self.engine.articulated, self.engine.vee
+        if rod is None or vee is None:
+            return None
+        stroke = rod.stroke()
+        own = alpha - stroke.tdc_offset  # from the slave's own TDC, where its cycle is timed
+        basis = measured = None
+        if self._cycle is not None:
+            cycle = replace(
+                self._cycle, displacement=lambda theta: rod.slave_displacement(theta + stroke.tdc_angle)
+            )
+            basis = cycle.basis(own)
+        elif self.gas == "measured":
+            angle, pressure = read_pressure_trace(self.engine)
+            measured = resample_trace(angle, pressure, own, cycle_revolutions=self.cycle_revolutions)
+        reciprocating, knuckle = slave_masses(vee, self.engine.masses.piston_assembly_kg)
+        return _Slave(rod, alpha + rod.bank_angle, basis, measured, reciprocating, knuckle)
+
+    @property
+    def ambient_pressure(self) -> float:
+        """Around the engine, what the gas force is measured from [Pa]."""
+        return self._ambient
+
+    @property
+    def articulated(self) -> bool:
+        """Whether the engine's trailing bank hangs on articulated rods (:meth:`slave_rows`)."""
+        return self._slave is not None
+
+    def slave_pressure(self, load: float) -> FloatArray:
+        """Absolute pressure of a slave cylinder over the grid, from its nominal firing TDC [Pa].
+
+        Its cycle is timed from its own TDC, ``tdc_offset`` away, on its own volume; it burns the fuel
+        a master cylinder burns at the load (the same heat released), so a longer stroke gives it a
+        little more work. A measured trace is the master's, from the slave's own TDC.
+        """
+        slave = self._slave
+        if slave is None:
+            raise ModelError(f"engine {self.engine.id!r} has no articulated rods: it has no slave cylinders")
+        if slave.gas_basis is not None:
+            assert self._cycle is not None
+            a, b = slave.gas_basis
+            return self._cycle.charge_pressure(load) * a + self._cycle.heat_release(load) * b
+        if slave.measured_pressure is not None:
+            return slave.measured_pressure
+        return np.full_like(self._setup.alpha, self._ambient)
+
+    def slave_rows(self, crank_speed: float, gas_force: FloatArray | float, gravity: float) -> FloatArray:
+        """A slave cylinder's inertia force, torque, gas torque and crank-pin force over the grid.
+
+        Parameters
+        ----------
+        crank_speed : float
+            omega [rad/s].
+        gas_force : ndarray or float
+            On the slave piston over the grid (from its nominal firing TDC), towards the crank [N].
+        gravity : float
+            [m/s^2] (:meth:`monitor.model.articulated.ArticulatedRod.slave_train_forces`).
+
+        Returns
+        -------
+        ndarray, shape (6, grid)
+            Inertia force across and along the slave's own axis [N], torque [N m], the gas force's
+            torque [N m], crank-pin force across and along the slave's axis [N]: the rows of
+            :func:`monitor.model.predicted.predict_orders`, without the throw's unbalance.
+        """
+        slave = self._slave
+        if slave is None:
+            raise ModelError(f"engine {self.engine.id!r} has no articulated rods: it has no slave cylinders")
+        forces = slave.rod.slave_train_forces(
+            slave.master_angle,
+            crank_speed=crank_speed,
+            gas_force=gas_force,
+            reciprocating_mass=slave.reciprocating_mass,
+            knuckle_mass=slave.knuckle_mass,
+            gravity=gravity,
+        )
+        gas = slave.rod.slave_loads(slave.master_angle, forces.gas_force)
+        g = slave.rod.bank_angle
+        cos_g, sin_g = math.cos(g), math.sin(g)
+
+        def own(x: FloatArray, y: FloatArray) -> list[FloatArray]:  # the master's frame into the slave's
+            return [x * cos_g - y * sin_g, x * sin_g + y * cos_g]
+
+        loads = forces.loads
+        return np.stack(
+            [
+                *own(forces.inertia_force_x, forces.inertia_force_y),
+                loads.torque,
+                gas.torque,
+                *own(loads.pin_force_x, loads.pin_force_y),
+            ]
+        )
 
     @property
     def crank_angle(self) -> FloatArray:

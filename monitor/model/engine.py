@@ -40,9 +40,11 @@ from pydantic import (
     model_validator,
 )
 
-from monitor.errors import EngineDescriptionError
+from monitor.errors import EngineDescriptionError, ModelError
+from monitor.model.articulated import ArticulatedRod
 from monitor.model.banks import (
     Vee,
+    articulated_rod,
     bank_axes,
     cylinder_banks,
     cylinder_names,
@@ -358,6 +360,10 @@ class Engine(_Strict):
                 )
         if self.vee is not None:
             _ = self.firing_angles  # the bank geometry's check of the angles, given or found
+            try:
+                _ = self.articulated
+            except ModelError as error:
+                raise ValueError(f"vee: {error}") from None
         cg = self.masses.conrod_cg_from_piston_pin_m
         if not 0 < cg < self.rod_length:
             raise ValueError(
@@ -460,6 +466,11 @@ class Engine(_Strict):
     def net_crank_unbalance(self) -> float:
         """Crank pin and webs minus counterweights, towards the pin [kg m]."""
         return self.masses.crank_unbalance_kgm - self.masses.counterweight_kgm
+
+    @cached_property
+    def articulated(self) -> ArticulatedRod | None:
+        """The master and slave rods on each throw of a V engine with articulated rods, else None."""
+        return articulated_rod(self.vee, self.crank_radius, self.rod_length)
 
     @cached_property
     def cylinder_names(self) -> list[str]:

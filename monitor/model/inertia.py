@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from monitor.errors import ModelError
+from monitor.model.banks import slave_cylinders, slave_masses
 from monitor.model.engine import Engine
 from monitor.model.kinematics import piston_x_derivatives
 from monitor.types import ComplexArray, FloatArray
@@ -35,9 +36,11 @@ from monitor.types import ComplexArray, FloatArray
 __all__ = [
     "engine_side_inertia",
     "engine_side_inertia_at",
+    "mean_moving_inertia",
     "mean_reciprocating_inertia",
     "node_inertias",
     "reciprocating_inertia",
+    "slave_inertia",
     "throw_inertia",
 ]
 
@@ -61,6 +64,47 @@ def reciprocating_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatAr
     return engine.reciprocating_mass * dx * dx
 
 
+def slave_inertia(engine: Engine, crank_angle: npt.ArrayLike) -> FloatArray:
+    """Inertia of an articulated rod's slave cylinder's moving masses about the crankshaft.
+
+    Its piston share ``m_s s'^2`` and its rod's knuckle share ``m_k |K'|^2``
+    (:meth:`monitor.model.articulated.ArticulatedRod.slave_inertia`): the knuckle share moves with
+    the knuckle pin, not with the crank pin, so it varies through a revolution too.
+
+    Parameters
+    ----------
+    engine : Engine
+        With articulated rods.
+    crank_angle : array_like
+        The slave's own crank angle from its nominal TDC, a bank angle after its master's [rad].
+
+    Returns
+    -------
+    ndarray
+        [kg m^2].
+
+    Raises
+    ------
+    ModelError
+        For an engine without articulated rods.
+    """
+    rod, vee = engine.articulated, engine.vee
+    if rod is None or vee is None:
+        raise ModelError(f"engine {engine.id!r} has no articulated rods: it has no slave cylinders")
+    reciprocating, knuckle = slave_masses(vee, engine.masses.piston_assembly_kg)
+    angle = np.asarray(crank_angle, dtype=np.float64) + rod.bank_angle  # the master's crank angle
+    return rod.slave_inertia(angle, reciprocating_mass=reciprocating, knuckle_mass=knuckle)
+
+
+def _moving(engine: Engine, own_angles: FloatArray) -> FloatArray:
+    """Each cylinder's moving masses' inertia at its own crank angle (shape (cylinders, ...))."""
+    slaves = slave_cylinders(engine.cylinders, engine.vee)
+    moving = reciprocating_inertia(engine, own_angles)
+    if slaves.any():
+        moving[slaves] = slave_inertia(engine, own_angles[slaves])
+    return np.asarray(moving)
+
+
 def mean_reciprocating_inertia(engine: Engine) -> float:
     """Mean of :func:`reciprocating_inertia` over a revolution (spectrally exact quadrature).
 
@@ -75,6 +119,23 @@ def mean_reciprocating_inertia(engine: Engine) -> float:
     """
     grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
     return float(np.mean(reciprocating_inertia(engine, grid)))
+
+
+def mean_moving_inertia(engine: Engine) -> FloatArray:
+    """Each cylinder's moving masses' mean inertia over a revolution, by index: its reciprocating parts
+    (:func:`mean_reciprocating_inertia`), or on an articulated rod's slave its piston and knuckle
+    shares (:func:`slave_inertia`) [kg m^2].
+
+    Parameters
+    ----------
+    engine : Engine
+
+    Returns
+    -------
+    ndarray, shape (cylinders,)
+    """
+    grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
+    return np.mean(_moving(engine, np.broadcast_to(grid, (engine.cylinders, grid.size)).copy()), axis=1)
 
 
 def throw_inertia(engine: Engine) -> float:
@@ -94,7 +155,8 @@ def throw_inertia(engine: Engine) -> float:
     """
     if engine.shaft_line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
-    rods = engine.cylinders // engine.throws
+    # a slave rod's knuckle share is the slave's own (slave_inertia): it does not turn with the crank pin
+    rods = (engine.cylinders - int(slave_cylinders(engine.cylinders, engine.vee).sum())) // engine.throws
     return engine.shaft_line.throw_inertia_kgm2 + rods * engine.rotating_rod_mass * engine.crank_radius**2
 
 
@@ -146,11 +208,11 @@ def node_inertias(
     if line is None:
         raise ModelError(f"engine {engine.id!r} has no [shaft_line] description")
     if reciprocating == "mean":
-        moving = np.full(engine.cylinders, mean_reciprocating_inertia(engine))
+        moving = mean_moving_inertia(engine)
     elif reciprocating == "none":
         moving = np.zeros(engine.cylinders)
     elif isinstance(reciprocating, float) and math.isfinite(reciprocating):
-        moving = reciprocating_inertia(engine, reciprocating - engine.firing_angles)
+        moving = _moving(engine, reciprocating - engine.firing_angles)
     else:
         raise ModelError(f"reciprocating = {reciprocating!r}: expected 'mean', 'none' or a crank angle [rad]")
     # each throw with its rods' reciprocating parts (both cylinders' on a V, each at its own angle)

@@ -46,8 +46,8 @@ import numpy.typing as npt
 
 from monitor.errors import ModelError
 from monitor.fourier import order_coefficients
-from monitor.model.banks import to_engine_frame
-from monitor.model.crankshaft import EngineModel, phase_shift
+from monitor.model.banks import slave_cylinders, to_engine_frame
+from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine
 from monitor.model.forces import crank_train_forces
 from monitor.model.gas import gas_force
@@ -164,18 +164,25 @@ def predict_orders(
     gas_torque = (
         forces.gas_force * engine.crank_radius * np.sin(kin.crank_angle + kin.beta) / np.cos(kin.beta)
     )
+    unbalance = np.stack([unb_x, unb_y, 0 * unb_x, 0 * unb_x, unb_x, unb_y])
     rows = np.stack(
         [
-            forces.inertia_force_x + unb_x,
-            forces.inertia_force_y + unb_y,
+            forces.inertia_force_x,
+            forces.inertia_force_y,
             forces.torque,
             gas_torque,
-            forces.pin_force_x + unb_x,
-            forces.pin_force_y + unb_y,
+            forces.pin_force_x,
+            forces.pin_force_y,
         ]
     )
-    oc = order_coefficients(rows, cycle_revolutions=model.cycle_revolutions, max_order=max_order)
-    per_cylinder = phase_shift(oc.coefficients, oc.orders, engine.firing_angles)  # (n_cyl, 6, n_orders)
+    kinds = [rows + unbalance]  # a slider-crank cylinder's (a master's), then a slave's
+    if model.articulated:
+        slave_gas = gas_force(model.slave_pressure(load), engine.piston_area, model.ambient_pressure)
+        kinds.append(model.slave_rows(crank_speed, slave_gas, model.gravity) + unbalance)
+    oc = order_coefficients(np.stack(kinds), cycle_revolutions=model.cycle_revolutions, max_order=max_order)
+    kind = slave_cylinders(engine.cylinders, engine.vee).astype(int)
+    rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, oc.orders))
+    per_cylinder = oc.coefficients[kind] * rotation[:, None, :]  # (n_cyl, 6, n_orders)
     inertia = to_engine_frame(per_cylinder[:, 0:2, :], engine.cylinder_axes)
     torque = per_cylinder[:, 2, :]
     throw = to_engine_frame(per_cylinder[:, 4:6, :], engine.cylinder_axes)
@@ -188,8 +195,8 @@ def predict_orders(
             np.einsum("c,co->o", lever, inertia[:, 0, :]),
         ]
     )
-    alias = {name: float(oc.aliasing_error[i].max()) for i, name in enumerate(_ROWS)}
-    trunc = {name: float(oc.truncation_error[i]) for i, name in enumerate(_ROWS)}
+    alias = {name: float(oc.aliasing_error[:, i].max()) for i, name in enumerate(_ROWS)}
+    trunc = {name: float(oc.truncation_error[:, i].max()) for i, name in enumerate(_ROWS)}
     return ModelOrders(
         engine_id=engine.id,
         crank_speed=float(crank_speed),
@@ -213,7 +220,7 @@ def predict_orders(
 
 @dataclass(frozen=True)
 class CylinderParts:
-    """Cylinder 1's torque and throw force at one operating point, split by source (complex, peak, SI).
+    """Cylinder 1's (and a slave's) torque and throw force at an operating point by source (complex, peak).
 
     Rows of each array: torque [N m], throw force x [N], throw force y [N] (the rod's
     force on the crank pin plus the throw's unbalance, as in :func:`predict_orders`).
@@ -232,6 +239,11 @@ class CylinderParts:
         "gas force" (measured trace); "" without gas forces.
     crank_speed, load : float
         [rad/s], fraction of rated IMEP [-].
+    slave : ndarray or None, shape (3, 3, n_orders)
+        An articulated rod's slave cylinder's inertia, fixed and combustion parts, rows as above in
+        its own axes, from its nominal firing TDC (:meth:`EngineModel.slave_rows`); None without.
+    slaves : ndarray of bool or None, shape (n_cylinders,)
+        Which cylinders are slaves; None without articulated rods.
     """
 
     orders: FloatArray
@@ -241,6 +253,25 @@ class CylinderParts:
     strength: str
     crank_speed: float
     load: float
+    slave: ComplexArray | None = None
+    slaves: npt.NDArray[np.bool_] | None = None
+
+    def per_cylinder(self, cylinders: int) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
+        """Each cylinder's inertia, fixed and combustion parts, before its firing angle's delay.
+
+        Parameters
+        ----------
+        cylinders : int
+
+        Returns
+        -------
+        inertia, fixed, combustion : ndarray, complex, shape (cylinders, 3, n_orders)
+        """
+        parts = np.stack([self.inertia, self.fixed, self.combustion])  # (3 parts, 3 rows, n_orders)
+        each = np.repeat(parts[None], cylinders, axis=0)
+        if self.slave is not None and self.slaves is not None:
+            each[self.slaves] = self.slave
+        return each[:, 0], each[:, 1], each[:, 2]
 
 
 def cylinder_parts(
@@ -287,7 +318,8 @@ def cylinder_parts(
 
     zero = np.zeros_like(model.crank_angle)
     unb_x, unb_y = model.unbalance_force(crank_speed)
-    inertia = rows(0.0, crank_speed, model.gravity) + np.stack([zero, unb_x, unb_y])
+    unbalance = np.stack([zero, unb_x, unb_y])
+    inertia = rows(0.0, crank_speed, model.gravity) + unbalance
     # the forces are affine in the gas force: its part is the difference to no gas force (at a
     # speed of 1 rad/s and no weights, where the rest is small; the difference is exact either way)
     empty = rows(0.0, 1.0, 0.0)
@@ -306,18 +338,48 @@ def cylinder_parts(
     else:
         fixed = combustion = np.zeros_like(inertia)
         strength = ""
-    oc = order_coefficients(
-        np.stack([inertia, fixed, combustion]), cycle_revolutions=model.cycle_revolutions, max_order=max_order
-    )
+    kinds = [np.stack([inertia, fixed, combustion])]
+    if model.articulated:
+        kinds.append(_slave_parts(model, crank_speed, load, unbalance))
+    oc = order_coefficients(np.stack(kinds), cycle_revolutions=model.cycle_revolutions, max_order=max_order)
     return CylinderParts(
         orders=oc.orders,
-        inertia=oc.coefficients[0],
-        fixed=oc.coefficients[1],
-        combustion=oc.coefficients[2],
+        inertia=oc.coefficients[0, 0],
+        fixed=oc.coefficients[0, 1],
+        combustion=oc.coefficients[0, 2],
         strength=strength,
         crank_speed=float(crank_speed),
         load=float(load),
+        slave=oc.coefficients[1] if model.articulated else None,
+        slaves=slave_cylinders(engine.cylinders, engine.vee) if model.articulated else None,
     )
+
+
+def _slave_parts(model: EngineModel, crank_speed: float, load: float, unbalance: FloatArray) -> FloatArray:
+    """A slave cylinder's inertia, fixed gas and combustion parts over the grid, as
+    :func:`cylinder_parts` splits a slider-crank cylinder's (shape (3, 3, grid))."""
+    area, ambient = model.engine.piston_area, model.ambient_pressure
+
+    def rows(force: FloatArray | float, speed: float, gravity: float) -> FloatArray:
+        return model.slave_rows(speed, force, gravity)[[2, 4, 5]]  # torque, pin force x and y
+
+    inertia = rows(0.0, crank_speed, model.gravity) + unbalance
+    empty = rows(0.0, 1.0, 0.0)
+    slave = model._slave
+    assert slave is not None
+    if slave.gas_basis is not None:
+        assert model._cycle is not None
+        basis_charge, basis_heat = slave.gas_basis
+        charge = model._cycle.charge_pressure(load) * basis_charge
+        heat = model._cycle.heat_release(load) * basis_heat  # a master's fuel (EngineModel.slave_pressure)
+        fixed = rows(gas_force(charge, area, ambient), 1.0, 0.0) - empty
+        combustion = rows(heat * area, 1.0, 0.0) - empty
+    elif model.gas == "measured":
+        fixed = np.zeros_like(inertia)
+        combustion = rows(gas_force(model.slave_pressure(load), area, ambient), 1.0, 0.0) - empty
+    else:
+        fixed = combustion = np.zeros_like(inertia)
+    return np.stack([inertia, fixed, combustion])
 
 
 @dataclass(frozen=True)
@@ -358,8 +420,8 @@ def combine_cylinders(parts: CylinderParts, engine: Engine, strengths: npt.Array
     s = np.asarray(strengths, dtype=np.float64)
     if s.shape != (engine.cylinders,):
         raise ModelError(f"strengths have shape {s.shape}: expected one per cylinder ({engine.cylinders})")
-    one = parts.inertia + parts.fixed  # (3, n_orders)
-    per_cylinder = one[None, :, :] + s[:, None, None] * parts.combustion[None, :, :]
+    inertia, fixed, combustion = parts.per_cylinder(engine.cylinders)  # (n_cyl, 3, n_orders) each
+    per_cylinder = inertia + fixed + s[:, None, None] * combustion
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))
     phased = per_cylinder * rotation[:, None, :]  # (n_cyl, 3, n_orders)
     throw = to_engine_frame(phased[:, 1:3, :], engine.cylinder_axes)

@@ -19,7 +19,7 @@ from pydantic import BaseModel
 
 from monitor.errors import SceneError
 from monitor.fourier import order_coefficients
-from monitor.model.banks import to_engine_frame
+from monitor.model.banks import slave_cylinders, to_engine_frame
 from monitor.model.crankshaft import EngineModel, GasModel
 from monitor.model.engine import Engine
 from monitor.model.forces import crank_train_forces
@@ -255,9 +255,12 @@ def _cylinder_forces(
     rod_model = model.rod_model
     kin, train = model.kinematics, model.train
     load = scene.operating_point.load
-    ambient = model._ambient
+    ambient = model.ambient_pressure
+    slaves = slave_cylinders(n, engine.vee)  # an articulated rod's slaves move otherwise (their own rows)
 
-    def rows(speed: float, force: FloatArray | float, gravity: float) -> FloatArray:
+    def rows(speed: float, force: FloatArray | float, gravity: float, slave: bool = False) -> FloatArray:
+        if slave:
+            return model.slave_rows(speed, force, gravity)[[2, 4, 5]]  # torque, pin force x and y
         f = crank_train_forces(
             kin, train, crank_speed=speed, gas_force=force, rod_model=rod_model, gravity=gravity
         )
@@ -265,33 +268,45 @@ def _cylinder_forces(
 
     parts: list[tuple[FloatArray, FloatArray]] = []  # per cylinder: (A rows, B rows) over the cycle grid
     zero = np.zeros((3, model.grid_size))
-    inertia_a, inertia_b = zero, zero
+    inertia_a = {False: zero, True: zero}  # a slider-crank's, a slave's
+    inertia_b = {False: zero, True: zero}
     if inertia is not None:
         evaluated.append("inertia")
-        base = rows(1.0, 0.0, model.gravity)
-        twice = rows(2.0, 0.0, model.gravity)
-        inertia_b = (twice - base) / 3.0  # forces a + w^2 b at w = 1 and 2
-        inertia_a = base - inertia_b
         unb_x, unb_y = model.unbalance_force(1.0)
-        inertia_b = inertia_b + np.stack([np.zeros_like(unb_x), unb_x, unb_y])
+        for slave in {False, bool(slaves.any())}:
+            base = rows(1.0, 0.0, model.gravity, slave)
+            twice = rows(2.0, 0.0, model.gravity, slave)
+            inertia_b[slave] = (twice - base) / 3.0  # forces a + w^2 b at w = 1 and 2
+            inertia_a[slave] = base - inertia_b[slave]
+            inertia_b[slave] = inertia_b[slave] + np.stack([np.zeros_like(unb_x), unb_x, unb_y])
     pressure = None
     if gas is not None:
         evaluated.append("gas")
         if model.gas == "parametric":
             assert model._cycle is not None and model._setup.gas_basis is not None
-            basis_a, basis_b = model._setup.gas_basis
+            basis = {False: model._setup.gas_basis}
+            if model._slave is not None and model._slave.gas_basis is not None:
+                basis[True] = model._slave.gas_basis  # on the slave's own volume, a master's fuel
             charge, heat = model._cycle.charge_pressure(load), model._cycle.heat_release(load)
             pressure = np.stack(
-                [charge_scale[c] * charge * basis_a + gas_scale[c] * heat * basis_b for c in range(n)]
+                [
+                    charge_scale[c] * charge * basis[bool(slaves[c])][0]
+                    + gas_scale[c] * heat * basis[bool(slaves[c])][1]
+                    for c in range(n)
+                ]
             )
         else:
-            pressure = np.repeat(model.cylinder_pressure(load)[None, :], n, axis=0)
+            pressure = np.stack(
+                [model.slave_pressure(load) if slaves[c] else model.cylinder_pressure(load) for c in range(n)]
+            )
     for c in range(n):
-        a_rows = inertia_a.copy()
+        slave = bool(slaves[c])
+        a_rows = inertia_a[slave].copy()
         if pressure is not None:
             f_gas = gas_force(pressure[c], engine.piston_area, ambient)
-            a_rows += rows(1.0, f_gas, 0.0) - rows(1.0, 0.0, 0.0)  # the gas part alone (linear in it)
-        parts.append((a_rows, inertia_b))
+            # the gas part alone (linear in it)
+            a_rows += rows(1.0, f_gas, 0.0, slave) - rows(1.0, 0.0, 0.0, slave)
+        parts.append((a_rows, inertia_b[slave]))
     return np.stack([np.stack([a, b]) for a, b in parts]), pressure  # (n_cyl, 2, 3, grid)
 
 

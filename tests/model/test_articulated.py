@@ -327,3 +327,17 @@ def test_a_slave_rod_on_the_crank_pin_is_the_two_mass_slider_crank_at_the_bank_a
     np.testing.assert_allclose(forces.inertia_force_x, free[0], rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(forces.inertia_force_y, free[1], rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(forces.axial_force, reference.piston_force, rtol=0, atol=1e-9 * scale)
+
+
+def test_the_slaves_inertia_is_twice_its_kinetic_energy_over_the_speed_squared() -> None:
+    """``m_s s'^2 + m_k |K'|^2`` against the places' first derivatives from the 40-digit linkage (1e-9
+    of the scale ``(m_s + m_k) R^2``: mpmath's numerical derivative)."""
+    piston, knuckle = 120.0, 45.0
+    angles = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
+    inertia = ROD.slave_inertia(angles, reciprocating_mass=piston, knuckle_mass=knuckle)
+    expected = []
+    for a in angles:
+        ds, dk = _linkage_derivatives(ROD, float(a), 1)
+        expected.append(piston * ds**2 + knuckle * float(dk @ dk))
+    scale = (piston + knuckle) * ROD.crank_radius**2
+    np.testing.assert_allclose(inertia, expected, rtol=0, atol=1e-9 * scale)

@@ -157,7 +157,21 @@ def test_given_angles_must_put_each_throw_a_bank_angle_apart() -> None:
     [
         (lambda d: d.update(cylinders=7), "expected an even number"),
         (lambda d: d["firing"].update(order=[1, 2, 3, 4]), "permutation of the cylinders A1..A2 and B1..B2"),
-        (lambda d: d["vee"].update(rods="articulated"), "not in the crank train yet"),
+        (
+            lambda d: d["vee"].update(rods="articulated"),
+            "rods = 'articulated' needs knuckle_radius_m, knuckle_angle",
+        ),
+        (lambda d: d["vee"].update(knuckle_radius_m=0.05), "knuckle_radius_m: for rods = 'articulated' only"),
+        (
+            lambda d: d["vee"].update(
+                {**_SLAVE, "slave_rod_length_m": 0.11, "slave_rod_cg_from_piston_pin_m": 0.05}
+            ),
+            "cannot reach its piston at every crank angle",
+        ),
+        (
+            lambda d: d["vee"].update({**_SLAVE, "slave_rod_cg_from_piston_pin_m": 0.5}),
+            "expected less than the slave rod's length",
+        ),
         (lambda d: d["vee"].update(bank_offset_m=0.05), "fork-and-blade rods: both rods run in one plane"),
         (lambda d: d["vee"].update(bank_angle_deg=0.0), "expected 1 <= value <= 180 deg"),
         (lambda d: d["bearings"].update(throws=[[1, 2]] * 4), "expected 2, one a throw"),
@@ -169,6 +183,40 @@ def test_bad_vee_descriptions_are_refused_with_the_rule(change: Any, fragment: s
     change(data)
     with pytest.raises(EngineDescriptionError, match=re.escape(fragment)):
         parse_engine(data)
+
+
+# a master-and-slave rod for _vee's crank (radius 0.05 m, rod 0.2 m): the knuckle pin a quarter of the
+# rod from the crank pin, the slave rod three quarters of the master's
+_SLAVE = {
+    "rods": "articulated",
+    "knuckle_radius_m": 0.05,
+    "knuckle_angle_deg": 45.0,
+    "slave_rod_length_m": 0.15,
+    "slave_rod_kg": 1e-6,
+    "slave_rod_cg_from_piston_pin_m": 0.1,
+}
+
+
+def test_an_articulated_v_is_described_its_trailing_bank_the_slaves() -> None:
+    """With its slave rod and knuckle pin given, an articulated V is accepted: its trailing bank hangs on
+    the leading bank's master rods, and their own TDCs lie off their firing angles by the slave's
+    offset."""
+    from monitor.model.banks import slave_cylinders, tdc_offsets
+
+    engine = parse_engine(_vee(4, 90.0, ["A1", "B1", "A2", "B2"], **_SLAVE))
+    assert engine.articulated is not None
+    assert engine.articulated.bank_angle == pytest.approx(math.pi / 2)
+    assert slave_cylinders(engine.cylinders, engine.vee).tolist() == [False, False, True, True]
+    offset = engine.articulated.stroke().tdc_offset
+    assert abs(offset) > math.radians(0.5)  # the articulation moves the slave's TDC
+    assert tdc_offsets(engine.cylinders, engine.vee, engine.articulated).tolist() == [
+        0.0,
+        0.0,
+        offset,
+        offset,
+    ]
+    led_by_b = parse_engine(_vee(4, 90.0, ["B1", "A1", "B2", "A2"], leading_bank="B", **_SLAVE))
+    assert slave_cylinders(4, led_by_b.vee).tolist() == [True, True, False, False]
 
 
 def _free(engine: Engine) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
