@@ -134,8 +134,12 @@ def mean_moving_inertia(engine: Engine) -> FloatArray:
     -------
     ndarray, shape (cylinders,)
     """
-    grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
-    return np.mean(_moving(engine, np.broadcast_to(grid, (engine.cylinders, grid.size)).copy()), axis=1)
+    moving = np.full(engine.cylinders, mean_reciprocating_inertia(engine))
+    slaves = slave_cylinders(engine.cylinders, engine.vee)
+    if slaves.any():  # every slave alike: its mean once
+        grid = np.linspace(0.0, 2 * math.pi, 512, endpoint=False)
+        moving[slaves] = float(np.mean(slave_inertia(engine, grid)))
+    return moving
 
 
 def throw_inertia(engine: Engine) -> float:

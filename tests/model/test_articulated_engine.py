@@ -177,3 +177,13 @@ def test_a_scene_of_an_articulated_v_gives_the_models_torque_and_bearing_forces(
     np.testing.assert_allclose(torque, predicted.engine_torque, rtol=0, atol=1e-9 * np.abs(torque).max())
     bearing = sources.bearing.at(speed)[..., keep]
     np.testing.assert_allclose(bearing, predicted.bearing_force, rtol=0, atol=1e-9 * np.abs(bearing).max())
+
+
+def test_the_documented_articulated_vee_table_is_the_one_tested_here() -> None:
+    """docs/engines.md's ``[vee]`` example of articulated rods parses, and is this module's engine."""
+    text = (Path(__file__).parents[2] / "docs" / "engines.md").read_text()
+    blocks = [b.split("```")[0] for b in text.split("```toml")[1:]]
+    block = next(b for b in blocks if 'rods = "articulated"' in b)
+    documented = tomllib.loads(block)["vee"]
+    assert documented == {"bank_angle_deg": 55.0, **ARTICULATED}
+    _twelve_v(**documented)
