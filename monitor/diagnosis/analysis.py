@@ -22,6 +22,7 @@ from monitor.diagnosis.balance import CrankCalibration, CylinderBalance, Transfe
 from monitor.diagnosis.shares import fire_together
 from monitor.errors import DiagnosisError, ModelError
 from monitor.io.recording import Channel, Recording
+from monitor.model.banks import to_engine_frame
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia
@@ -145,15 +146,17 @@ class Analysis:
 def _force_error(parts: CylinderParts, engine: Engine, covariance: FloatArray | None) -> FloatArray:
     """Standard error of each bearing force order that the strengths' covariance gives [N].
 
-    ``dF_bk / ds_c = share_bc combustion_ck exp(-i k phi_c)``, cylinder ``c``'s combustion part (a
-    slave's its own); ``E |dF|^2 = g^H C g``.
+    ``dF_bk / ds_c = share_bc R_c combustion_ck exp(-i k phi_c)``, cylinder ``c``'s combustion part (a
+    slave's its own) turned by ``R_c`` from its own axes into the engine's, as
+    :func:`~monitor.model.predicted.combine_cylinders` turns it; ``E |dF|^2 = g^H C g``.
     """
     n_orders = parts.orders.size
     if covariance is None:
         return np.zeros((engine.bearing_count, 2, n_orders))
     rotation = np.exp(-1j * np.multiply.outer(engine.firing_angles, parts.orders))  # (n_cyl, n_orders)
     combustion = parts.per_cylinder(engine.cylinders)[2]  # (n_cyl, 3, n_orders)
-    g = engine.bearing_share[:, :, None, None] * (rotation[None, :, None, :] * combustion[None, :, 1:3, :])
+    throw = to_engine_frame(rotation[:, None, :] * combustion[:, 1:3, :], engine.cylinder_axes)
+    g = engine.bearing_share[:, :, None, None] * throw[None]  # (n_bearings, n_cyl, 2, n_orders)
     variance = np.einsum("bcko,cd,bdko->bko", g, covariance, np.conj(g)).real
     return np.asarray(np.sqrt(np.maximum(variance, 0.0)))
 
