@@ -3,8 +3,9 @@
 On a V engine with articulated rods one bank's rod (the master) runs from the crank pin to its piston
 as a plain slider-crank (:mod:`monitor.model.kinematics`); the other bank's rod (the slave) is pinned
 to the master rod at the knuckle pin, beside the crank pin, and not to the crank pin itself. So the
-slave piston does not move as a slider-crank at the bank angle: its stroke is longer than ``2 R`` and
-its top dead centre is not where the crank points along its bore.
+slave piston does not move as a slider-crank at the bank angle: its stroke is not ``2 R`` (longer
+where the knuckle angle exceeds the bank angle, shorter where it falls short) and its top dead centre
+is not where the crank points along its bore.
 
 Geometry, in the frame of :mod:`monitor.model.kinematics` (origin on the crankshaft axis, ``y`` along
 the master cylinder's axis towards its head, ``x`` across it, the crank pin at ``R (sin a, cos a)``,

@@ -20,7 +20,7 @@ Conventions (docs/engines.md says them with a figure).
   plane: no offset) or ``articulated``: the leading bank's rod is the master, on the crank pin; the
   trailing bank's, the slave, hangs on the master's knuckle pin (``knuckle_radius_m`` from the crank
   pin's centre, ``knuckle_angle_deg`` from the master rod's axis towards the slave bank), so its piston
-  moves otherwise (:mod:`monitor.model.articulated`: a longer stroke, its TDC away from the bank
+  moves otherwise (:mod:`monitor.model.articulated`: a stroke of its own, its TDC away from the bank
   angle). Both rods run in one plane. A trailing cylinder's firing angle stays the crank's (a bank
   angle after its master's): its own TDC's offset is the slave's kinematics', not the firing order's.
 

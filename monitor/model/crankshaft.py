@@ -215,8 +215,8 @@ class EngineModel:
         """Absolute pressure of a slave cylinder over the grid, from its nominal firing TDC [Pa].
 
         Its cycle is timed from its own TDC, ``tdc_offset`` away, on its own volume; it burns the fuel
-        a master cylinder burns at the load (the same heat released), so a longer stroke gives it a
-        little more work. A measured trace is the master's, from the slave's own TDC.
+        a master cylinder burns at the load (the same heat released), so its own stroke gives it a
+        little more or less work. A measured trace is the master's, from the slave's own TDC.
         """
         slave = self._slave
         if slave is None:

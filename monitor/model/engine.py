@@ -49,6 +49,7 @@ from monitor.model.banks import (
     cylinder_banks,
     cylinder_names,
     cylinder_throws,
+    tdc_offsets,
     vee_firing_angles,
 )
 from monitor.model.quantities import (
@@ -498,13 +499,15 @@ class Engine(_Strict):
 
     @cached_property
     def firing_angles(self) -> FloatArray:
-        """Firing angle of each cylinder (by index) after cylinder 1 [rad]."""
+        """Firing angle of each cylinder (by index) after cylinder 1's TDC [rad]."""
         given = self.firing.angles_deg
         if self.vee is not None:
             found = vee_firing_angles(
                 self.firing_order, self.vee, cycle_revolutions=self.cycle_revolutions, given_deg=given
             )
-            return np.radians(found)
+            # an articulated slave A1's own TDC lies its tdc_offset past where its crank points
+            own = np.radians(found) - tdc_offsets(self.cylinders, self.vee, self.articulated)[0]
+            return np.mod(own, 2 * np.pi * self.cycle_revolutions)
         if given is not None:
             return np.radians(np.asarray(given, dtype=np.float64))
         order = self.firing_order

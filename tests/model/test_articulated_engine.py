@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from monitor.model.banks import slave_cylinders
+from monitor.model.banks import slave_cylinders, tdc_offsets
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine, bundled_engines, parse_engine
 from monitor.model.predicted import cylinder_parts, predict_orders
@@ -187,3 +187,27 @@ def test_the_documented_articulated_vee_table_is_the_one_tested_here() -> None:
     documented = tomllib.loads(block)["vee"]
     assert documented == {"bank_angle_deg": 55.0, **ARTICULATED}
     _twelve_v(**documented)
+
+
+def test_crank_angles_run_from_a1s_own_tdc_when_a1_is_a_slave() -> None:
+    """With the B bank leading, A1 is a slave: crank angles are measured from its own TDC (where a
+    flywheel's TDC mark puts it), so every firing angle is the fork-and-blade engine's less A1's TDC
+    offset, and A1's own TDC is at 0."""
+    path = bundled_engines()["medium-speed-12v32"]
+    data = tomllib.loads(path.read_text())
+    # the bundled order with each throw's B cylinder firing first, from A1
+    data["firing"]["order"] = ["A1", "B5", "A5", "B3", "A3", "B6", "A6", "B2", "A2", "B4", "A4", "B1"]
+
+    def b_leading(**vee: Any) -> Engine:
+        data["vee"] = {**data["vee"], "bank_offset_m": 0.0, "leading_bank": "B", **vee}
+        return parse_engine(copy.deepcopy(data), source_dir=path.parent)
+
+    fork, articulated = b_leading(rods="fork-and-blade"), b_leading(**ARTICULATED)
+    assert articulated.articulated is not None
+    offsets = tdc_offsets(articulated.cylinders, articulated.vee, articulated.articulated)
+    assert offsets[0] > math.radians(0.5)  # A1 is a slave, its TDC well past the bank angle's
+    span = 4 * math.pi
+    shift = np.mod(fork.firing_angles - articulated.firing_angles - offsets[0] + math.pi, span) - math.pi
+    np.testing.assert_allclose(shift, 0.0, atol=1e-12)  # round-off of angles of order 4 pi
+    own = np.mod(articulated.firing_angles + offsets + math.pi, span) - math.pi
+    assert abs(own[0]) < 1e-12
