@@ -108,6 +108,7 @@ class Outcome:
     charge_law: str = ""  # the simulator's charge pressure against load
     points: int = 1  # the baseline's calibrated points (3: across the engine's law, law_baseline)
     vee: bool = False  # a V engine's case (benchmarks.diagnosis_vee)
+    rods: str = ""  # a V engine's rods: side-by-side, fork-and-blade or articulated
 
 
 def _false(o: Outcome, rule: str, subject: str) -> bool:
@@ -187,6 +188,7 @@ def run_ways(
             load_type=str(truth["load_type"]),
             charge_law=str(truth["charge_law"]),
             vee=vee,
+            rods=str(truth.get("rods", "")),
         )
 
     cylinders = 0

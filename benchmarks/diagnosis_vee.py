@@ -61,6 +61,9 @@ class VeeCase(Protocol):
     @property
     def seed(self) -> int: ...
 
+    @property
+    def rods(self) -> str: ...
+
 
 def vee_length(index: int) -> float:
     """The recording's length [s] of the ``index``-th V engine's case.
@@ -104,8 +107,9 @@ def vee_section(outcomes: Sequence[VeeCase]) -> list[str]:
         f"{len(vee)} cases of V engines (`--vee-cases`, seeds from {VEE_FIRST_SEED}, "
         "`validation.simulator.random_case(seed, duration_s=..., vee=True)`): medium-speed (45-60 deg V, "
         "500-1000 rpm) and high-speed (60-90 deg V, 1200-1900 rpm) four-strokes of 12 to 20 cylinders, "
-        "side-by-side or fork-and-blade rods, each bank firing as an in-line engine; at their baseline's "
-        "point, told their load. A cylinder is named by bank (`cylinder B3`); `named` as above. "
+        "side-by-side, fork-and-blade or (a third of them) articulated rods, each bank firing as an "
+        "in-line engine (an articulated slave at its own TDC); at their baseline's point, told their load. "
+        "A cylinder is named by bank (`cylinder B3`); `named` as above. "
         f"Cases the simulator could not make: {len(failed)}.",
         "",
         "| V engines: true class | length [s] | cases | named | exit 0 | exit 1 | exit 2 | exit 3 |",
@@ -130,8 +134,29 @@ def vee_section(outcomes: Sequence[VeeCase]) -> list[str]:
         "|---|---|---|",
         *(f"| {row.what} | {row.required} | {cell(row, vee)} |" for row in ROWS),
         "",
+        *_rods_table(vee),
     ]
     return lines
+
+
+def _rods_table(cases: Sequence[VeeCase]) -> list[str]:
+    """The acceptance rows by rod arrangement (Markdown lines): the articulated engines' slaves move
+    otherwise than a slider-crank (validation.simulator.linkage), so they have a column of their own."""
+    kinds = [k for k in ("side-by-side", "fork-and-blade", "articulated") if any(o.rods == k for o in cases)]
+    if not kinds:
+        return []
+    by_kind = {k: [o for o in cases if o.rods == k] for k in kinds}
+    return [
+        "The same rows by the engines' rods:",
+        "",
+        "| what | required | " + " | ".join(f"{k} ({len(by_kind[k])} cases)" for k in kinds) + " |",
+        "|---|---|" + "---|" * len(kinds),
+        *(
+            f"| {row.what} | {row.required} | " + " | ".join(cell(row, by_kind[k]) for k in kinds) + " |"
+            for row in ROWS
+        ),
+        "",
+    ]
 
 
 def vee_off_point_section(outcomes: Sequence[VeeCase], classes: Sequence[str]) -> list[str]:

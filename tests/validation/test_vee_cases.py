@@ -70,10 +70,10 @@ def test_a_finding_on_cylinders_that_fire_together_names_each_of_them() -> None:
     assert not named({"class": "misfire", "cylinder": "B9"}, [("misfire", "A9 or B4", "alarm")])
 
 
-def _outcome(truth: str, named: bool, vee: bool, exit_code: int) -> Outcome:
+def _outcome(truth: str, named: bool, vee: bool, exit_code: int, rods: str = "side-by-side") -> Outcome:
     return Outcome(
         300000, 10.0, 12, "four-stroke", 750.0, truth, "B3", math.nan, "alarm", exit_code, truth, named,
-        exit_code == 2, "", 1.0, vee=vee,
+        exit_code == 2, "", 1.0, vee=vee, rods=rods if vee else "",
     )  # fmt: skip
 
 
@@ -85,6 +85,13 @@ def test_vee_outcomes_have_their_own_rows() -> None:
     assert lines[0] == "## V engines"
     assert any(line.startswith("| misfire | 10 | 1 | 1/1 (100 %) |") for line in lines)
     assert vee_section(outcomes[2:]) == []
+    # by rods: a column per arrangement the run had, each over its own cases
+    outcomes += [_outcome("misfire", False, True, 1, rods="articulated")]
+    lines = vee_section(outcomes)
+    head = next(line for line in lines if line.startswith("| what | required | side-by-side"))
+    assert head == "| what | required | side-by-side (2 cases) | articulated (1 cases) |"
+    misfire = next(line for line in lines[lines.index(head) :] if line.startswith("| misfire named"))
+    assert misfire.endswith("| 1/1 (100.0 %): meets | 0/1 (0.0 %): **fails** |")
 
 
 def test_vee_worn_bearing_knocks_where_its_planar_load_is_least() -> None:

@@ -17,9 +17,13 @@ flywheel is sized for a cyclic irregularity typical of the drive (gensets 1/300-
 propulsion 1/150-1/70).  V engines come from :func:`random_vee_engine` (a stream of their own, so
 the in-line population is unchanged): medium-speed (45-60 deg V, 500-1000 rpm) and high-speed
 (60-90 deg V, 1200-1900 rpm) four-strokes of 12-20 cylinders, banks A and B named ``A1..Am``,
-``B1..Bm``, ``Ak`` and ``Bk`` on throw ``k``, side-by-side (B a bank offset further along the shaft)
-or fork-and-blade rods; each bank fires as an in-line engine and the trailing bank's cylinder the
-bank angle after its partner.
+``B1..Bm``, ``Ak`` and ``Bk`` on throw ``k``, side-by-side (B a bank offset further along the shaft),
+fork-and-blade or articulated rods; each bank fires as an in-line engine and the trailing bank's
+cylinder the bank angle after its partner (an articulated slave at its own TDC).  Articulated rods
+(:mod:`validation.simulator.linkage`) are solved apart from the product's closed form: the linkage
+by Newton's method on its loop equations, its forces by Lagrange multipliers on rigid bodies (the
+slave rod with its own moment of inertia, where the product splits it as a two-mass rod), and a
+slave's pressure on its own volume.
 
 Cylinder pressure (:func:`closed_cycle`, :func:`cycle_table`).  A single-zone first-law model of
 the closed part of the cycle (inlet closing to exhaust opening), integrated in temperature with

@@ -169,7 +169,9 @@ def _simulate(
         crank_only=point.crank_only,
     )
     if engine.is_vee:
-        truth.update(vee=True, cylinder_index=scenario.cylinder, cylinder_names=engine.cylinder_names)
+        truth.update(
+            vee=True, cylinder_index=scenario.cylinder, cylinder_names=engine.cylinder_names, rods=engine.rods
+        )
     return Case(
         seed=noise_seed if twin else engine_seed,
         engine_toml=toml_text,

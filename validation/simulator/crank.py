@@ -13,9 +13,9 @@ import numpy.typing as npt
 from validation.simulator.engine import SimEngine
 from validation.simulator.gas import HEAT_LEVELS, HEAT_STEP, CycleTable
 from validation.simulator.kinematics import (
-    engine_kinematics,
     equivalent_inertia,
     inertia_force_coefficients,
+    piston_arm,
     vertical_force_coefficients,
 )
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
@@ -293,7 +293,7 @@ class _AngleWindows:
         inertia_c, derivative_c = equivalent_inertia(engine, psi)
         self.inertia = engine.rigid_inertia + inertia_c.sum(axis=0)
         self.inertia_1 = derivative_c.sum(axis=0)
-        self.arm = -engine_kinematics(engine, psi).piston_1  # dx/dpsi, piston travel from TDC
+        self.arm = piston_arm(engine, psi)  # dx/dpsi, piston travel from TDC
         if engine.is_vee:  # each cylinder's vertical force: along and across its leaning axis
             g, k2, k1 = vertical_force_coefficients(engine, psi)
             across = (
@@ -336,15 +336,20 @@ class _AngleWindows:
         self.drawn = 0
 
     def _tabulate(self, table: CycleTable) -> FloatArray:
-        """Each cylinder's pressure at each fuel level over the window's grid [Pa]."""
+        """Each cylinder's pressure at each fuel level over the window's grid [Pa] (a slave's its own)."""
         n, m = self.wrapped.shape
         cycle = self.engine.cycle_angle
         tab = np.empty((n, table.fuel.size, m))
+        slaves = self.engine.slaves
+        slave_pressure = table.slave_pressure
+        if slave_pressure is None:
+            if slaves.any():
+                raise ValueError("table: expected the slaves' pressure of an engine on articulated rods")
+            slave_pressure = table.pressure
         for c in range(n):
+            trace = slave_pressure if slaves[c] else table.pressure
             for level in range(table.fuel.size):
-                tab[c, level] = np.interp(
-                    self.wrapped[c], table.crank_angle, table.pressure[level], period=cycle
-                )
+                tab[c, level] = np.interp(self.wrapped[c], table.crank_angle, trace[level], period=cycle)
         return tab
 
     def switch(self, step: LoadStep, column: int) -> None:
@@ -447,6 +452,7 @@ def operating_load(
     cycle = engine.cycle_angle
     vd = engine.swept_volume
     friction = engine.friction_torque
+    n = engine.cylinders
     healthy_fuel = table.fuel_for(load * engine.rated_imep)
     rated_net = engine.rated_indicated_torque - friction
     if engine.load_type == "propeller":
@@ -463,8 +469,12 @@ def operating_load(
     start = float(np.interp(torque * cycle / vd, total, grid))
     inertia = (
         engine.rigid_inertia
-        + float(equivalent_inertia(engine, np.linspace(0, 2 * math.pi, 64, endpoint=False))[0].mean())
-        * engine.cylinders
+        + float(
+            equivalent_inertia(engine, np.tile(np.linspace(0, 2 * math.pi, 64, endpoint=False), (n, 1)))[
+                0
+            ].mean()
+        )
+        * n
     )
     work = torque * cycle
     kappa = work / (inertia * engine.rated_speed**2)

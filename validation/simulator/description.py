@@ -59,6 +59,8 @@ class _Perturbed:
     counterweight: float
     compression_ratio: float
     bank_offset: float = 0.0  # a V engine's, side-by-side rods [m]
+    slave: tuple[float, ...] = ()  # articulated rods: knuckle radius [m] and angle [rad], slave rod
+    # length [m], centre of gravity from its piston pin [m] and mass [kg]
 
 
 def _perturb(engine: SimEngine) -> _Perturbed:
@@ -88,6 +90,15 @@ def _perturb(engine: SimEngine) -> _Perturbed:
     crank_unbalance, counterweight = heavy(engine.crank_unbalance), heavy(engine.counterweight)
     compression_ratio = engine.compression_ratio * float(rng.uniform(0.97, 1.03))
     offset = geo(engine.bank_offset) if engine.is_vee else 0.0  # drawn last: in-line streams unchanged
+    slave: tuple[float, ...] = ()
+    if engine.rods == "articulated":  # after the rest: the other engines' streams unchanged
+        slave = (
+            geo(engine.knuckle_radius),
+            engine.knuckle_angle + math.radians(float(rng.uniform(-1, 1))),
+            geo(engine.slave_rod_length),
+            geo(engine.slave_rod_cg_from_pin),
+            heavy(engine.slave_rod_mass),
+        )
     return _Perturbed(
         bore,
         stroke,
@@ -107,21 +118,32 @@ def _perturb(engine: SimEngine) -> _Perturbed:
         counterweight,
         compression_ratio,
         offset,
+        slave,
     )
 
 
 def _vee_lines(engine: SimEngine, d: _Perturbed) -> list[str]:
-    """A V engine's ``[vee]`` table (the bank angle as the maker states it, the offset perturbed)."""
+    """A V engine's ``[vee]`` table (the bank angle as the maker states it, the offset perturbed; an
+    articulated slave rod's pin and its rod perturbed as the master's, the knuckle angle by +-1 deg)."""
     if not engine.is_vee:
         return []
-    return [
+    lines = [
         "[vee]",
         f"bank_angle_deg = {_float(math.degrees(engine.bank_angle))}",
         f'leading_bank = "{engine.leading_bank}"',
         f'rods = "{engine.rods}"',
         f"bank_offset_m = {_float(d.bank_offset)}",
-        "",
     ]
+    if d.slave:
+        knuckle, angle, length, cg, mass = d.slave
+        lines += [
+            f"knuckle_radius_m = {_float(knuckle)}",
+            f"knuckle_angle_deg = {_float(math.degrees(angle))}",
+            f"slave_rod_length_m = {_float(length)}",
+            f"slave_rod_kg = {_float(mass)}",
+            f"slave_rod_cg_from_piston_pin_m = {_float(cg)}",
+        ]
+    return [*lines, ""]
 
 
 def _firing_line(engine: SimEngine) -> str:

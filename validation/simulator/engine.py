@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 
+from validation.simulator.linkage import Linkage, slave_dead_centres
 from validation.simulator.shared import ENGINE_STREAM, FloatArray
 
 
@@ -105,10 +108,19 @@ class SimEngine:
     leading_bank : str
         "A" or "B": the bank whose axis the crank pin passes first (a V engine).
     rods : str
-        "in-line", or on a V "side-by-side" or "fork-and-blade".
+        "in-line", or on a V "side-by-side", "fork-and-blade" or "articulated" (the leading bank's
+        rods are masters, the trailing bank's slave rods hang on their knuckle pins).
     bank_offset : float
         How much further along the shaft the B bank's cylinders stand than the A bank's [m]
         (side-by-side rods; 0 otherwise).
+    knuckle_radius, knuckle_angle : float
+        Articulated rods: the knuckle pin's distance from the crank pin's centre [m] and its angle
+        from the master rod's axis towards the slave bank [rad] (0 otherwise).
+    slave_rod_length, slave_rod_cg_from_pin : float
+        Articulated rods: knuckle pin to slave piston pin, and the slave rod's centre of gravity from
+        its piston pin [m].
+    slave_rod_mass, slave_rod_inertia : float
+        Articulated rods: [kg], and about its centre of gravity [kg m^2].
 
     Notes
     -----
@@ -155,8 +167,14 @@ class SimEngine:
     peak_pressure_scatter: float
     bank_angle: float = 0.0
     leading_bank: Literal["A", "B"] = "A"
-    rods: Literal["in-line", "side-by-side", "fork-and-blade"] = "in-line"
+    rods: Literal["in-line", "side-by-side", "fork-and-blade", "articulated"] = "in-line"
     bank_offset: float = 0.0
+    knuckle_radius: float = 0.0
+    knuckle_angle: float = 0.0
+    slave_rod_length: float = 0.0
+    slave_rod_cg_from_pin: float = 0.0
+    slave_rod_mass: float = 0.0
+    slave_rod_inertia: float = 0.0
 
     @property
     def cylinders(self) -> int:
@@ -195,6 +213,42 @@ class SimEngine:
         a_leads = self.leading_bank == "A"
         half = self.bank_angle / 2
         return np.r_[np.full(m, -half if a_leads else half), np.full(m, half if a_leads else -half)]
+
+    @property
+    def linkage(self) -> Linkage:
+        """The articulated rods of each throw (:mod:`validation.simulator.linkage`)."""
+        if self.rods != "articulated":
+            raise ValueError(f"engine {self.ident} has {self.rods} rods: expected articulated ones")
+        return Linkage(
+            crank_radius=self.crank_radius,
+            rod_length=self.rod_length,
+            rod_cg_from_pin=self.rod_cg_from_pin,
+            knuckle_radius=self.knuckle_radius,
+            knuckle_angle=self.knuckle_angle,
+            slave_rod_length=self.slave_rod_length,
+            slave_rod_cg_from_pin=self.slave_rod_cg_from_pin,
+            bank_angle=self.bank_angle,
+            piston_mass=self.piston_mass,
+            rod_mass=self.rod_mass,
+            rod_inertia=self.rod_inertia,
+            slave_rod_mass=self.slave_rod_mass,
+            slave_rod_inertia=self.slave_rod_inertia,
+        )
+
+    @cached_property
+    def trailing_offset(self) -> float:
+        """Crank angle from a throw's leading cylinder's TDC to its trailing one's [rad].
+
+        The bank angle, but an articulated slave's top dead centre (the linkage solved numerically).
+        """
+        if self.rods == "articulated":
+            return slave_dead_centres(self.linkage)[0]
+        return self.bank_angle
+
+    @property
+    def slaves(self) -> npt.NDArray[np.bool_]:
+        """Which cylinders (by index) are articulated slaves: the trailing bank's, on articulated rods."""
+        return np.asarray((self.cylinder_leans > 0) & (self.rods == "articulated"))
 
     @property
     def unbalance_share(self) -> float:
@@ -276,7 +330,8 @@ def _vee_angles(engine: SimEngine) -> FloatArray:
 
     The leading bank fires in the order its cylinders take in ``firing_order``, evenly over the
     cycle from its first cylinder's firing; the trailing bank's cylinder of each throw fires the bank
-    angle later; the whole is shifted so that A1 fires at 0 [rad].
+    angle later (an articulated slave at its own TDC, :attr:`SimEngine.trailing_offset`); the whole is
+    shifted so that A1 fires at 0 [rad].
     """
     m = engine.throws
     lead = 0 if engine.leading_bank == "A" else m
@@ -285,7 +340,7 @@ def _vee_angles(engine: SimEngine) -> FloatArray:
     angles = np.empty(engine.cylinders)
     for position, k in enumerate(bank):
         angles[lead + k] = position * step
-        angles[(m - lead) + k] = position * step + engine.bank_angle
+        angles[(m - lead) + k] = position * step + engine.trailing_offset
     return np.asarray(np.mod(angles - angles[0], engine.cycle_angle))
 
 

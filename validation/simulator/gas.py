@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 
 from validation.simulator.engine import DoubleWiebe, SimEngine, random_engine
 from validation.simulator.kinematics import engine_kinematics
+from validation.simulator.linkage import slave_travel
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray, SimulationError
 from validation.simulator.vee_engine import random_vee_engine
 
@@ -133,8 +134,16 @@ def wall_heat_transfer_coefficient(
     return np.asarray(3.26 * bore**-0.2 * p_kpa**0.8 * t**-0.55 * (2.28 * mean_piston_speed) ** 0.8)
 
 
-def _volume(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """Cylinder volume [m^3] and dV/dpsi [m^3/rad]: ``V = V_c + A (R + L - y_p)``."""
+def _volume(engine: SimEngine, psi: npt.ArrayLike, slave: bool = False) -> tuple[FloatArray, FloatArray]:
+    """Cylinder volume [m^3] and dV/dpsi [m^3/rad]: ``V = V_c + A (R + L - y_p)``.
+
+    An articulated slave's (``slave``): ``V = V_c + A (s_TDC - s)``, ``s`` its piston pin's distance
+    from the crankshaft axis (:mod:`validation.simulator.linkage`), ``psi`` from its own TDC; the
+    clearance volume is the master's (the same head and piston).
+    """
+    if slave:
+        travel, rate = slave_travel(engine.linkage, psi)
+        return engine.clearance_volume + engine.piston_area * travel, engine.piston_area * rate
     k = engine_kinematics(engine, psi)
     top = engine.crank_radius + engine.rod_length
     return engine.clearance_volume + engine.piston_area * (top - k.piston), -engine.piston_area * k.piston_1
@@ -183,6 +192,7 @@ def closed_cycle(
     charge_pressure: float,
     crank_angle: npt.ArrayLike | None = None,
     heat_loss: bool = True,
+    slave: bool = False,
 ) -> ClosedCycle:
     """Integrate the single-zone first law from inlet closing (or the first angle given).
 
@@ -200,6 +210,8 @@ def closed_cycle(
         inlet closing to exhaust opening in steps of 0.1 deg.
     heat_loss : bool, optional
         False: adiabatic walls.
+    slave : bool, optional
+        On an articulated slave's volume (:func:`_volume`).
 
     Returns
     -------
@@ -225,7 +237,7 @@ def closed_cycle(
     if not speed > 0:
         raise ValueError(f"speed = {speed!r}: expected a positive crank speed [rad/s]")
     rows = q.size
-    v0, _ = _volume(engine, theta[0])
+    v0, _ = _volume(engine, theta[0], slave)
     t0 = engine.charge_temperature
     mass = float(charge_pressure * v0 / (GAS_CONSTANT * t0))
     mean_piston_speed = 2 * engine.crank_radius * speed / math.pi
@@ -235,7 +247,7 @@ def closed_cycle(
 
     def rhs(angle: float, y: FloatArray) -> FloatArray:
         temperature = np.maximum(y[:rows], 50.0)
-        v, dv = _volume(engine, angle)
+        v, dv = _volume(engine, angle, slave)
         p = mass * GAS_CONSTANT * temperature / v
         _, rate = burned_fraction(angle, law)
         h = wall_heat_transfer_coefficient(
@@ -261,7 +273,7 @@ def closed_cycle(
     )
     if not sol.success:
         raise SimulationError(f"closed cycle of engine {engine.ident}: the integration failed: {sol.message}")
-    volume, _ = _volume(engine, theta)
+    volume, _ = _volume(engine, theta, slave)
     temperature = sol.y[:rows]
     pressure = mass * GAS_CONSTANT * temperature / volume
     return ClosedCycle(theta, volume, pressure, temperature, sol.y[rows:], q, mass, float(speed))
@@ -315,6 +327,8 @@ class CycleTable:
         Crank speed the heat loss was evaluated at [rad/s].
     charge_pressure : float
         [Pa].
+    slave_pressure : ndarray, shape (L, N), optional
+        An articulated slave's, on its own volume from its own TDC (the same fuel) [Pa].
     """
 
     crank_angle: FloatArray
@@ -325,6 +339,7 @@ class CycleTable:
     peak_pressure: FloatArray
     speed: float
     charge_pressure: float
+    slave_pressure: FloatArray | None = None
 
     def imep_at(self, fuel: npt.ArrayLike) -> FloatArray:
         """Net IMEP at any fuel level (linear between the table's levels) [Pa]."""
@@ -376,11 +391,18 @@ def cycle_table(
     closed = (theta > engine.inlet_closing) & (theta < engine.exhaust_opening)
     angles = np.concatenate([[engine.inlet_closing], theta[closed], [engine.exhaust_opening]])
     heat = levels * heat_reference
-    part = closed_cycle(engine, heat=heat, speed=speed, charge_pressure=charge_pressure, crank_angle=angles)
-    pressure = np.empty((levels.size, n))
-    pressure[:, closed] = part.pressure[:, 1:-1]
     open_angle = np.where(theta <= engine.inlet_closing, theta + cycle, theta)[~closed]
-    pressure[:, ~closed] = _open_pressure(engine, open_angle, part.pressure[:, -1], charge_pressure)
+
+    def trace(slave: bool) -> FloatArray:
+        part = closed_cycle(
+            engine, heat=heat, speed=speed, charge_pressure=charge_pressure, crank_angle=angles, slave=slave
+        )
+        p = np.empty((levels.size, n))
+        p[:, closed] = part.pressure[:, 1:-1]
+        p[:, ~closed] = _open_pressure(engine, open_angle, part.pressure[:, -1], charge_pressure)
+        return p
+
+    pressure = trace(slave=False)
     _, dv = _volume(engine, theta)
     imep = (pressure @ dv) * (cycle / n) / engine.swept_volume
     return CycleTable(
@@ -392,6 +414,7 @@ def cycle_table(
         peak_pressure=pressure.max(axis=1),
         speed=float(speed),
         charge_pressure=float(charge_pressure),
+        slave_pressure=trace(slave=True) if engine.rods == "articulated" else None,
     )
 
 

@@ -3,7 +3,8 @@
 Along the cylinder's axis (:func:`throw_vertical_force`, the vertical of an in-line engine) and
 across it (:func:`throw_across_force`), both from Newton-Euler on piston, rod and throw; on a V
 engine each cylinder's two components are turned into the engine's vertical by its bank's lean
-(:func:`cylinder_vertical_forces`).
+(:func:`cylinder_vertical_forces`). On articulated rods each cylinder's terms come from the linkage
+solved as rigid bodies (:func:`cylinder_rows`, :mod:`validation.simulator.linkage`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from validation.simulator.engine import SimEngine
+from validation.simulator.linkage import linkage_terms
 from validation.simulator.shared import AMBIENT_PRESSURE, FloatArray
 
 
@@ -120,8 +122,13 @@ def equivalent_inertia(engine: SimEngine, crank_angle: npt.ArrayLike) -> tuple[F
     Notes
     -----
     From the kinetic energy ``T = J_c omega^2 / 2`` of piston and rod (exact, no two-mass split):
-    ``J_c = m_p y_p'^2 + m_r (x_g'^2 + y_g'^2) + I_r phi'^2``.
+    ``J_c = m_p y_p'^2 + m_r (x_g'^2 + y_g'^2) + I_r phi'^2``. On articulated rods ``crank_angle``
+    has a row per cylinder, and a slave's bodies are its piston and slave rod
+    (:func:`cylinder_rows`).
     """
+    if engine.rods == "articulated":
+        rows = cylinder_rows(engine, crank_angle)
+        return rows.inertia, rows.inertia_1
     k = engine_kinematics(engine, crank_angle)
     mp, mr, ir = engine.piston_mass, engine.rod_mass, engine.rod_inertia
     inertia = mp * k.piston_1**2 + mr * (k.rod_x_1**2 + k.rod_y_1**2) + ir * k.rod_angle_1**2
@@ -131,6 +138,25 @@ def equivalent_inertia(engine: SimEngine, crank_angle: npt.ArrayLike) -> tuple[F
         + ir * k.rod_angle_1 * k.rod_angle_2
     )
     return inertia, derivative
+
+
+def piston_arm(engine: SimEngine, crank_angle: npt.ArrayLike) -> FloatArray:
+    """Each piston's travel from its TDC per crank angle, the gas torque per gas force [m].
+
+    Parameters
+    ----------
+    engine : SimEngine
+    crank_angle : array_like
+        The cylinder's crank angle from its TDC [rad]; on articulated rods a row per cylinder.
+
+    Returns
+    -------
+    ndarray
+        ``-dy_p/dpsi`` [m/rad].
+    """
+    if engine.rods == "articulated":
+        return cylinder_rows(engine, crank_angle).arm
+    return np.asarray(-engine_kinematics(engine, crank_angle).piston_1)
 
 
 def inertia_force_coefficients(engine: SimEngine, psi: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
@@ -290,8 +316,12 @@ def vertical_force_coefficients(
     -----
     A cylinder whose axis leans ``lambda`` from the vertical towards ``+x`` has its axis along
     ``(sin lambda, cos lambda)`` and its ``+x`` across it along ``(cos lambda, -sin lambda)``, so
-    the vertical is ``cos(lambda) F_along - sin(lambda) F_across``.
+    the vertical is ``cos(lambda) F_along - sin(lambda) F_across``. Articulated rods:
+    :func:`cylinder_rows`.
     """
+    if engine.rods == "articulated":
+        rows = cylinder_rows(engine, psi)
+        return rows.horizontal if horizontal else rows.vertical
     angle = np.asarray(psi, dtype=np.float64)
     lean = engine.cylinder_leans.reshape((-1,) + (1,) * (angle.ndim - 1))
     c, s = np.cos(lean), np.sin(lean)
@@ -382,3 +412,73 @@ def bearing_split(
         share[b1 - 1, c] += 1 - w2
         share[b2 - 1, c] += w2
     return share
+
+
+@dataclass(frozen=True)
+class CylinderRows:
+    """An articulated engine's terms by cylinder, each at its own crank angle from its own TDC.
+
+    Attributes
+    ----------
+    inertia, inertia_1, arm : ndarray, shape (n, ...)
+        As :class:`LinkageTerms`' [kg m^2], [kg m^2/rad], [m].
+    vertical, horizontal : tuple of ndarray, shape (n, ...) each
+        ``G, K2, K1`` of the cylinder's force on its throw's bearings along the engine's vertical
+        (upwards) and horizontal (``+x``), its share of the throw's unbalance included: the force is
+        ``G (p - p_amb) A + K2 omega^2 + K1 omega_dot`` [-], [kg m], [kg m].
+    """
+
+    inertia: FloatArray
+    inertia_1: FloatArray
+    arm: FloatArray
+    vertical: tuple[FloatArray, FloatArray, FloatArray]
+    horizontal: tuple[FloatArray, FloatArray, FloatArray]
+
+
+def cylinder_rows(engine: SimEngine, psi: npt.ArrayLike) -> CylinderRows:
+    """Each cylinder's terms on an articulated V engine.
+
+    Parameters
+    ----------
+    engine : SimEngine
+        ``rods == "articulated"``.
+    psi : array_like, shape (n, ...)
+        Each cylinder's crank angle from its own TDC [rad] (a slave's TDC lies
+        :attr:`SimEngine.trailing_offset` after its master's).
+
+    Returns
+    -------
+    CylinderRows
+
+    Notes
+    -----
+    The forces come in the master's frame, whose axis leans ``-g/2`` from the engine's vertical
+    (the leading bank's), so the vertical is ``cos(g/2) F_y + sin(g/2) F_x`` and the horizontal
+    ``-sin(g/2) F_y + cos(g/2) F_x``.
+    """
+    angle = np.asarray(psi, dtype=np.float64)
+    slaves = engine.slaves.reshape((-1,) + (1,) * (angle.ndim - 1))
+    t = angle + np.where(slaves, engine.trailing_offset, 0.0)
+    terms = linkage_terms(engine.linkage, t)
+
+    def pick(values: FloatArray) -> FloatArray:  # (2 kinds, n, ...) -> each row's own kind
+        return np.asarray(np.where(slaves, values[1], values[0]))
+
+    u = (engine.crank_unbalance - engine.counterweight) * engine.unbalance_share
+    sin_t, cos_t = np.sin(t), np.cos(t)
+    gas = [pick(terms.gas[:, i]) for i in (0, 1)]
+    k2 = [pick(terms.k2[:, 0]) + u * sin_t, pick(terms.k2[:, 1]) + u * cos_t]
+    k1 = [pick(terms.k1[:, 0]) - u * cos_t, pick(terms.k1[:, 1]) + u * sin_t]
+    c, s = np.cos(engine.bank_angle / 2), np.sin(engine.bank_angle / 2)
+
+    def turned(xy: list[FloatArray]) -> tuple[FloatArray, FloatArray]:
+        return np.asarray(c * xy[1] + s * xy[0]), np.asarray(-s * xy[1] + c * xy[0])
+
+    (gv, gh), (k2v, k2h), (k1v, k1h) = turned(gas), turned(k2), turned(k1)
+    return CylinderRows(
+        inertia=pick(terms.inertia),
+        inertia_1=pick(terms.inertia_1),
+        arm=pick(terms.arm),
+        vertical=(gv, k2v, k1v),
+        horizontal=(gh, k2h, k1h),
+    )

@@ -14,6 +14,9 @@ from validation.simulator.shared import ENGINE_STREAM, FloatArray
 #: Third word of a V engine's engine stream (an in-line engine's stream has two words).
 VEE_WORD = 7
 
+#: Share of V engines on articulated (master-and-slave) rods [-].
+ARTICULATED_SHARE = 1 / 3
+
 
 def _uniform(rng: np.random.Generator, low: float, high: float) -> float:
     return float(rng.uniform(low, high))
@@ -37,6 +40,35 @@ def _law(rng: np.random.Generator, medium: bool) -> DoubleWiebe:
     )
 
 
+Rods = Literal["side-by-side", "fork-and-blade", "articulated"]
+
+
+def _rods(
+    rng: np.random.Generator,
+    side_by_side: bool,
+    *,
+    radius: float,
+    rod_length: float,
+    rod_mass: float,
+    bank: float,
+) -> tuple[Rods, dict[str, float]]:
+    """The rods (:func:`random_vee_engine`): articulated for a share of the engines, with the slave rod's
+    and knuckle pin's SimEngine fields, else as drawn before."""
+    if not rng.random() < ARTICULATED_SHARE:
+        return ("side-by-side" if side_by_side else "fork-and-blade"), {}
+    knuckle = radius * _uniform(rng, 0.8, 1.2)
+    length = (rod_length - knuckle) * _uniform(rng, 0.97, 1.05)
+    mass = rod_mass * _uniform(rng, 0.5, 0.7)  # no big-end bearing of its own
+    return "articulated", {
+        "knuckle_radius": knuckle,
+        "knuckle_angle": bank + math.radians(_uniform(rng, -5.0, 5.0)),
+        "slave_rod_length": length,
+        "slave_rod_cg_from_pin": length * _uniform(rng, 0.55, 0.65),
+        "slave_rod_mass": mass,
+        "slave_rod_inertia": mass * (length * _uniform(rng, 0.26, 0.33)) ** 2,
+    }
+
+
 def random_vee_engine(seed: int) -> SimEngine:
     """Draw a V engine: a medium-speed or high-speed four-stroke of 12 to 20 cylinders.
 
@@ -52,13 +84,15 @@ def random_vee_engine(seed: int) -> SimEngine:
 
     Notes
     -----
-    Medium-speed (60 %): 45-60 deg V, 500-1000 rpm; high-speed: 60-90 deg V, 1200-1900 rpm; 12, 14,
-    16, 18 or 20 cylinders. Each bank fires as an in-line four-stroke of ``m = n / 2`` cylinders in
-    one of the usual in-line orders, the trailing bank's cylinder of each throw the bank angle
-    after its partner (:attr:`SimEngine.firing_angles`); the firing order is the order of those
-    angles from A1. Side-by-side rods (70 %) put the B bank 0.30-0.40 bore further along the shaft;
-    fork-and-blade rods put both in one plane. A throw's inertia and unbalance count two rods on its
-    pin; the rigid inertia counts throws. Proportions, masses and flywheel as :func:`random_engine`.
+    Medium-speed (60 %): 45-60 deg V, 500-1000 rpm; high-speed: 60-90 deg V, 1200-1900 rpm; 12-20
+    cylinders. Each bank fires as an in-line four-stroke of ``m = n / 2`` cylinders in a usual order,
+    the trailing bank's cylinder of each throw the bank angle after its partner
+    (:attr:`SimEngine.firing_angles`); the firing order is their order from A1. Side-by-side rods
+    (70 %) put the B bank 0.30-0.40 bore further along the shaft; fork-and-blade rods put both in one
+    plane; a third (drawn last) run articulated rods in one plane, the leading bank's the masters:
+    knuckle pin 0.8-1.2 crank radii from the crank pin at the bank angle +-5 deg, slave rod 0.97-1.05
+    times the master's length less that radius, 0.5-0.7 times its mass; a slave fires at its own TDC.
+    A throw counts two rods; the rigid inertia counts throws. The rest as :func:`random_engine`.
     """
     if seed < 0:
         raise ValueError(f"seed = {seed}: expected an integer >= 0")
@@ -108,6 +142,10 @@ def random_vee_engine(seed: int) -> SimEngine:
     bearings = pitch * (np.arange(m + 1) + rng.uniform(-0.02, 0.02, m + 1))
     bearings -= bearings[0]
     lead_offset = 0 if leading == "A" else m
+    # drawn after the rest, so that the other engines' values stay those of earlier streams
+    rods, slave = _rods(
+        rng, side_by_side, radius=radius, rod_length=rod_length, rod_mass=rod, bank=bank * deg
+    )
     provisional = tuple(lead_offset + k for k in bank_order) + tuple(
         (m - lead_offset) + k for k in bank_order
     )
@@ -146,8 +184,9 @@ def random_vee_engine(seed: int) -> SimEngine:
         peak_pressure_scatter=_uniform(rng, 0.01, 0.02),
         bank_angle=bank * deg,
         leading_bank=leading,
-        rods="side-by-side" if side_by_side else "fork-and-blade",
-        bank_offset=offset,
+        rods=rods,
+        bank_offset=offset if rods == "side-by-side" else 0.0,
+        **slave,
     )
     return replace(engine, firing_order=_vee_order(engine.firing_angles))
 
