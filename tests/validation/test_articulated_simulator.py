@@ -28,7 +28,7 @@ from validation.simulator import (
     run_crank,
 )
 from validation.simulator.engine import SimEngine
-from validation.simulator.gas import closed_cycle
+from validation.simulator.gas import CycleTable, closed_cycle
 from validation.simulator.kinematics import (
     engine_kinematics,
     equivalent_inertia,
@@ -46,6 +46,18 @@ def _articulated(seed: int) -> SimEngine:
     engine = random_vee_engine(seed)
     assert engine.rods == "articulated" and engine.bank_offset == 0.0
     return engine
+
+
+def _rated_table(engine: SimEngine, points: int | None = None) -> CycleTable:
+    """The engine's cycle table at its rated speed and charge pressure."""
+    return cycle_table(
+        engine,
+        speed=engine.rated_speed,
+        charge_pressure=engine.rated_charge_pressure,
+        fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
+        heat_reference=rated_heat(engine),
+        points=points,
+    )
 
 
 def _grid(engine: SimEngine, points: int = 97) -> np.ndarray:
@@ -167,16 +179,10 @@ def test_a_slave_compresses_on_its_own_volume() -> None:
     bdc = np.mod(bottom - top + math.pi, 2 * math.pi) - math.pi
     swept = np.interp(bdc, psi, cycle.volume) - engine.clearance_volume
     assert swept == pytest.approx(engine.piston_area * (s_top - s_bottom), rel=1e-6)
-    table = cycle_table(
-        engine,
-        speed=engine.rated_speed,
-        charge_pressure=engine.rated_charge_pressure,
-        fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
-        heat_reference=rated_heat(engine),
-        points=1440,
-    )
+    table = _rated_table(engine, points=1440)
     assert table.slave_pressure is not None and table.slave_pressure.shape == table.pressure.shape
-    # the longer stroke compresses the same charge further: a higher motored peak
+    # this slave's stroke is 3 % longer (its knuckle angle past the bank angle): it compresses the
+    # same charge further, to a higher motored peak
     assert table.slave_pressure[0].max() > 1.01 * table.pressure[0].max()
 
 
@@ -185,13 +191,7 @@ def test_an_articulated_crank_run_keeps_each_cylinders_own_forces() -> None:
     recomputed here from the run's speed and acceleration, each cylinder's crank angle from its own TDC
     and its own pressure trace (a slave's on its own volume)."""
     engine = _articulated(ARTICULATED_SEEDS[0])
-    table = cycle_table(
-        engine,
-        speed=engine.rated_speed,
-        charge_pressure=engine.rated_charge_pressure,
-        fuel=HEAT_STEP * np.arange(HEAT_LEVELS),
-        heat_reference=rated_heat(engine),
-    )
+    table = _rated_table(engine)
     assert table.slave_pressure is not None
     load, _, speed = operating_load(engine, table, 0.7, np.ones(engine.cylinders))
     split = bearing_split(engine.cylinder_positions, engine.bearing_positions, engine.throw_bearings)

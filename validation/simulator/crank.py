@@ -467,15 +467,8 @@ def operating_load(
     if total[-1] < torque * cycle / vd:
         raise SimulationError(f"engine {engine.ident}: the faulty engine cannot carry load {load:.3g}")
     start = float(np.interp(torque * cycle / vd, total, grid))
-    inertia = (
-        engine.rigid_inertia
-        + float(
-            equivalent_inertia(engine, np.tile(np.linspace(0, 2 * math.pi, 64, endpoint=False), (n, 1)))[
-                0
-            ].mean()
-        )
-        * n
-    )
+    turn = np.tile(np.linspace(0, 2 * math.pi, 64, endpoint=False), (n, 1))  # each cylinder's revolution
+    inertia = engine.rigid_inertia + float(equivalent_inertia(engine, turn)[0].mean()) * n
     work = torque * cycle
     kappa = work / (inertia * engine.rated_speed**2)
     return (
