@@ -41,7 +41,9 @@ test: $(STAMP) browser
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/lint-imports --no-cache
-	$(BIN)/pytest -n 2
+# each module's tests on one worker: a module-scoped fixture (a simulated population, a service
+# with its baselines) is then built once, not once per worker that draws one of its tests
+	$(BIN)/pytest -n 2 --dist loadscope
 
 ## bench: accuracy-against-time benchmarks; rewrites the tables in docs/
 bench: $(STAMP)
