@@ -59,6 +59,7 @@ __all__ = [
     "slave_masses",
     "tdc_offsets",
     "to_engine_frame",
+    "vee_crank_angles",
     "vee_firing_angles",
 ]
 
@@ -341,9 +342,10 @@ def _fires_in_order(angles_deg: FloatArray, order: list[int], span: float) -> bo
     return bool(np.all(np.diff(np.sort(wrapped)) > ANGLE_TOLERANCE_DEG)) and ranked == order
 
 
-def _per_bank(order: list[int], vee: Vee, span: float) -> list[FloatArray]:
-    """Each bank even on its own, the trailing cylinders in a revolution that keeps the order: every
-    way that does (more than one when the order does not say which revolution, as a V-twin's)."""
+def _per_bank(order: list[int], vee: Vee, span: float, own: FloatArray) -> list[FloatArray]:
+    """Each bank even on its own, the trailing cylinders in a revolution that keeps the order at their
+    own TDCs (``own`` past their crank's [deg]): every way that does (more than one when the order does
+    not say which revolution, as a V-twin's)."""
     n = len(order)
     half = n // 2
     lead = _leads(vee, n)
@@ -358,13 +360,18 @@ def _per_bank(order: list[int], vee: Vee, span: float) -> list[FloatArray]:
     for turns in itertools.product(range(revolutions), repeat=len(trailing)):
         for c, turn in zip(trailing, turns, strict=True):
             angles[c] = (angles[partner[c]] + vee.bank_angle_deg + 360.0 * turn) % span
-        if _fires_in_order(angles, order, span):
+        if _fires_in_order(angles + own, order, span):
             found.append(angles.copy())
     return found
 
 
 def vee_firing_angles(
-    order: list[int], vee: Vee, *, cycle_revolutions: int, given_deg: npt.ArrayLike | None = None
+    order: list[int],
+    vee: Vee,
+    *,
+    cycle_revolutions: int,
+    given_deg: npt.ArrayLike | None = None,
+    own_tdc_deg: npt.ArrayLike | None = None,
 ) -> FloatArray:
     """A V engine's firing angles, from A1 [deg] (module docstring).
 
@@ -377,6 +384,10 @@ def vee_firing_angles(
         1 two-stroke, 2 four-stroke.
     given_deg : array_like, optional
         The description's firing angles, by index; checked, not derived [deg].
+    own_tdc_deg : array_like, optional
+        How far each cylinder's own TDC lies past its crank's (an articulated slave's
+        ``tdc_offset``, :func:`tdc_offsets`) [deg]: the order states when the cylinders fire, at their
+        own TDCs. Default none.
 
     Returns
     -------
@@ -391,6 +402,7 @@ def vee_firing_angles(
     """
     n = len(order)
     span = 360.0 * cycle_revolutions
+    own = np.zeros(n) if own_tdc_deg is None else np.asarray(own_tdc_deg, dtype=np.float64)
     if given_deg is not None:
         angles = np.asarray(given_deg, dtype=np.float64)
         problem = _pair_problem(angles, vee)
@@ -399,10 +411,10 @@ def vee_firing_angles(
         return angles
     even = np.empty(n)
     for position, c in enumerate(order):
-        even[c] = position * span / n
+        even[c] = position * span / n - own[c]  # even at their own TDCs
     if _pair_problem(even, vee) is None:
         return np.mod(even - even[0], span)
-    found = _per_bank(order, vee, span)
+    found = _per_bank(order, vee, span, own)
     if len(found) != 1:
         names = cylinder_names(n, vee)
         why = (
@@ -417,6 +429,40 @@ def vee_firing_angles(
             f"{why} firing.angles_deg (by cylinder, {names[0]}..{names[-1]})"
         )
     return np.mod(found[0] - found[0][0], span)
+
+
+def vee_crank_angles(
+    order: list[int],
+    vee: Vee,
+    rod: ArticulatedRod | None,
+    cycle_revolutions: int,
+    given_deg: npt.ArrayLike | None,
+) -> FloatArray:
+    """A V engine's firing angles from A1's own TDC [rad]: :func:`vee_firing_angles` from the order of
+    the cylinders' own TDCs, shifted by A1's own offset (an articulated slave A1's TDC lies its
+    ``tdc_offset`` past where its crank points along its bore; :func:`tdc_offsets`).
+
+    Parameters
+    ----------
+    order : list of int
+        The firing order, as cylinder indices (0-based).
+    vee : Vee
+    rod : ArticulatedRod or None
+        The engine's articulated rods.
+    cycle_revolutions : int
+    given_deg : array_like or None
+        The description's firing angles [deg].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        In ``[0, 2 pi cycle_revolutions)`` [rad].
+    """
+    own = tdc_offsets(len(order), vee, rod)
+    found = vee_firing_angles(
+        order, vee, cycle_revolutions=cycle_revolutions, given_deg=given_deg, own_tdc_deg=np.degrees(own)
+    )
+    return np.asarray(np.mod(np.radians(found) - own[0], 2 * np.pi * cycle_revolutions))
 
 
 def to_engine_frame(forces: npt.ArrayLike, axes: npt.ArrayLike) -> ComplexArray:

@@ -49,8 +49,7 @@ from monitor.model.banks import (
     cylinder_banks,
     cylinder_names,
     cylinder_throws,
-    tdc_offsets,
-    vee_firing_angles,
+    vee_crank_angles,
 )
 from monitor.model.quantities import (
     AngleDeg,
@@ -501,13 +500,10 @@ class Engine(_Strict):
     def firing_angles(self) -> FloatArray:
         """Firing angle of each cylinder (by index) after cylinder 1's TDC [rad]."""
         given = self.firing.angles_deg
-        if self.vee is not None:
-            found = vee_firing_angles(
-                self.firing_order, self.vee, cycle_revolutions=self.cycle_revolutions, given_deg=given
+        if self.vee is not None:  # from A1's own TDC, in the order of the cylinders' own TDCs
+            return vee_crank_angles(
+                self.firing_order, self.vee, self.articulated, self.cycle_revolutions, given
             )
-            # an articulated slave A1's own TDC lies its tdc_offset past where its crank points
-            own = np.radians(found) - tdc_offsets(self.cylinders, self.vee, self.articulated)[0]
-            return np.mod(own, 2 * np.pi * self.cycle_revolutions)
         if given is not None:
             return np.radians(np.asarray(given, dtype=np.float64))
         order = self.firing_order
