@@ -22,7 +22,8 @@ Conventions (docs/engines.md says them with a figure).
   pin's centre, ``knuckle_angle_deg`` from the master rod's axis towards the slave bank), so its piston
   moves otherwise (:mod:`monitor.model.articulated`: a stroke of its own, its TDC away from the bank
   angle). Both rods run in one plane. A trailing cylinder's firing angle stays the crank's (a bank
-  angle after its master's): its own TDC's offset is the slave's kinematics', not the firing order's.
+  angle after its master's); the firing order states when the cylinders reach their own TDCs, so a
+  slave is ranked at its firing angle plus its TDC's offset (:func:`vee_firing_angles`).
 
 Firing angles from the firing order, when ``firing.angles_deg`` does not give them: evenly spaced
 (720 or 360 degrees over ``n``) if that puts each throw's two cylinders a bank angle apart; otherwise
