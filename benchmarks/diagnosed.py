@@ -11,6 +11,7 @@ at its middle, off by the case's own error of the stated load.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from monitor.diagnosis import Baseline, Diagnosis
@@ -19,8 +20,9 @@ from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.diagnosis.segments import diagnose_segments, segmentation_of
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
+from monitor.signal.steady import Segment
 
-__all__ = ["diagnose_as_compare"]
+__all__ = ["diagnose_as_compare", "loads_told"]
 
 
 def diagnose_as_compare(
@@ -56,10 +58,33 @@ def diagnose_as_compare(
     if load is not None and truth.get("step_time_s") is not None:
         found = segmentation_of(whole, engine)
         if found.segments and not found.at_one_point:
-            ratio = float(truth["load_given_ratio"])
-            step, (before, after) = float(truth["step_time_s"]), truth["segment_loads"][:2]
-            loads = [
-                ratio * (before if 0.5 * (s.start_s + s.stop_s) < step else after) for s in found.segments
-            ]
+            loads = loads_told(found.segments, truth)
     segmented = diagnose_segments(recording, engine, whole, baseline=points, load=load, loads=loads)
     return segmented.as_one()
+
+
+def loads_told(segments: Sequence[Segment], truth: dict[str, Any]) -> list[float]:
+    """The load an operator tells for each segment found: the load run on its side of the step.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+        The steady segments the product found, in time order.
+    truth : dict
+        The case's truth: ``step_time_s`` [s], ``segment_loads`` (the loads run on each side of the
+        step, a side without whole cycles inside the recording left out) and ``test_loads`` (the
+        loads set on each side) [-], and ``load_given_ratio`` (the told load's error) [-].
+
+    Returns
+    -------
+    list of float
+        One load per segment [-], fraction of rated: the load run before the step for a segment whose
+        middle is before it, else the load run after it (the load set after it where no whole cycle
+        after the step is inside the recording), times the told load's error.
+    """
+    ratio = float(truth["load_given_ratio"])
+    run = [float(v) for v in truth["segment_loads"]]
+    before = run[0]
+    after = run[1] if len(run) > 1 else float(truth["test_loads"][-1])
+    step = float(truth["step_time_s"])
+    return [ratio * (before if 0.5 * (s.start_s + s.stop_s) < step else after) for s in segments]
