@@ -17,7 +17,7 @@ from typing import Any
 from monitor.diagnosis import Baseline, Diagnosis
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
-from monitor.diagnosis.segments import diagnose_segments, segmentation_of
+from monitor.diagnosis.segments import diagnose_segments, steady_parts
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 from monitor.signal.steady import Segment
@@ -56,7 +56,7 @@ def diagnose_as_compare(
     whole = diagnose_at_point(recording, engine, points=points, load=load)
     loads: list[float] = []
     if load is not None and truth.get("step_time_s") is not None:
-        found = segmentation_of(whole, engine)
+        found, _ = steady_parts(whole, engine)
         if found.segments and not found.at_one_point:
             loads = loads_told(found.segments, truth)
     segmented = diagnose_segments(recording, engine, whole, baseline=points, load=load, loads=loads)

@@ -83,6 +83,7 @@ from monitor.model.predicted import (
     combine_cylinders,
     load_reversals,
 )
+from monitor.signal.anglemap import AngleMap
 from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult
 from monitor.signal.pitch import PitchCorrection
@@ -96,6 +97,7 @@ __all__ = [
     "Diagnosis",
     "Finding",
     "diagnose",
+    "unsteady_speeds",
 ]
 
 ANALYSIS_VERSION = "1"
@@ -272,22 +274,41 @@ def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) ->
         )
 
 
+def unsteady_speeds(angle_map: AngleMap) -> FloatArray | None:
+    """Each whole revolution's mean speed [rpm] when they spread beyond :data:`STEADY`, else None.
+
+    Parameters
+    ----------
+    angle_map : AngleMap
+        The recording's.
+
+    Returns
+    -------
+    ndarray or None
+        [rpm]; None for a steady run (relative standard deviation :data:`STEADY` or less) or fewer
+        than two whole revolutions: the model at the mean speed then stands for every revolution.
+    """
+    cycle = 2 * math.pi
+    first, last = math.ceil(angle_map.angles[0] / cycle), math.floor(angle_map.angles[-1] / cycle)
+    if last - first < 2:
+        return None
+    times = angle_map.time_at(cycle * np.arange(first, last + 1, dtype=np.float64))
+    rpm = np.asarray((cycle / np.diff(times)) * 30 / math.pi)
+    return rpm if float(np.std(rpm) / np.mean(rpm)) > STEADY else None
+
+
 def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
     """Why a recording without findings cannot be called healthy (empty if it can)."""
     reasons = []
     angle_map = analysis.spectra.reference.angle_map
-    cycle = 2 * math.pi
-    first, last = math.ceil(angle_map.angles[0] / cycle), math.floor(angle_map.angles[-1] / cycle)
-    if last - first >= 2:
-        times = angle_map.time_at(cycle * np.arange(first, last + 1, dtype=np.float64))
-        rpm = (cycle / np.diff(times)) * 30 / math.pi
-        if (spread := float(np.std(rpm) / np.mean(rpm))) > STEADY:
-            reasons.append(
-                f"the speed was not steady ({rpm.min():.1f} to {rpm.max():.1f} rpm over the revolutions, "
-                f"{100 * spread:.0f} % rms); the diagnosis compares the revolutions with the model at their "
-                "mean speed, whose inertia forces (as the speed squared) miss theirs by "
-                f"{100 * spread**2:.0f} %"
-            )
+    if (rpm := unsteady_speeds(angle_map)) is not None:
+        spread = float(np.std(rpm) / np.mean(rpm))
+        reasons.append(
+            f"the speed was not steady ({rpm.min():.1f} to {rpm.max():.1f} rpm over the revolutions, "
+            f"{100 * spread:.0f} % rms); the diagnosis compares the revolutions with the model at their "
+            "mean speed, whose inertia forces (as the speed squared) miss theirs by "
+            f"{100 * spread**2:.0f} %"
+        )
     if engine.cylinders > 1:
         balance = analysis.balance
         together = firing_together(engine, float(balance.orders.max())) if balance is not None else ""

@@ -24,7 +24,9 @@ diagnosis, unchanged. One with a single steady segment and the rest of it elsewh
 whose other side is too short to diagnose, the speed's dip and recovery after it) is that segment's
 diagnosis, with a note that the rest is not judged: the whole recording's would compare two points'
 mix with the model at one. One whose point changes too soon to cut two segments is the whole
-recording's diagnosis, with a note where it changed (:func:`_across_a_change`).
+recording's diagnosis, with a note where it changed (:func:`_across_a_change`), unless its speed
+changed too much for the whole to be judged: then sides of :data:`SHORT_SEGMENT` cycles or more are
+segments (:func:`steady_parts`), each judged at its own speed with the wider errors of fewer cycles.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from dataclasses import dataclass, replace
 from monitor.diagnosis.analysis import CyclePhase
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.balance import Transfer
-from monitor.diagnosis.diagnose import Diagnosis
+from monitor.diagnosis.diagnose import Diagnosis, unsteady_speeds
 from monitor.diagnosis.findings import SEVERITIES, Finding
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import DiagnosisError
@@ -59,12 +61,17 @@ __all__ = [
     "SegmentsFinding",
     "diagnose_segments",
     "segmentation_of",
+    "steady_parts",
 ]
 
 STATUS_RANK = {"healthy": 0, "inconclusive": 1, "warning": 2, "alarm": 3}
 """How bad each status is, for the worst over the segments."""
 #: Cycles a side of a change needs to tell it in a recording too short to cut in segments [-].
 SHORT_SIDE = 3
+#: Cycles a segment needs where the speed changes too much to judge the recording whole and no two
+#: segments of MIN_CYCLES fit in it (a manoeuvre in a short recording): a whole recording this short
+#: is diagnosed too [-].
+SHORT_SEGMENT = 12
 
 
 @dataclass(frozen=True)
@@ -191,6 +198,41 @@ def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = M
     return steady_segments(series, min_cycles=min_cycles)
 
 
+def steady_parts(
+    whole: Diagnosis, engine: Engine, *, min_cycles: int = MIN_CYCLES
+) -> tuple[Segmentation, int]:
+    """The steady segments a recording is diagnosed by, and the cycles each needed.
+
+    Segments of ``min_cycles``; where there are none but the recording's speed spreads too much for it
+    to be judged whole (:func:`monitor.diagnosis.diagnose.unsteady_speeds`), two or more of
+    :data:`SHORT_SEGMENT` cycles where the recording holds any: each steady side of a manoeuvre judged
+    at its own speed, with the wider errors of fewer cycles, rather than the whole left inconclusive.
+
+    Parameters
+    ----------
+    whole : Diagnosis
+        The whole recording's.
+    engine : Engine
+    min_cycles : int, optional
+        Cycles a segment needs [-].
+
+    Returns
+    -------
+    segmentation : Segmentation
+    cycles : int
+        The cycles its segments needed: ``min_cycles``, or :data:`SHORT_SEGMENT` [-].
+    """
+    found = segmentation_of(whole, engine, min_cycles=min_cycles)
+    if (found.segments and not found.at_one_point) or min_cycles <= SHORT_SEGMENT:
+        return found, min_cycles
+    shorter = segmentation_of(whole, engine, min_cycles=SHORT_SEGMENT)
+    if not shorter.segments or shorter.at_one_point:
+        return found, min_cycles
+    if unsteady_speeds(whole.spectra.reference.angle_map) is None:
+        return found, min_cycles  # judged whole, across the change (:func:`_across_a_change`)
+    return shorter, SHORT_SEGMENT
+
+
 def _note(
     item: Segment, index: int, count: int, load: float, source: str, mean_indicator: float | None
 ) -> str:
@@ -264,7 +306,7 @@ def diagnose_segments(
     DiagnosisError
         When ``loads`` are given and not one per segment.
     """
-    found = segmentation_of(whole, engine, min_cycles=min_cycles)
+    found, needed = steady_parts(whole, engine, min_cycles=min_cycles)
     if not found.segments or found.at_one_point:
         if loads:
             whole.notes.append(
@@ -304,7 +346,9 @@ def diagnose_segments(
         source = "segment" if loads else str(part.operating_point.get("load_used_from", "stated"))
         part.notes.insert(0, _note(item, i, len(found.segments), part.load, source, mean_indicator))
         if len(found.segments) == 1:
-            part.notes.insert(1, _rest_note(item, min_cycles))
+            part.notes.insert(1, _rest_note(item, needed))
+        if needed < min_cycles:
+            part.notes.insert(1, _short_note(min_cycles))
         diagnosed.append(SegmentDiagnosis(i, item, part))
     return SegmentedDiagnosis(whole, tuple(diagnosed), found.transitions)
 
@@ -315,6 +359,16 @@ def _rest_note(item: Segment, min_cycles: int) -> str:
         f"the recording holds one steady point for {min_cycles} cycles or more, from {item.start_s:.2f} to "
         f"{item.stop_s:.2f} s: the rest of it (a change of operating point, or too short a span at "
         "another) is not judged, and the diagnosis is this segment's"
+    )
+
+
+def _short_note(min_cycles: int) -> str:
+    """Why a recording's segments are shorter than ``min_cycles``."""
+    return (
+        f"the speed changed too much to judge the recording whole and it holds no steady span of "
+        f"{min_cycles} cycles beside another point: each steady span of {SHORT_SEGMENT} cycles or more is "
+        f"judged on its own, with the wider errors of fewer cycles. Record {min_cycles} steady cycles or "
+        "more at each point"
     )
 
 
