@@ -68,8 +68,8 @@ STATUS_RANK = {"healthy": 0, "inconclusive": 1, "warning": 2, "alarm": 3}
 """How bad each status is, for the worst over the segments."""
 #: Cycles a side of a change needs to tell it in a recording too short to cut in segments [-].
 SHORT_SIDE = 3
-#: Cycles a segment needs where the speed changes too much to judge the recording whole and no two
-#: segments of MIN_CYCLES fit in it (a manoeuvre in a short recording): a whole recording this short
+#: Cycles a segment needs where the speed changes too much to judge the recording whole and no
+#: segment of MIN_CYCLES is in it (a manoeuvre in a short recording): a whole recording this short
 #: is diagnosed too [-].
 SHORT_SEGMENT = 12
 
@@ -204,8 +204,8 @@ def steady_parts(
     """The steady segments a recording is diagnosed by, and the cycles each needed.
 
     Segments of ``min_cycles``; where there are none but the recording's speed spreads too much for it
-    to be judged whole (:func:`monitor.diagnosis.diagnose.unsteady_speeds`), two or more of
-    :data:`SHORT_SEGMENT` cycles where the recording holds any: each steady side of a manoeuvre judged
+    to be judged whole (:func:`monitor.diagnosis.diagnose.unsteady_speeds`), its steady spans of
+    :data:`SHORT_SEGMENT` cycles or more where it holds any: each steady side of a manoeuvre judged
     at its own speed, with the wider errors of fewer cycles, rather than the whole left inconclusive.
 
     Parameters
