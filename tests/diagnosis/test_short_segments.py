@@ -96,3 +96,8 @@ def test_a_propeller_engine_s_load_step_in_ten_seconds_is_judged_on_its_steady_s
     assert part.segment.speed * 30 / np.pi == pytest.approx(rpm.min(), rel=SPEED_STEP)
     assert found.status == "healthy" and found.findings == ()
     assert any("judged on its own, with the wider errors of fewer cycles" in n for n in part.diagnosis.notes)
+
+
+def test_the_short_segment_is_as_documented() -> None:
+    """docs/diagnosis.md states 12 cycles; case 200138's steady side holds 13 (the test above)."""
+    assert segments.SHORT_SEGMENT == 12
