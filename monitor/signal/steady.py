@@ -22,12 +22,14 @@ own noise:
    :data:`LOAD_STEP` of the load indicator). Each side is split again until nothing is.
 3. The segments: neighbouring pieces that the test of step 2 no longer tells apart are joined
    (a chance split at the binary segmentation's later stages, each a test of its own); then the
-   pieces of at least :data:`MIN_CYCLES` cycles without a drift of their own (a
-   least-squares line's rise across them of a step or more, its slope beyond ``tau`` of its
-   standard error: binary segmentation chops a ramp into pieces that rise by one to two steps,
-   which are no steady segments; a step below the floor, left whole, makes a line rise by 1.5
-   times its size, so one of two thirds of the floor or more leaves no segment and the recording
-   is diagnosed whole, as without segments); neighbours less than
+   pieces of at least :data:`MIN_CYCLES` cycles (or the fewer asked for) without a drift of their
+   own (a least-squares line's rise across them, or across :data:`MIN_CYCLES` cycles where they
+   are fewer, of a step or more, its slope beyond ``tau`` of its standard error: binary
+   segmentation chops a ramp into pieces that rise by one to two steps, which are no steady
+   segments, nor is a shorter piece of a ramp that would rise by a step over :data:`MIN_CYCLES`;
+   a step below the floor, left whole, makes a line rise by 1.5 times its size, so one of two
+   thirds of the floor or more leaves no segment and the recording is diagnosed whole, as without
+   segments); neighbours less than
    :data:`MIN_CYCLES` apart that the test of step 2 no longer tells apart are joined again (a
    glitch split off does not cut a steady run in two). Last, the cycles of a segment whose speed
    departs from its median by :data:`SPEED_STEP` or more are a transient the split test does not
@@ -279,7 +281,8 @@ def _splits(columns: list[tuple[FloatArray, float]], a: int, b: int) -> list[int
 
 
 def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
-    """Whether cycles ``a:b`` drift: a least-squares line rising significantly by a step or more."""
+    """Whether cycles ``a:b`` drift: a least-squares line rising significantly by a step or more over
+    them, or over :data:`MIN_CYCLES` where they are fewer (a ramp cut short is still a ramp)."""
     c = np.arange(b - a, dtype=np.float64)
     c -= c.mean()
     for values, floor in columns:
@@ -288,7 +291,7 @@ def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
         sigma = max(noise_of(x), ROUND_OFF * level)
         slope = float(c @ (x - x.mean()) / (c @ c))
         significant = abs(slope) > _threshold(b - a, len(columns)) * sigma / math.sqrt(c @ c)
-        if significant and abs(slope) * (b - a) >= floor * level:
+        if significant and abs(slope) * max(b - a, MIN_CYCLES) >= floor * level:
             return True
     return False
 

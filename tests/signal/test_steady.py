@@ -124,6 +124,23 @@ def test_a_ramp_has_no_steady_segment_and_a_glitch_does_not_cut_a_run() -> None:
     assert len(found.segments) == 1 and found.segments[0].cycles >= n - 2
 
 
+@pytest.mark.parametrize(
+    ("rise", "segments"),
+    [(1.4 * SPEED_STEP, 0), (0.5 * SPEED_STEP, 1)],  # over MIN_CYCLES: a ramp; a drift within a step
+    ids=["ramp", "drift"],
+)
+def test_a_short_span_of_a_ramp_is_no_segment_though_it_rises_by_less_than_a_step(
+    rise: float, segments: int
+) -> None:
+    """The last 14 cycles of a run-up (rising by ``rise`` every MIN_CYCLES cycles) with segments of 12
+    asked for: the ramp's span rises by ``0.65 rise``, less than a step, yet it is a ramp."""
+    rng = np.random.default_rng(11)
+    n = 14
+    speed = OMEGA * (1 + rise * np.arange(n) / MIN_CYCLES) * (1 + 1e-4 * rng.standard_normal(n))
+    assert (speed[-1] - speed[0]) / speed[0] < SPEED_STEP
+    assert len(steady_segments(_series(speed, None), min_cycles=12).segments) == segments
+
+
 def test_segments_need_their_minimum_of_cycles() -> None:
     rng = np.random.default_rng(9)
     speed, load = _steady(rng, 2 * MIN_CYCLES, 1e-4, 0.02)
