@@ -172,7 +172,9 @@ class SegmentedDiagnosis:
         return replace(self.whole, status=self.status, findings=findings, notes=notes)
 
 
-def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = MIN_CYCLES) -> Segmentation:
+def segmentation_of(
+    diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = MIN_CYCLES, drift_over: int = 0
+) -> Segmentation:
     """The steady segments of a diagnosed recording, from the angle map its diagnosis built.
 
     Parameters
@@ -183,6 +185,9 @@ def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = M
         Its cycle and cylinders (the firing harmonic: one impulse per cylinder a cycle).
     min_cycles : int, optional
         Cycles a segment needs [-].
+    drift_over : int, optional
+        Cycles over which a shorter piece's drift is judged (0: its own;
+        :func:`monitor.signal.steady.steady_segments`) [-].
 
     Returns
     -------
@@ -195,7 +200,7 @@ def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int = M
         firing_harmonic=engine.cylinders,
         pulses_per_revolution=reference.pulses_per_revolution,
     )
-    return steady_segments(series, min_cycles=min_cycles)
+    return steady_segments(series, min_cycles=min_cycles, drift_over=drift_over)
 
 
 def steady_parts(
@@ -225,7 +230,8 @@ def steady_parts(
     found = segmentation_of(whole, engine, min_cycles=min_cycles)
     if (found.segments and not found.at_one_point) or min_cycles <= SHORT_SEGMENT:
         return found, min_cycles
-    shorter = segmentation_of(whole, engine, min_cycles=SHORT_SEGMENT)
+    # a span of a ramp is no steady span however short: its drift is judged over ``min_cycles``
+    shorter = segmentation_of(whole, engine, min_cycles=SHORT_SEGMENT, drift_over=min_cycles)
     if not shorter.segments or shorter.at_one_point:
         return found, min_cycles
     if unsteady_speeds(whole.spectra.reference.angle_map) is None:

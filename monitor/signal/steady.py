@@ -23,10 +23,10 @@ own noise:
 3. The segments: neighbouring pieces that the test of step 2 no longer tells apart are joined
    (a chance split at the binary segmentation's later stages, each a test of its own); then the
    pieces of at least :data:`MIN_CYCLES` cycles (or the fewer asked for) without a drift of their
-   own (a least-squares line's rise across them, or across :data:`MIN_CYCLES` cycles where they
-   are fewer, of a step or more, its slope beyond ``tau`` of its standard error: binary
-   segmentation chops a ramp into pieces that rise by one to two steps, which are no steady
-   segments, nor is a shorter piece of a ramp that would rise by a step over :data:`MIN_CYCLES`;
+   own (a least-squares line's rise across them, or across the cycles asked for when they are
+   fewer, of a step or more, its slope beyond ``tau`` of its standard error: binary segmentation
+   chops a ramp into pieces that rise by one to two steps, which are no steady segments, nor is a
+   shorter piece of a ramp that would rise by a step over the cycles asked for;
    a step below the floor, left whole, makes a line rise by 1.5 times its size, so one of two
    thirds of the floor or more leaves no segment and the recording is diagnosed whole, as without
    segments); neighbours less than
@@ -280,9 +280,9 @@ def _splits(columns: list[tuple[FloatArray, float]], a: int, b: int) -> list[int
     return [*_splits(columns, a, place), place, *_splits(columns, place, b)]
 
 
-def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
+def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int, over: int) -> bool:
     """Whether cycles ``a:b`` drift: a least-squares line rising significantly by a step or more over
-    them, or over :data:`MIN_CYCLES` where they are fewer (a ramp cut short is still a ramp)."""
+    them, or over ``over`` cycles where they are fewer (a ramp cut short is still a ramp)."""
     c = np.arange(b - a, dtype=np.float64)
     c -= c.mean()
     for values, floor in columns:
@@ -291,7 +291,7 @@ def _drifts(columns: list[tuple[FloatArray, float]], a: int, b: int) -> bool:
         sigma = max(noise_of(x), ROUND_OFF * level)
         slope = float(c @ (x - x.mean()) / (c @ c))
         significant = abs(slope) > _threshold(b - a, len(columns)) * sigma / math.sqrt(c @ c)
-        if significant and abs(slope) * max(b - a, MIN_CYCLES) >= floor * level:
+        if significant and abs(slope) * max(b - a, over) >= floor * level:
             return True
     return False
 
@@ -324,7 +324,9 @@ def _differ(columns: list[tuple[FloatArray, float]], one: tuple[int, int], two: 
     return False
 
 
-def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Segmentation:
+def steady_segments(
+    series: CycleSeries, *, min_cycles: int = MIN_CYCLES, drift_over: int = 0
+) -> Segmentation:
     """The steady segments of a per-cycle series and the transitions between them (module docstring).
 
     Parameters
@@ -332,6 +334,9 @@ def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Seg
     series : CycleSeries
     min_cycles : int, optional
         Cycles a segment needs [-].
+    drift_over : int, optional
+        Cycles over which a shorter piece's drift is judged (a span of a ramp is no segment however
+        short); 0, the default, judges each piece over its own cycles [-].
 
     Returns
     -------
@@ -350,7 +355,7 @@ def steady_segments(series: CycleSeries, *, min_cycles: int = MIN_CYCLES) -> Seg
             merged[-1] = (merged[-1][0], b)
         else:
             merged.append((a, b))
-    pieces = [(a, b) for a, b in merged if b - a >= min_cycles and not _drifts(columns, a, b)]
+    pieces = [(a, b) for a, b in merged if b - a >= min_cycles and not _drifts(columns, a, b, drift_over)]
     joined: list[tuple[int, int]] = []
     for piece in pieces:  # neighbours that the test no longer tells apart are one segment
         if joined and piece[0] - joined[-1][1] < min_cycles and not _differ(columns, joined[-1], piece):

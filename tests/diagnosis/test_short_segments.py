@@ -39,8 +39,13 @@ def _parts(
 ) -> tuple[Segmentation, int]:
     """:func:`steady_parts` where no segment of ``MIN_CYCLES`` is found and ``short`` of ``SHORT_SEGMENT``."""
 
-    def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int) -> Segmentation:
-        return short if min_cycles == segments.SHORT_SEGMENT else Segmentation((), (), 33)
+    def segmentation_of(
+        diagnosis: Diagnosis, engine: Engine, *, min_cycles: int, drift_over: int = 0
+    ) -> Segmentation:
+        if min_cycles == segments.SHORT_SEGMENT:  # a short span's drift is judged as a segment's
+            assert drift_over == MIN_CYCLES
+            return short
+        return Segmentation((), (), 33)
 
     speeds = np.array([356.0, 493.0]) if unsteady else None
     monkeypatch.setattr(segments, "segmentation_of", segmentation_of)

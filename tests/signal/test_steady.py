@@ -133,12 +133,15 @@ def test_a_short_span_of_a_ramp_is_no_segment_though_it_rises_by_less_than_a_ste
     rise: float, segments: int
 ) -> None:
     """The last 14 cycles of a run-up (rising by ``rise`` every MIN_CYCLES cycles) with segments of 12
-    asked for: the ramp's span rises by ``0.65 rise``, less than a step, yet it is a ramp."""
+    asked for, their drift judged over MIN_CYCLES: the ramp's span rises by ``0.65 rise``, less than a
+    step, yet it is a ramp. Judged over its own cycles (the default) either is a segment."""
     rng = np.random.default_rng(11)
     n = 14
     speed = OMEGA * (1 + rise * np.arange(n) / MIN_CYCLES) * (1 + 1e-4 * rng.standard_normal(n))
     assert (speed[-1] - speed[0]) / speed[0] < SPEED_STEP
-    assert len(steady_segments(_series(speed, None), min_cycles=12).segments) == segments
+    series = _series(speed, None)
+    assert len(steady_segments(series, min_cycles=12, drift_over=MIN_CYCLES).segments) == segments
+    assert len(steady_segments(series, min_cycles=12).segments) == 1
 
 
 def test_segments_need_their_minimum_of_cycles() -> None:
