@@ -40,7 +40,9 @@ def _whole(status: str, findings: list[Finding]) -> Diagnosis:
 def _segmented_as(monkeypatch: pytest.MonkeyPatch, short: Segmentation) -> None:
     """No segment of the minimum's cycles; ``short`` at three cycles a side."""
 
-    def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int) -> Segmentation:
+    def segmentation_of(
+        diagnosis: Diagnosis, engine: Engine, *, min_cycles: int, drift_over: int = 0
+    ) -> Segmentation:
         return short if min_cycles == segments.SHORT_SIDE else Segmentation((), (), 14)
 
     monkeypatch.setattr(segments, "segmentation_of", segmentation_of)
@@ -123,7 +125,9 @@ def test_three_steady_cycles_on_a_side_tell_a_change(
 def _real_segmentation(series: CycleSeries) -> Callable[..., Segmentation]:
     """``segmentation_of`` on a given series: :func:`monitor.signal.steady.steady_segments` itself."""
 
-    def segmentation_of(diagnosis: Diagnosis, engine: Engine, *, min_cycles: int) -> Segmentation:
-        return steady_segments(series, min_cycles=min_cycles)
+    def segmentation_of(
+        diagnosis: Diagnosis, engine: Engine, *, min_cycles: int, drift_over: int = 0
+    ) -> Segmentation:
+        return steady_segments(series, min_cycles=min_cycles, drift_over=drift_over)
 
     return segmentation_of
