@@ -23,15 +23,14 @@ own noise:
 3. The segments: neighbouring pieces that the test of step 2 no longer tells apart are joined
    (a chance split at the binary segmentation's later stages, each a test of its own); then the
    pieces of at least :data:`MIN_CYCLES` cycles (or the fewer asked for) without a drift of their
-   own (a least-squares line's rise across them, or across the cycles asked for when they are
+   own (a least-squares line's rise across them, or across ``drift_over`` cycles where they are
    fewer, of a step or more, its slope beyond ``tau`` of its standard error: binary segmentation
    chops a ramp into pieces that rise by one to two steps, which are no steady segments, nor is a
-   shorter piece of a ramp that would rise by a step over the cycles asked for;
-   a step below the floor, left whole, makes a line rise by 1.5 times its size, so one of two
-   thirds of the floor or more leaves no segment and the recording is diagnosed whole, as without
-   segments); neighbours less than
-   :data:`MIN_CYCLES` apart that the test of step 2 no longer tells apart are joined again (a
-   glitch split off does not cut a steady run in two). Last, the cycles of a segment whose speed
+   shorter piece of a ramp that would rise by a step over ``drift_over`` cycles; a step below the
+   floor, left whole, makes a line rise by 1.5 times its size, so one of two thirds of the floor or
+   more leaves no segment and the recording is diagnosed whole, as without segments); neighbours
+   less than :data:`MIN_CYCLES` apart that the test of step 2 no longer tells apart are joined
+   again (a glitch split off does not cut a steady run in two). Last, the cycles of a segment whose speed
    departs from its median by :data:`SPEED_STEP` or more are a transient the split test does not
    see (a short dip and recovery has the same mean on both sides: the held speed after a load step,
    whose load indicator may not tell the step where the inertia torque dominates the firing
