@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
-from benchmarks.diagnosis_operating import missed_table, operating_sections, unjudged_table
+from benchmarks.diagnosis_operating import knock_table, operating_part, put_in
 from benchmarks.diagnosis_vee import (
     VEE_FIRST_SEED,
     VEE_OFF_POINT_FIRST_SEED,
@@ -109,6 +109,8 @@ class Outcome:
     points: int = 1  # the baseline's calibrated points (3: across the engine's law, law_baseline)
     vee: bool = False  # a V engine's case (benchmarks.diagnosis_vee)
     rods: str = ""  # a V engine's rods: side-by-side, fork-and-blade or articulated
+    knocks: int = 0  # a worn bearing's knocks in the recording (the simulator's burst_count) [-]
+    knock_size: float = math.nan  # their size over the noise of the sensor on the bearing [-]
 
 
 def _false(o: Outcome, rule: str, subject: str) -> bool:
@@ -189,6 +191,8 @@ def run_ways(
             charge_law=str(truth["charge_law"]),
             vee=vee,
             rods=str(truth.get("rods", "")),
+            knocks=int(truth.get("burst_count") or 0),
+            knock_size=float(truth["strength"]) if truth["class"] == "worn_bearing" else math.nan,
         )
 
     cylinders = 0
@@ -525,10 +529,12 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
     for o in sorted(failures, key=lambda o: (o.truth, o.seed))[:200]:
         said = o.error or o.findings or "-"
         lines.append(
-            f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | {o.truth} | "
-            f"{o.subject} | {o.status} | {said.replace('|', '/')} |"
+            f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | "
+            f"{put_in(o)} | {o.subject} | {o.status} | {said.replace('|', '/')} |"
         )
-    lines += ["", *_operating_section([o for o in everything if not o.vee]), *vee_section(everything)]
+    lines += ["", *knock_table(everything), ""]
+    lines += operating_part([o for o in everything if not o.vee], OPERATING_CLASSES)
+    lines += vee_section(everything)
     lines += vee_off_point_section(everything, OPERATING_CLASSES)
     return "\n".join(lines)
 
@@ -550,50 +556,6 @@ def _confusion(outcomes: list[Outcome]) -> list[str]:
         row = Counter(o.predicted for o in outcomes if o.truth == truth)
         if row:
             lines.append(f"| {truth} | " + " | ".join(str(row.get(c, 0)) for c in predicted_classes) + " |")
-    return lines
-
-
-def _operating_section(everything: list[Outcome]) -> list[str]:
-    """The per-class acceptance tables, each told the load and not (Markdown lines)."""
-    failed = [o for o in everything if o.failed_at == "simulator" and o.load_told]
-    lines = [
-        "## Acceptance per operating-point class",
-        "",
-        "A fleet calibrates an engine once: every case's baseline is its healthy twin at the point the "
-        "case was first drawn at (load 45-95 %). The case itself runs at a point of its class "
-        "(`validation.simulator.operating`): the baseline's point; a propeller engine on its curve at "
-        "60-100 % of rated speed (torque as speed squared); a generator at 25-100 % load at rated speed; "
-        "a step from one load of the engine's law to another at 30-70 % of the recording; or an engine "
-        "with its crank-speed sensors alone, at a load of its law. Off the baseline's point the charge "
-        "pressure follows one of two laws, drawn per engine (boost falling with load, or held at its "
-        "rated value), and a weak cylinder releases 80 % of a healthy one's heat or 50-70 %. Each case "
-        "is diagnosed twice against the same baseline: told its load (the true mean load off by up to "
-        "10 %) and not told it (the product takes the baseline's), as `compare` diagnoses a recording "
-        "(`benchmarks.diagnosed`): at the recording's point, and segment by segment where it crosses "
-        "points. Told the load, a load step is told one load per steady segment found (the load run at "
-        "the segment's middle, off by the same error), as `compare --segment-loads` takes them; not "
-        "told, every segment is judged at the baseline's load. Each case off the baseline's point is then "
-        "diagnosed both ways again against a baseline of three points across its engine's law "
-        "(`law_baseline`): the twin and two more healthy twins at the law's lowest and highest load "
-        "(a propeller engine at 60 % and 100 % of rated speed on its curve, a generator at 25 % and "
-        "100 % load), each calibrated told its load, as `engine-monitor calibrate` takes several "
-        "recordings; not told its load, the product then estimates it from the recording against the "
-        'points. The columns "one point" and "three points" say which baseline.',
-        "",
-        f"Cases the simulator could not make: {len(failed)}"
-        + (
-            " (" + "; ".join(sorted({f"seed {o.seed}: {o.error[:80]}" for o in failed})[:10]) + ")"
-            if failed
-            else ""
-        )
-        + ".",
-        "",
-        *operating_sections(everything, OPERATING_CLASSES),
-        *missed_table(everything),
-        "",
-        *unjudged_table(everything),
-        "",
-    ]
     return lines
 
 
