@@ -23,7 +23,8 @@ WEAK_80_ABOVE = 0.75
 #: A misfire at or above this load must never be called healthy [-].
 MISFIRE_LOAD = 0.25
 #: The edges of the worn bearings' classes by the knocks their recordings hold [-]: fewer than a
-#: short segment's 20 cycles, and 50 or more (a minute of a slow two-stroke).
+#: steady segment's cycles (monitor.signal.steady.MIN_CYCLES, 20), and 50 or more (a minute of a
+#: two-stroke at 50 rpm).
 KNOCK_BINS = (20, 50)
 
 
