@@ -534,8 +534,7 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
         )
     lines += ["", *knock_table(everything), ""]
     lines += operating_part([o for o in everything if not o.vee], OPERATING_CLASSES)
-    lines += vee_section(everything)
-    lines += vee_off_point_section(everything, OPERATING_CLASSES)
+    lines += [*vee_section(everything), *vee_off_point_section(everything, OPERATING_CLASSES)]
     return "\n".join(lines)
 
 
