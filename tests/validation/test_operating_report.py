@@ -50,6 +50,8 @@ def test_a_single_cylinder_left_inconclusive_without_its_load_misses_only_the_ro
     findings = by_row["healthy single-cylinder runs with a finding (exit 1 or 2)"]
     assert cell(findings, [alone, six]) == "0 of 1: meets"
     assert cell(findings, [_healthy(200002, "warning")]) == "1 of 1: **fails**"
+    alarmed = replace(_healthy(200003, "warning"), status="alarm", exit_code=2, alarm=True)
+    assert cell(findings, [alarmed]) == "1 of 1: **fails**"
 
 
 def _worn(seed: int, knocks: int, size: float, named: bool) -> Outcome:
