@@ -51,6 +51,7 @@ from monitor.diagnosis.bearings import (
     order_deviations,
     varying_note,
 )
+from monitor.diagnosis.elsewhere import with_elsewhere
 from monitor.diagnosis.findings import (
     BearingResult,
     Finding,
@@ -60,7 +61,6 @@ from monitor.diagnosis.findings import (
     missing_firing_doubt,
     missing_firing_findings,
     sensor_finding,
-    with_elsewhere,
     worse,
 )
 from monitor.diagnosis.impact_reference import engine_level, reference_profile

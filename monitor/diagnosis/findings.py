@@ -10,20 +10,17 @@ orders and impacts, sensor screening); the rules and their thresholds are here.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from monitor.diagnosis.balance import CylinderBalance
-from monitor.diagnosis.baseline import Baseline
-from monitor.diagnosis.bearings import ImpactScore, OrderDeviation, span_score
-from monitor.diagnosis.impact_reference import reference_profile
+from monitor.diagnosis.bearings import ImpactScore, OrderDeviation
 from monitor.diagnosis.misfire import MissingFiring, missing_firing
 from monitor.diagnosis.sensors import SensorFault
+from monitor.diagnosis.shares import one_of
 from monitor.io.recording import Recording
-from monitor.model.engine import Engine
-from monitor.signal.impact import HighFrequencyPower
 
 __all__ = [
     "MISSING_IMPULSE",
@@ -37,7 +34,6 @@ __all__ = [
     "missing_firing_findings",
     "sensor_finding",
     "single_cylinder_findings",
-    "with_elsewhere",
     "worse",
 ]
 
@@ -271,11 +267,20 @@ def _named(balance: CylinderBalance, c: int, partners: list[int | None] | None) 
     return " or ".join(f"cylinder {balance.name(o)}" for o in named)
 
 
-def _either(balance: CylinderBalance, c: int, partners: list[int | None] | None) -> str:
-    """Why a finding names more than one cylinder ("" when it names one)."""
-    together = "; they fire too nearly together for the crank speed to tell apart, judged as one"
+def _either(
+    balance: CylinderBalance, c: int, partners: list[int | None] | None, together: float | None = None
+) -> str:
+    """Why a finding names more than one cylinder ("" when it names one), with the group's own share
+    where the finding reads it as one member's (``together``)."""
+    size = len(balance.group(c))
+    apart = "; they fire too nearly together for the crank speed to tell apart, judged as one"
+    if together is not None and size > 1:
+        apart += (
+            f" (together at {round(100 * together)} % of the others: one of them at "
+            f"{round(100 * one_of(together, size))} % if the others fire as the reference, or all alike)"
+        )
     phase = "; the cycle phase is unknown, so either may be it"
-    return together * (len(balance.group(c)) > 1) + phase * (partners is not None and partners[c] is not None)
+    return apart * (size > 1) + phase * (partners is not None and partners[c] is not None)
 
 
 def _reference(balance: CylinderBalance, c: int) -> str:
@@ -290,8 +295,13 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
         if balance.group(c)[0] != c:  # judged as one with the group's first cylinder
             continue
         named = _named(balance, c, partners)
-        r, e = float(balance.relative[c]), max(float(balance.relative_error[c]), 1e-12)
-        contrast = max(float(balance.contrast_error[c]), 1e-12)
+        together, size = float(balance.relative[c]), len(balance.group(c))
+        # a group's deficit read as one member's, the others firing as the reference: the single fault
+        # looked for first, n times the group's departure and errors (the limits then mean for a
+        # member of a group what they mean for a cylinder alone; the significance is the group's)
+        r = one_of(together, size)
+        e = size * max(float(balance.relative_error[c]), 1e-12)
+        contrast = size * max(float(balance.contrast_error[c]), 1e-12)
         severity, threshold = "healthy", None
         if r < CYLINDER_WARNING[0]:
             severity, threshold = "warning", CYLINDER_WARNING[0]
@@ -321,7 +331,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                 summary=(
                     f"{named} at {round(100 * r)} % +- {round(196 * e)} % of {_reference(balance, c)} "
                     f"({what}; {balance.strength_meaning} from the crank-speed orders)"
-                    + _either(balance, c, partners)
+                    + _either(balance, c, partners, together)
                 ),
                 confidence=confidence,
                 evidence=[
@@ -335,6 +345,8 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                         "contrast_standard_error": contrast,
                         "orders": balance.orders.tolist(),
                         "strength": float(balance.strength[list(balance.group(c))].mean()),
+                        "group_relative": together,
+                        "group_size": size,
                         "cylinder": c + 1,
                         "cylinder_name": balance.name(c),
                         "condition_number": balance.condition,
@@ -481,51 +493,6 @@ def sensor_finding(fault: SensorFault, recording: Recording) -> Finding:
         confidence=1.0,
         evidence=[{"quantity": fault.fault, "channel": fault.channel, "detail": fault.detail}],
     )
-
-
-def with_elsewhere(
-    bearings: list[BearingResult],
-    profiles: dict[str, HighFrequencyPower],
-    engine: Engine,
-    baseline: Baseline | None,
-    level: float = math.nan,
-) -> list[BearingResult]:
-    """Each impact score with the same knock span's score on the other bearing sensors (the highest).
-
-    Parameters
-    ----------
-    bearings : list of BearingResult
-    profiles : dict of str to HighFrequencyPower
-        Each bearing sensor's profile in the recording.
-    engine : Engine
-    baseline : Baseline or None
-    level : float, optional
-        The engine's high-frequency level over the baseline's [-]
-        (:func:`monitor.diagnosis.impact_reference.engine_level`; NaN: each sensor's own).
-
-    Returns
-    -------
-    list of BearingResult
-        With :attr:`ImpactScore.elsewhere` and :attr:`BearingResult.elsewhere` set.
-    """
-    R = engine.cycle_revolutions
-    out = []
-    for result in bearings:
-        scored = []
-        for score in result.impacts:
-            heard = []
-            for other in bearings:
-                profile = profiles.get(other.channel)
-                if other.channel == result.channel or profile is None:
-                    continue
-                known = baseline.sensors.get(other.channel) if baseline is not None else None
-                theirs = known.high_frequency if known is not None else None
-                matched = reference_profile(theirs, profile, R, level)
-                heard.append(span_score(matched.profile, score.angle_deg, R, matched.reference))
-            scored.append(replace(score, elsewhere=max(heard) if heard else math.nan))
-        own = next((s for s in scored if s.bearing == result.bearing), None)
-        out.append(replace(result, impacts=scored, elsewhere=own.elsewhere if own is not None else math.nan))
-    return out
 
 
 def bearing_findings(

@@ -25,7 +25,7 @@ import numpy as np
 
 from monitor.types import FloatArray
 
-__all__ = ["ALIKE", "TOGETHER", "fire_together", "relative_shares"]
+__all__ = ["ALIKE", "TOGETHER", "fire_together", "one_of", "relative_shares"]
 
 ALIKE = 0.15  # cylinders within this fraction of the median strength form the reference [-]
 #: Two cylinders whose firing phases differ by less than this at the highest order the cylinder balance
@@ -160,3 +160,26 @@ def relative_shares(
         error[members] = math.sqrt(max(float(gradient @ covariance @ gradient), 0.0))
         contrast[members] = math.sqrt(max(float(difference @ covariance @ difference), 0.0))
     return relative, error, contrast
+
+
+def one_of(together: float, size: int) -> float:
+    """A group's share read as one member's, the others at the reference's: ``1 - n (1 - share)``.
+
+    Cylinders that fire too nearly together are told apart from the others only as a group
+    (the module docstring): one member at ``s`` among healthy ones reads ``(s + n - 1) / n``
+    for the group, so a member at 70 % of a pair reads 85 %.  Read back as one member's, the group's
+    share is judged by the same limits as a cylinder alone's.
+
+    Parameters
+    ----------
+    together : float
+        The group's share: its members' mean against the reference [-].
+    size : int
+        Its members (1: a cylinder alone, its own share).
+
+    Returns
+    -------
+    float
+        [-].
+    """
+    return together if size == 1 else 1.0 - size * (1.0 - together)

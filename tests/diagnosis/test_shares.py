@@ -14,11 +14,13 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from monitor.diagnosis.findings import cylinder_findings
-from monitor.diagnosis.shares import ALIKE, TOGETHER, fire_together, relative_shares
+from monitor.diagnosis.shares import ALIKE, TOGETHER, fire_together, one_of, relative_shares
 from monitor.model.banks import Vee, cylinder_banks
-from tests.diagnosis.test_rule_limits import _balance
+from tests.diagnosis.test_rule_limits import MISFIRING, STRONGER, WEAK, _balance, _only
 
 HALF = 8  # cylinders on each bank of a V16
 INSIDE = 0.03  # each strength's own standard error [-]
@@ -166,10 +168,11 @@ def test_a_pair_misfire_found_by_its_pattern_on_either_member_is_one_finding(
     picked: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The missing-impulse test may pick either member of a pair (their columns are nearly alike):
-    its alarm stands in for the balance's finding on the pair, whichever member it picked."""
+    its alarm stands in for the balance's finding on the pair (a warning: one member at 60 %),
+    whichever member it picked."""
     from monitor.diagnosis import findings
 
-    strength = [0.5, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0]
+    strength = [0.8, 1.0, 1.0, 1.0, 0.8, 1.0, 1.0, 1.0]
     names = ["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"]
     balance = dataclasses.replace(
         _balance(strength, strength, 0.03, 0.03), names=names, banks=["A"] * 4 + ["B"] * 4, together=[(0, 4)]
@@ -197,3 +200,57 @@ def test_a_pair_with_an_unknown_cycle_phase_names_every_candidate() -> None:
     (found,) = [f for f in cylinder_findings(balance, partners) if f.kind == "cylinder"]
     assert found.subject == "cylinder A1 or cylinder B1 or cylinder A4 or cylinder B4"
     assert "judged as one" in found.summary and "cycle phase is unknown" in found.summary
+
+
+# (id, a pair's share together, its contrast error, expected severity, label and threshold): the pair's
+# deficit read as one member's, 1 - 2 (1 - share), and judged by a cylinder's limits; its significance is
+# the pair's own (the member's departure and errors are both twice the pair's)
+PAIR: list[tuple[str, float, float, tuple[str, str, float] | None]] = [
+    ("one member at 86 % is healthy", 0.93, 0.005, None),
+    ("one member at 84 % is a warning", 0.92, 0.005, ("warning", WEAK, 0.85)),
+    ("one member at 68 % (the pair at 84 %) is a warning", 0.84, 0.005, ("warning", WEAK, 0.85)),
+    ("one member at 52 % is a warning", 0.76, 0.005, ("warning", WEAK, 0.85)),
+    ("one member at 48 % is an alarm", 0.74, 0.005, ("alarm", WEAK, 0.5)),
+    ("one member at 28 % is misfiring", 0.64, 0.005, ("alarm", MISFIRING, 0.5)),
+    ("one member at 114 % is healthy", 1.07, 0.005, None),
+    ("one member at 116 % is stronger", 1.08, 0.005, ("warning", STRONGER, 1.15)),
+    # one member at 84 %: 16 % from the others, against 4 contrast errors of the member (2 x the pair's)
+    ("a member's departure just beyond 4 of its errors", 0.92, 0.16 / 8 / 1.01, ("warning", WEAK, 0.85)),
+    ("a member's departure just within 4 of its errors", 0.92, 0.16 / 8 / 0.99, None),
+]
+
+
+@pytest.mark.parametrize(
+    ("together", "contrast", "expected"), [row[1:] for row in PAIR], ids=[row[0] for row in PAIR]
+)
+def test_a_pair_is_judged_as_one_member_at_the_pair_s_deficit(
+    together: float, contrast: float, expected: tuple[str, str, float] | None
+) -> None:
+    """A pair that fires too nearly together reads one weak member at ``s`` as ``(s + 1) / 2``: a member
+    at 68 %, weaker than a cylinder alone's warning limit, reads 84 % as a pair. The finding reads it
+    back as one member's, so the pair's members are held to a cylinder's limits."""
+    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, contrast, contrast),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    found = cylinder_findings(balance)
+    assert _only(found) == expected
+    if found:
+        (finding,) = found
+        member = 1.0 - 2.0 * (1.0 - together)
+        assert finding.subject == "cylinder A1 or cylinder B1"
+        assert finding.evidence[0]["measured"] == pytest.approx(member, abs=1e-12)
+        assert finding.evidence[0]["group_relative"] == together and finding.evidence[0]["group_size"] == 2
+        assert f"together at {round(100 * together)} % of the others: one of them at " in finding.summary
+        assert f"{round(100 * member)} % if the others fire as the reference" in finding.summary
+
+
+@given(st.floats(-1.0, 2.0), st.integers(2, 4))
+def test_a_member_read_back_makes_the_group_s_share(together: float, size: int) -> None:
+    """Round trip: one member at ``one_of(s, n)`` among ``n - 1`` at the reference's level averages to
+    ``s``; a cylinder alone is its own share, exactly."""
+    assert (one_of(together, size) + size - 1) / size == pytest.approx(together, abs=1e-12)
+    assert one_of(together, 1) == together
