@@ -3,8 +3,9 @@
 Run with ``python -m benchmarks.mutation`` (``make mutation``).  The tool is cosmic-ray, configured in
 pyproject.toml's ``[tool.cosmic-ray]``: it mutates the module's every number (the thresholds at its top
 among them) and moves every comparison across its boundary (``<`` and ``<=``, ``>`` and ``>=``), one at a
-time, and runs the fast table-driven limit tests (tests/diagnosis/test_rule_limits.py) against each
-mutant; a mutant that no test fails "survived".
+time, and runs the fast table-driven limit tests (tests/diagnosis/test_rule_limits.py, and
+tests/diagnosis/test_shares.py for the groups that fire together) against each mutant; a mutant
+that no test fails "survived".
 cosmic-ray writes each mutant into the file itself, so the run happens in a copy of the package and the
 tests in a temporary folder: the working tree is never touched, even when the run is interrupted.
 
