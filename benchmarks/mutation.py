@@ -62,13 +62,13 @@ ACCEPTED: dict[tuple[str, str], str] = {
             'findings = [f for f in findings if f.evidence[0]["cylinder"] == weaker]',
             'weaker = missing.evidence[0]["cylinder"]',
             'share = max(missing.evidence[0]["measured"], MISFIRE_BELOW)',
-            'same = [f for f in findings if f.evidence[0]["cylinder"] == weaker]',
+            'same = [f for f in findings if f.evidence[0]["cylinder"] - 1 in balance.group(weaker - 1)]',
             'if not any(f.severity == "alarm" and f.evidence[0]["measured"] < share for f in same):',
         )
     },
     (
-        "contrast = max(float(balance.contrast_error[c]), 1e-12)",
-        "contrast = max(float(balance.contrast_error[c]), -0.999999999999)",
+        "contrast = size * max(float(balance.contrast_error[c]), 1e-12)",
+        "contrast = size * max(float(balance.contrast_error[c]), -0.999999999999)",
     ): "equivalent: the floor only keeps a zero contrast error positive; a zero one fails no share beyond "
     "a limit either way (4 x 0 and 4 x 1e-12 are both below any distance from 100 % to a limit)",
     (

@@ -273,14 +273,17 @@ def _either(
     """Why a finding names more than one cylinder ("" when it names one), with the group's own share
     where the finding reads it as one member's (``together``)."""
     size = len(balance.group(c))
+    unknown = partners is not None and partners[c] is not None
+    phase = "; the cycle phase is unknown, so either may be it" * unknown
+    if size == 1:
+        return phase
     apart = "; they fire too nearly together for the crank speed to tell apart, judged as one"
-    if together is not None and size > 1:
+    if together is not None:
         apart += (
             f" (together at {round(100 * together)} % of the others: one of them at "
             f"{round(100 * one_of(together, size))} % if the others fire as the reference, or all alike)"
         )
-    phase = "; the cycle phase is unknown, so either may be it"
-    return apart * (size > 1) + phase * (partners is not None and partners[c] is not None)
+    return apart + phase
 
 
 def _reference(balance: CylinderBalance, c: int) -> str:

@@ -254,3 +254,19 @@ def test_a_member_read_back_makes_the_group_s_share(together: float, size: int) 
     ``s``; a cylinder alone is its own share, exactly."""
     assert (one_of(together, size) + size - 1) / size == pytest.approx(together, abs=1e-12)
     assert one_of(together, 1) == together
+
+
+def test_a_cylinder_alone_beside_a_pair_is_read_as_itself() -> None:
+    """On a V with one pair that fires together, a cylinder outside it is judged at its own share, and
+    its finding says nothing of firing together."""
+    relative = [1.0, 0.8, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, 0.005, 0.005),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    (found,) = cylinder_findings(balance)
+    assert found.subject == "cylinder A2" and found.evidence[0]["measured"] == 0.8
+    assert found.evidence[0]["group_size"] == 1
+    assert "together" not in found.summary and "judged as one" not in found.summary
