@@ -234,6 +234,12 @@ class CylinderBalance:
         else itself alone."""
         return next((g for g in self.together if c in g), (c,))
 
+    def member_contrast_error(self) -> FloatArray:
+        """Each cylinder's :attr:`contrast_error` as the findings read its share: a group's as one
+        member's (:func:`monitor.diagnosis.shares.one_of`), ``n`` times the group's [-]."""
+        size = np.array([len(self.group(c)) for c in range(self.contrast_error.size)], dtype=np.float64)
+        return np.asarray(size * self.contrast_error, dtype=np.float64)
+
     def calibration(self) -> CrankCalibration:
         """This (healthy) balance's calibration of the model where the cylinders add up.
 

@@ -316,7 +316,9 @@ def _unresolved(analysis: Analysis, engine: Engine) -> list[str]:
             reasons.append("the cylinders were not compared (see the notes)")
         elif not balance.separable or balance.chi2_reduced > MISFIT:
             reasons.append("the crank-speed orders do not resolve the cylinders (see the notes)" + together)
-        elif (worst := float(np.max(balance.contrast_error))) > RESOLVED:
+        elif (worst := float(np.max(balance.member_contrast_error()))) > RESOLVED:
+            # read as the findings read them: a group that fires together as one member's, so that a
+            # member missing whole (1) is never within SIGNIFICANCE of its errors and called healthy
             uncertain = f"the cylinders' differences are uncertain by up to {100 * worst:.0f} %"
             reasons.append(uncertain + " (one standard error): too little to call them healthy" + together)
         if balance is not None and (doubt := missing_firing_doubt(balance)) is not None:

@@ -258,6 +258,10 @@ def missing_firing_findings(
     ]
 
 
+#: What a group that fires together is called when it lacks more than one member's firing.
+SEVERAL = "more than one of them weak, leaking or misfiring: together they lack more than a cylinder's firing"
+
+
 def _named(balance: CylinderBalance, c: int, partners: list[int | None] | None) -> str:
     """The subject: ``cylinder 3`` (``cylinder B3`` on a V), with the cylinders that fire together
     with it (judged as one) and, where the cycle phase is unknown, their 360 deg partners."""
@@ -304,7 +308,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
         # member of a group what they mean for a cylinder alone; the significance is the group's)
         r = one_of(together, size)
         e = size * max(float(balance.relative_error[c]), 1e-12)
-        contrast = size * max(float(balance.contrast_error[c]), 1e-12)
+        contrast = max(float(balance.member_contrast_error()[c]), 1e-12)
         severity, threshold = "healthy", None
         if r < CYLINDER_WARNING[0]:
             severity, threshold = "warning", CYLINDER_WARNING[0]
@@ -319,12 +323,23 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
         if threshold is None or abs(r - 1.0) < SIGNIFICANCE * contrast:
             continue
         low = r < 1.0
-        if r < MISFIRE_BELOW:
+        # a group that lacks more than one member's firing beyond its errors (read as one member's,
+        # significantly less than nothing) has more than one weak member: its share is given as the
+        # group's, its member reading stops at a whole cylinder missing
+        several = size > 1 and -r >= SIGNIFICANCE * contrast
+        if several:
+            what = SEVERAL
+        elif r < MISFIRE_BELOW:
             what = "misfiring"
         elif severity == "alarm" and low and r < 1.96 * e:
             what = "misfiring, or nearly: no firing is within its 95 % interval"
         else:
             what = "weak, leaking or misfiring" if low else "stronger than the others"
+        share = (
+            f"together at {round(100 * together)} % +- {round(196 * e / size)} %"
+            if several
+            else f"at {round(100 * r)} % +- {round(196 * e)} %"
+        )
         confidence = confidence_beyond((threshold - r) / e) if low else confidence_beyond((r - threshold) / e)
         findings.append(
             Finding(
@@ -332,15 +347,15 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
                 subject=named,
                 severity=severity,
                 summary=(
-                    f"{named} at {round(100 * r)} % +- {round(196 * e)} % of {_reference(balance, c)} "
+                    f"{named} {share} of {_reference(balance, c)} "
                     f"({what}; {balance.strength_meaning} from the crank-speed orders)"
-                    + _either(balance, c, partners, together)
+                    + _either(balance, c, partners, None if several else together)
                 ),
                 confidence=confidence,
                 evidence=[
                     {
                         "quantity": RELATIVE_STRENGTH,
-                        "measured": r,
+                        "measured": max(r, 0.0) if several else r,
                         "standard_error": e,
                         "predicted": 1.0,
                         "threshold": threshold,

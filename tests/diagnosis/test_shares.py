@@ -270,3 +270,71 @@ def test_a_cylinder_alone_beside_a_pair_is_read_as_itself() -> None:
     assert found.subject == "cylinder A2" and found.evidence[0]["measured"] == 0.8
     assert found.evidence[0]["group_size"] == 1
     assert "together" not in found.summary and "judged as one" not in found.summary
+
+
+SEVERAL = "more than one of them weak, leaking or misfiring: together they lack more than a cylinder's firing"
+
+# (id, a pair's share together, expected severity, label and threshold): below half the others the pair
+# lacks more than one member's firing, which no single member can; beyond 4 of its errors (the member's
+# contrast error, 2 x 1 %: 8 %) more than one of them is weak
+BEYOND_ONE: list[tuple[str, float, tuple[str, str, float]]] = [
+    ("the pair at 51 %: one member at 2 %, misfiring", 0.51, ("alarm", MISFIRING, 0.5)),
+    ("the pair at 50 %: one member at nothing, misfiring", 0.5, ("alarm", MISFIRING, 0.5)),
+    (
+        "the pair at 46.1 %: one member at -7.8 %, within its errors of nothing",
+        0.461,
+        ("alarm", MISFIRING, 0.5),
+    ),
+    ("the pair at 45.9 %: one member at -8.2 %, more than one member weak", 0.459, ("alarm", SEVERAL, 0.5)),
+    ("the pair at 40 %: more than one member weak", 0.4, ("alarm", SEVERAL, 0.5)),
+    ("the pair at nothing: both misfiring, more than one", 0.0, ("alarm", SEVERAL, 0.5)),
+]
+
+
+@pytest.mark.parametrize(
+    ("together", "expected"), [row[1:] for row in BEYOND_ONE], ids=[row[0] for row in BEYOND_ONE]
+)
+def test_a_pair_lacking_more_than_one_member_s_firing_names_more_than_one(
+    together: float, expected: tuple[str, str, float]
+) -> None:
+    """Read as one member's, a pair at 40 % would be a cylinder at -20 %: no cylinder fires less than
+    nothing, so beyond 4 of its errors from a member missing whole the finding gives the pair's own
+    share and says more than one of them is weak; within them it is one member misfiring."""
+    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, 0.01, 0.01),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    found = cylinder_findings(balance)
+    assert _only(found) == expected
+    (finding,) = found
+    member = 1.0 - 2.0 * (1.0 - together)
+    assert finding.evidence[0]["group_relative"] == together
+    assert "judged as one" in finding.summary
+    if expected[1] == SEVERAL:
+        assert finding.evidence[0]["measured"] == 0.0
+        # the pair's own share and error (1 %, 196 % of it rounds to 2 %), not a member's
+        assert finding.summary.startswith(
+            f"cylinder A1 or cylinder B1 together at {round(100 * together)} % +- 2 % of the cylinders that"
+        )
+        assert "one of them at" not in finding.summary
+    else:
+        assert finding.evidence[0]["measured"] == pytest.approx(member, abs=1e-12)
+        assert finding.summary.startswith(f"cylinder A1 or cylinder B1 at {round(100 * member)} % +- 4 %")
+
+
+def test_a_cylinder_alone_below_nothing_is_misfiring_not_several() -> None:
+    """A cylinder alone whose share reads below nothing (noise about a misfire) is one cylinder
+    misfiring: only a group can lack more than one cylinder's firing."""
+    relative = [1.0, -0.2, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, 0.01, 0.01),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    found = cylinder_findings(balance)
+    assert _only(found) == ("alarm", MISFIRING, 0.5)
+    assert found[0].subject == "cylinder A2" and found[0].evidence[0]["measured"] == -0.2
