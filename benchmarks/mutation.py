@@ -67,11 +67,6 @@ ACCEPTED: dict[tuple[str, str], str] = {
         )
     },
     (
-        "contrast = size * max(float(balance.contrast_error[c]), 1e-12)",
-        "contrast = size * max(float(balance.contrast_error[c]), -0.999999999999)",
-    ): "equivalent: the floor only keeps a zero contrast error positive; a zero one fails no share beyond "
-    "a limit either way (4 x 0 and 4 x 1e-12 are both below any distance from 100 % to a limit)",
-    (
         "s = float(balance.strength[0]) / reference",
         "s = float(balance.strength[ -1]) / reference",
     ): _ONE_CYLINDER,

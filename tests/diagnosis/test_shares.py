@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from monitor.diagnosis.findings import cylinder_findings
+from monitor.diagnosis.findings import Finding, cylinder_findings
 from monitor.diagnosis.shares import ALIKE, TOGETHER, fire_together, one_of, relative_shares
 from monitor.model.banks import Vee, cylinder_banks
 from tests.diagnosis.test_rule_limits import MISFIRING, STRONGER, WEAK, _balance, _only
@@ -338,3 +338,45 @@ def test_a_cylinder_alone_below_nothing_is_misfiring_not_several() -> None:
     found = cylinder_findings(balance)
     assert _only(found) == ("alarm", MISFIRING, 0.5)
     assert found[0].subject == "cylinder A2" and found[0].evidence[0]["measured"] == -0.2
+
+
+def _pair_at(together: float, error: float, contrast: float) -> list[Finding]:
+    """The findings on a V8 whose A1 and B1 fire together at ``together`` of the others."""
+    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, error, contrast),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    return cylinder_findings(balance)
+
+
+@pytest.mark.parametrize(
+    ("together", "contrast", "label"),
+    [
+        # the member at -12.5 %, its contrast error 2 x 1/64: exactly 4 errors below nothing (every number
+        # here exact in binary), which is more than one member's deficit
+        (0.4375, 1 / 64, SEVERAL),
+        (0.4375, 1 / 64 * 1.001, MISFIRING),
+        # a member at nothing, known exactly: one member missing whole, not more
+        (0.5, 0.0, MISFIRING),
+    ],
+)
+def test_more_than_one_is_named_from_4_errors_below_nothing(
+    together: float, contrast: float, label: str
+) -> None:
+    assert _only(_pair_at(together, 0.01, contrast)) == ("alarm", label, 0.5)
+
+
+@pytest.mark.parametrize(
+    ("error", "headline"),
+    [
+        # 1.96 x 1.27 % = 2.49 %, 1.96 x 1.278 % = 2.505 %: the pair's own 95 % interval, rounded
+        (0.0127, "cylinder A1 or cylinder B1 together at 30 % +- 2 % of the cylinders that fire alike ("),
+        (0.01278, "cylinder A1 or cylinder B1 together at 30 % +- 3 % of the cylinders that fire alike ("),
+    ],
+)
+def test_more_than_one_gives_the_pair_s_share_and_interval(error: float, headline: str) -> None:
+    (found,) = _pair_at(0.304, error, 0.01)  # 30.4 %, rounded down
+    assert found.summary.startswith(headline), found.summary
