@@ -322,27 +322,27 @@ def test_the_service_posts_a_new_finding_to_a_receiver_once_it_is_back(
     """A webhook whose receiver is down (its port bound, not listening: refused) when the worker stores a
     misfire's diagnosis: the delivery log shows the failed attempts; once the receiver listens, it gets
     the one event, signed, and no other."""
-    down = socket.socket()
-    down.bind(("127.0.0.1", 0))
-    port = down.getsockname()[1]
-    with httpx.Client(base_url=service, headers={"X-API-Key": keys["a"]}, timeout=60) as client:
-        hook = client.post("/webhooks", json={"url": f"http://127.0.0.1:{port}/hook", "secret": SECRET})
-        assert hook.status_code == 201 and hook.json()["secret"] == SECRET
-        log = f"/webhooks/{hook.json()['id']}/deliveries"
-        recording = int(_upload(client, SAMPLES / "7k98mc-misfire-cyl4.h5").json()["id"])
-        assert _wait_done(client, recording)["diagnosis_status"] == "alarm"
-        deadline = time.monotonic() + WAIT_S
-        while not (entries := client.get(log).json()) or entries[0]["attempts"] < 2:
-            assert time.monotonic() < deadline, "no attempt was made"
-            time.sleep(0.05)
-        assert entries[0]["state"] == "pending" and "no connection" in entries[0]["last_error"]
-        assert entries[0]["last_status"] is None
-        down.close()
-        with Receiver(port) as receiver:
-            (event,) = _events(receiver.wait_for(1))
-            time.sleep(10 * QUICK.poll_s + QUICK.backoff_s)  # time for a second event, if one were sent
-            assert len(receiver.events) == 1
-        (entry,) = client.get(log).json()
+    with socket.socket() as down:  # closed by then, or if the test fails before: no socket left behind
+        down.bind(("127.0.0.1", 0))
+        port = down.getsockname()[1]
+        with httpx.Client(base_url=service, headers={"X-API-Key": keys["a"]}, timeout=60) as client:
+            hook = client.post("/webhooks", json={"url": f"http://127.0.0.1:{port}/hook", "secret": SECRET})
+            assert hook.status_code == 201 and hook.json()["secret"] == SECRET
+            log = f"/webhooks/{hook.json()['id']}/deliveries"
+            recording = int(_upload(client, SAMPLES / "7k98mc-misfire-cyl4.h5").json()["id"])
+            assert _wait_done(client, recording)["diagnosis_status"] == "alarm"
+            deadline = time.monotonic() + WAIT_S
+            while not (entries := client.get(log).json()) or entries[0]["attempts"] < 2:
+                assert time.monotonic() < deadline, "no attempt was made"
+                time.sleep(0.05)
+            assert entries[0]["state"] == "pending" and "no connection" in entries[0]["last_error"]
+            assert entries[0]["last_status"] is None
+            down.close()
+            with Receiver(port) as receiver:
+                (event,) = _events(receiver.wait_for(1))
+                time.sleep(10 * QUICK.poll_s + QUICK.backoff_s)  # time for a second event, if one were sent
+                assert len(receiver.events) == 1
+            (entry,) = client.get(log).json()
     assert event["type"] == "diagnosis.finding" and event["recording"]["id"] == recording
     assert (event["finding"]["subject"], event["finding"]["severity"]) == ("cylinder 4", "alarm")
     assert event["fleet"] == "a" and event["engine_id"] == "man-b-w-7k98mc"
