@@ -202,6 +202,18 @@ def test_a_pair_with_an_unknown_cycle_phase_names_every_candidate() -> None:
     assert "judged as one" in found.summary and "cycle phase is unknown" in found.summary
 
 
+def _pair_at(together: float, error: float, contrast: float) -> list[Finding]:
+    """The findings on a V8 whose A1 and B1 fire together at ``together`` of the others."""
+    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
+    balance = dataclasses.replace(
+        _balance([1.0] * 8, relative, error, contrast),
+        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
+        banks=["A"] * 4 + ["B"] * 4,
+        together=[(0, 4)],
+    )
+    return cylinder_findings(balance)
+
+
 # (id, a pair's share together, its contrast error, expected severity, label and threshold): the pair's
 # deficit read as one member's, 1 - 2 (1 - share), and judged by a cylinder's limits; its significance is
 # the pair's own (the member's departure and errors are both twice the pair's)
@@ -229,14 +241,7 @@ def test_a_pair_is_judged_as_one_member_at_the_pair_s_deficit(
     """A pair that fires too nearly together reads one weak member at ``s`` as ``(s + 1) / 2``: a member
     at 68 %, weaker than a cylinder alone's warning limit, reads 84 % as a pair. The finding reads it
     back as one member's, so the pair's members are held to a cylinder's limits."""
-    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
-    balance = dataclasses.replace(
-        _balance([1.0] * 8, relative, contrast, contrast),
-        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
-        banks=["A"] * 4 + ["B"] * 4,
-        together=[(0, 4)],
-    )
-    found = cylinder_findings(balance)
+    found = _pair_at(together, contrast, contrast)
     assert _only(found) == expected
     if found:
         (finding,) = found
@@ -300,14 +305,7 @@ def test_a_pair_lacking_more_than_one_member_s_firing_names_more_than_one(
     """Read as one member's, a pair at 40 % would be a cylinder at -20 %: no cylinder fires less than
     nothing, so beyond 4 of its errors from a member missing whole the finding gives the pair's own
     share and says more than one of them is weak; within them it is one member misfiring."""
-    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
-    balance = dataclasses.replace(
-        _balance([1.0] * 8, relative, 0.01, 0.01),
-        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
-        banks=["A"] * 4 + ["B"] * 4,
-        together=[(0, 4)],
-    )
-    found = cylinder_findings(balance)
+    found = _pair_at(together, 0.01, 0.01)
     assert _only(found) == expected
     (finding,) = found
     member = 1.0 - 2.0 * (1.0 - together)
@@ -338,18 +336,6 @@ def test_a_cylinder_alone_below_nothing_is_misfiring_not_several() -> None:
     found = cylinder_findings(balance)
     assert _only(found) == ("alarm", MISFIRING, 0.5)
     assert found[0].subject == "cylinder A2" and found[0].evidence[0]["measured"] == -0.2
-
-
-def _pair_at(together: float, error: float, contrast: float) -> list[Finding]:
-    """The findings on a V8 whose A1 and B1 fire together at ``together`` of the others."""
-    relative = [together, 1.0, 1.0, 1.0, together, 1.0, 1.0, 1.0]
-    balance = dataclasses.replace(
-        _balance([1.0] * 8, relative, error, contrast),
-        names=["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"],
-        banks=["A"] * 4 + ["B"] * 4,
-        together=[(0, 4)],
-    )
-    return cylinder_findings(balance)
 
 
 @pytest.mark.parametrize(
