@@ -298,6 +298,7 @@ def _reference(balance: CylinderBalance, c: int) -> str:
 
 def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) -> list[Finding]:
     findings = []
+    member_contrast = balance.member_contrast_error()
     for c in range(balance.strength.size):
         if balance.group(c)[0] != c:  # judged as one with the group's first cylinder
             continue
@@ -308,7 +309,7 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
         # member of a group what they mean for a cylinder alone; the significance is the group's)
         r = one_of(together, size)
         e = size * max(float(balance.relative_error[c]), 1e-12)
-        contrast = max(float(balance.member_contrast_error()[c]), 1e-12)
+        contrast = max(float(member_contrast[c]), 1e-12)
         severity, threshold = "healthy", None
         if r < CYLINDER_WARNING[0]:
             severity, threshold = "warning", CYLINDER_WARNING[0]
@@ -325,8 +326,10 @@ def _each_cylinder(balance: CylinderBalance, partners: list[int | None] | None) 
         low = r < 1.0
         # a group that lacks more than one member's firing beyond its errors (read as one member's,
         # significantly less than nothing) has more than one weak member: its share is given as the
-        # group's, its member reading stops at a whole cylinder missing
-        several = size > 1 and -r >= SIGNIFICANCE * contrast
+        # group's, its member reading stops at a whole cylinder missing. One member missing whole
+        # departs by one cylinder's combustion as the model carries it to the crank speed, known to the
+        # model's uncertainty beside the contrast's
+        several = size > 1 and -r >= SIGNIFICANCE * math.hypot(contrast, balance.model_uncertainty)
         if several:
             what = SEVERAL
         elif r < MISFIRE_BELOW:
