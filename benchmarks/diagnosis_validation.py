@@ -28,6 +28,7 @@ import tempfile
 import time
 import traceback
 from collections import Counter, defaultdict
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, replace
 from datetime import UTC, datetime
@@ -111,6 +112,11 @@ class Outcome:
     rods: str = ""  # a V engine's rods: side-by-side, fork-and-blade or articulated
     knocks: int = 0  # a worn bearing's knocks in the recording (the simulator's burst_count) [-]
     knock_size: float = math.nan  # their size over the noise of the sensor on the bearing [-]
+    # the bearings' impact scores of the whole recording (segments aside), for studying their rule: the
+    # true bearing's most significant over its sensors, and the most significant of any other bearing,
+    # each as (score, significance, significance needed, elsewhere) (:class:`ImpactScore`; NaN: none)
+    impact_true: tuple[float, float, float, float] = (math.nan,) * 4
+    impact_other: tuple[float, float, float, float] = (math.nan,) * 4
 
 
 def _false(o: Outcome, rule: str, subject: str) -> bool:
@@ -294,7 +300,19 @@ def _outcome(
         rules=rules,
         inconclusive="; ".join(why),
         share=share,
+        impact_true=_most_significant(diagnosis, lambda b: str(b) == subject),
+        impact_other=_most_significant(diagnosis, lambda b: str(b) != subject),
     )
+
+
+def _most_significant(diagnosis: Any, which: Callable[[int], bool]) -> tuple[float, float, float, float]:
+    """The most significant impact score over every sensor of the bearings ``which`` takes, as
+    (score, significance, significance needed, elsewhere); NaN where there is none."""
+    scores = [i for b in diagnosis.bearings for i in b.impacts if which(i.bearing)]
+    if not scores:
+        return (math.nan,) * 4
+    best = max(scores, key=lambda i: i.significance)
+    return (best.score, best.significance, best.significance_needed, best.elsewhere)
 
 
 def _shares(outcomes: list[Outcome]) -> str:

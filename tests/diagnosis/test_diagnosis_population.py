@@ -13,6 +13,8 @@ each case diagnosed told its load and not, held to what the product meets there.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.stats import binom
@@ -76,6 +78,17 @@ def least_hits(cases: int, rate: float) -> int:
 def test_every_case_is_diagnosed(sample: list[Outcome]) -> None:
     failed = [o for o in sample if o.error or o.status == "error"]
     assert not failed, failed
+
+
+def test_a_worn_bearing_s_impact_scores_are_kept_for_the_record(sample: list[Outcome]) -> None:
+    """The true bearing's most significant impact score is recorded (for studying the rule), and a
+    named worn bearing's is at least the 4 standard errors its finding needed."""
+    worn = [o for o in sample if o.truth == "worn_bearing"]
+    assert worn
+    for o in worn:
+        score, significance, needed, _ = o.impact_true
+        assert math.isfinite(score) and math.isfinite(needed), o
+        assert not o.named or significance >= 4.0, o
 
 
 def test_a_healthy_case_raises_no_alarm(sample: list[Outcome]) -> None:
