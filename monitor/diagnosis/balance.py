@@ -394,6 +394,7 @@ def cylinder_balance(
         factor=factor,
         transfer=H,
         combustion=combustion,
+        groups=fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max())),
     )
     strength, covariance, chi2 = _fit(design, rhs, y, spread, level_uncertainty)
     relative, relative_error, contrast_error, together = _shares(strength, covariance, engine, orders)
@@ -535,16 +536,18 @@ class _Spread:
     factor: ComplexArray
     transfer: ComplexArray
     combustion: ComplexArray
+    groups: list[tuple[int, ...]] = field(default_factory=list)  # cylinders that fire together
 
     def at(self, strength: FloatArray) -> FloatArray:
         """Each order's standard error with the cylinders at these strengths."""
         # a cylinder that fires unlike the model's (a misfire, a weak one) has a torque the model knows to
-        # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel
-        unlike = np.sqrt(
-            (np.abs((strength - 1.0)[:, None] * self.factor * self.transfer * self.combustion) ** 2).sum(
-                axis=0
-            )
-        )
+        # the same share, and that part of the gap is its own: it adds where the cylinders do not cancel.
+        # Cylinders that fire together depart as one: their departures add before the share is taken (the
+        # orders fix only their sum; each member's own strength may be anything that keeps it)
+        departing = (strength - 1.0)[:, None] * self.factor * self.transfer * self.combustion
+        own = [departing[list(g)].sum(axis=0) for g in self.groups]
+        alone = [departing[c] for c in range(strength.size) if not any(c in g for g in self.groups)]
+        unlike = np.sqrt((np.abs(np.array(own + alone)) ** 2).sum(axis=0))
         return np.asarray(
             np.sqrt(
                 self.se**2
