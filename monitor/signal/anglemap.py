@@ -548,26 +548,38 @@ def _fit_cycle_shape(
     """The shape fitted by least squares to the places' means, with the number of harmonics whose fit
     predicts each place best from the others (leave-one-out), and its fit at every place; None where
     no fit is well posed."""
-    best: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
+    # one QR of the design with every candidate's harmonics, ordered by harmonic (the mean, then each
+    # harmonic's two terms): a candidate's design is its leading columns, and their QR the leading part
+    # of the whole one (Householder reflections take the columns in order)
+    most = max(candidates)
+    w_all = np.asarray(2 * math.pi / cycle * np.arange(1, most + 1), dtype=np.float64)
+    means = _interval_means(places.start, places.start + places.width, w_all)
+    by_harmonic = np.concatenate(
+        [[0], np.column_stack([1 + np.arange(most), 1 + most + np.arange(most)]).ravel()]
+    )
+    design_all = means[:, by_harmonic]
+    root = np.sqrt(places.count)
+    q_all, r_all = np.linalg.qr(design_all * root[:, None])
+    projected = q_all.T @ (places.mean * root)
+    best: tuple[float, FloatArray, int] | None = None
     for h_count in candidates:
-        w = np.asarray(2 * math.pi / cycle * np.arange(1, h_count + 1), dtype=np.float64)
-        design = _interval_means(places.start, places.start + places.width, w)
-        root = np.sqrt(places.count)
-        q, r = np.linalg.qr(design * root[:, None])
-        fitted = (
-            np.linalg.solve(r, q.T @ (places.mean * root)) if np.all(np.abs(np.diag(r)) > 1e-12) else None
-        )
-        if fitted is None:
+        m = 1 + 2 * h_count
+        r, q = r_all[:m, :m], q_all[:, :m]
+        if not np.all(np.abs(np.diag(r)) > 1e-12):
             continue
+        fitted = np.linalg.solve(r, projected[:m])
         leverage = np.minimum((q**2).sum(axis=1), 1 - 1e-9)
-        residual = (design @ fitted - places.mean) * root / (1 - leverage)
+        residual = (design_all[:, :m] @ fitted - places.mean) * root / (1 - leverage)
         score = float(residual @ residual)
         if best is None or score < best[0]:
-            best = (score, np.asarray(fitted, dtype=np.float64), w, design)
+            best = (score, np.asarray(fitted, dtype=np.float64), h_count)
     if best is None:
         return None
-    _, coefficients, w, design = best
-    return _CycleShape(coefficients, w, cycle), np.asarray(design @ coefficients)
+    _, fitted, h_count = best
+    # back to the shape's order: the mean, the cosine terms' integrals, then the sine terms'
+    coefficients = np.concatenate([fitted[:1], fitted[1::2], fitted[2::2]])
+    shape = _CycleShape(coefficients, w_all[:h_count], cycle)
+    return shape, np.asarray(design_all[:, : 1 + 2 * h_count] @ fitted)
 
 
 def _missing_teeth(
