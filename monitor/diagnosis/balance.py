@@ -374,30 +374,29 @@ def cylinder_balance(
     # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large at
     # the firing harmonics (every cylinder adds), nil where healthy cylinders (and a gap all share) cancel
     nominal = fixed + factor * burning
-    uncertainty = np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty)
     # the combustion's timing: on every cylinder's combustion where no baseline calibrated the order
     timing = np.minimum(orders * timing_uncertainty, 1.0)
-    timed = np.where(calibrated, 0.0, timing * np.abs((factor * H * combustion).sum(axis=0)))
-    # the healthy cylinders' own differences, independent from cylinder to cylinder
-    uneven = imbalance * np.sqrt((np.abs(factor * H * combustion) ** 2).sum(axis=0))
     if np.any(np.linalg.norm(np.abs(design), axis=0) == 0):
         raise ModelError("a cylinder's combustion does not reach the orders used: strengths not identifiable")
+    together = fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max()))
     spread = _Spread(
         se=se,
-        model=uncertainty * np.abs(nominal),
+        model=np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty) * np.abs(nominal),
         calibration=factor_error * np.abs(burning),
         inertia=inertia_factor_error * np.abs(plain),
         unlike_share=np.hypot(model_uncertainty, timing),
-        timed=timed,
-        uneven=uneven,
+        timed=np.where(calibrated, 0.0, timing * np.abs((factor * H * combustion).sum(axis=0))),
+        # the healthy cylinders' own differences, independent from cylinder to cylinder
+        uneven=imbalance * np.sqrt((np.abs(factor * H * combustion) ** 2).sum(axis=0)),
         wheel=np.where(calibrated, 0.0, wheel),  # a calibrated order's factor holds the wheel's errors
         factor=factor,
         transfer=H,
         combustion=combustion,
-        groups=fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max())),
+        groups=together,
     )
     strength, covariance, chi2 = _fit(design, rhs, y, spread, level_uncertainty)
-    relative, relative_error, contrast_error, together = _shares(strength, covariance, engine, orders)
+    shares = relative_shares(strength, covariance, engine.cylinder_banks, together)
+    relative, relative_error, contrast_error = shares
     predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
     return CylinderBalance(
         names=engine.cylinder_names,
@@ -429,15 +428,6 @@ def cylinder_balance(
         gas_part=inertia_factor * (H * gas).sum(axis=0),
         wheel_error=spread.wheel,
     )
-
-
-def _shares(
-    strength: FloatArray, covariance: FloatArray, engine: Engine, orders: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, list[tuple[int, ...]]]:
-    """Each cylinder's share, its two errors (:func:`monitor.diagnosis.shares.relative_shares`), and
-    the groups that fire too nearly together for the orders used to tell apart."""
-    together = fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max()))
-    return (*relative_shares(strength, covariance, engine.cylinder_banks, together), together)
 
 
 def _cylinder_orders(
