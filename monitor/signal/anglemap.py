@@ -576,7 +576,7 @@ def _fit_cycle_shape(
     if best is None:
         return None
     _, fitted, h_count = best
-    # back to the shape's order: the mean, the cosine terms' integrals, then the sine terms'
+    # back to the shape's order: the mean, the cosine terms, then the sine terms
     coefficients = np.concatenate([fitted[:1], fitted[1::2], fitted[2::2]])
     shape = _CycleShape(coefficients, w_all[:h_count], cycle)
     return shape, np.asarray(design_all[:, : 1 + 2 * h_count] @ fitted)
