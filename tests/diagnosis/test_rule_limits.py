@@ -64,7 +64,7 @@ def test_the_limits_are_those_documented() -> None:
     85 % or above 115 %, an alarm below 50 % or above 130 %, misfiring below 30 %; a single cylinder's
     error at least 15 % against the model (10 % against its baseline), a limit crossed 2 errors beyond it;
     bearing orders 50 % and 100 %;
-    impacts 1.25 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
+    impacts 1.5 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
     alarm, localised by a factor of 2; zones C and D from 11 and 18 mm/s; a missing impulse's pattern
     explaining at least 50 % of the orders where the cylinders cancel."""
     assert findings.SIGNIFICANCE == 4.0
@@ -75,7 +75,7 @@ def test_the_limits_are_those_documented() -> None:
     assert findings.BASELINE_UNCERTAINTY == 0.10
     assert findings.SINGLE_BEYOND == 2.0
     assert (findings.BEARING_WARNING, findings.BEARING_ALARM) == (0.5, 1.0)
-    assert (findings.IMPACT_WARNING, findings.IMPACT_ALARM) == (1.25, 10.0)
+    assert (findings.IMPACT_WARNING, findings.IMPACT_ALARM) == (1.5, 10.0)
     assert findings.IMPACT_WITH_CYLINDER_FINDING == 2.0
     assert findings.IMPACT_WITHOUT_BASELINE == 10.0
     assert findings.LOCALISED == 2.0
@@ -389,13 +389,13 @@ def _impact(
 
 # (id, impact, with a baseline, a cylinder finding, expected severity and threshold)
 IMPACTS: list[tuple[str, ImpactScore, bool, bool, tuple[str, float] | None]] = [
-    ("baseline: below 1.25 x", _impact(1.24), True, False, None),
-    ("baseline: above 1.25 x", _impact(1.26), True, False, ("warning", 1.25)),
-    ("baseline: below 10 x", _impact(9.99), True, False, ("warning", 1.25)),
+    ("baseline: below 1.5 x", _impact(1.49), True, False, None),
+    ("baseline: above 1.5 x", _impact(1.51), True, False, ("warning", 1.5)),
+    ("baseline: below 10 x", _impact(9.99), True, False, ("warning", 1.5)),
     ("baseline: at 10 x", _impact(10.0), True, False, ("alarm", 10.0)),
     ("baseline: above 10 x", _impact(10.01), True, False, ("alarm", 10.0)),
     ("baseline, a cylinder finding: below 2 x", _impact(1.99), True, True, None),
-    ("baseline, a cylinder finding: above 2 x", _impact(2.01), True, True, ("warning", 1.25)),
+    ("baseline, a cylinder finding: above 2 x", _impact(2.01), True, True, ("warning", 1.5)),
     ("no baseline: below 10 x", _impact(9.99), False, False, None),
     ("no baseline: above 10 x", _impact(10.01), False, False, ("warning", 10.0)),
     ("no baseline: a warning at most", _impact(50.0), False, False, ("warning", 10.0)),
@@ -403,13 +403,13 @@ IMPACTS: list[tuple[str, ImpactScore, bool, bool, tuple[str, float] | None]] = [
     ("no baseline, a cylinder finding: above 10 x", _impact(10.01), False, True, ("warning", 10.0)),
     ("no baseline, no other sensor", _impact(50.0, elsewhere=math.nan), False, False, None),
     ("significance below 4", _impact(3.0, significance=3.99, needed=1.0), True, False, None),
-    ("significance above 4", _impact(3.0, significance=4.01, needed=1.0), True, False, ("warning", 1.25)),
+    ("significance above 4", _impact(3.0, significance=4.01, needed=1.0), True, False, ("warning", 1.5)),
     ("significance below the family's", _impact(3.0, significance=5.99, needed=6.0), True, False, None),
-    ("significance above the family's", _impact(3.0, 6.01, 6.0), True, False, ("warning", 1.25)),
+    ("significance above the family's", _impact(3.0, 6.01, 6.0), True, False, ("warning", 1.5)),
     # an excess of 2 on its own sensor: localised while another sensor's excess is at most half of it
-    ("localised: excess elsewhere below half", _impact(3.0, elsewhere=1.99), True, False, ("warning", 1.25)),
+    ("localised: excess elsewhere below half", _impact(3.0, elsewhere=1.99), True, False, ("warning", 1.5)),
     ("not localised: excess elsewhere above half", _impact(3.0, elsewhere=2.01), True, False, None),
-    ("localised: quieter elsewhere", _impact(3.0, elsewhere=0.5), True, False, ("warning", 1.25)),
+    ("localised: quieter elsewhere", _impact(3.0, elsewhere=0.5), True, False, ("warning", 1.5)),
 ]
 
 
@@ -594,18 +594,18 @@ def test_a_bearing_found_twice_alike_keeps_its_first_summary_and_all_evidence() 
 
 
 def test_an_impact_confidence_counts_score_errors_beyond_its_threshold() -> None:
-    """1.35 x against 1.25 x with a score error of 0.1: one error beyond, 84.1 %."""
-    result = BearingResult("mb5-vertical", 5, None, [_impact(1.35)], elsewhere=1.0)
+    """1.6 x against 1.5 x with a score error of 0.1: one error beyond, 84.1 %."""
+    result = BearingResult("mb5-vertical", 5, None, [_impact(1.6)], elsewhere=1.0)
     found = bearing_findings([result], with_baseline=True)
     assert found[0].confidence == pytest.approx(0.8413, abs=1e-4)
-    assert (found[0].evidence[0]["predicted"], found[0].evidence[0]["threshold"]) == (1.0, 1.25)
+    assert (found[0].evidence[0]["predicted"], found[0].evidence[0]["threshold"]) == (1.0, 1.5)
 
 
 def test_an_impact_quieter_elsewhere_is_localised_at_any_excess() -> None:
     """2.5 x on its own sensor, below the baseline's level on the others: localised."""
     result = BearingResult("mb5-vertical", 5, None, [_impact(2.5, elsewhere=0.5)], elsewhere=0.5)
     found = bearing_findings([result], with_baseline=True)
-    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [("warning", 1.25)]
+    assert [(f.severity, f.evidence[0]["threshold"]) for f in found] == [("warning", 1.5)]
 
 
 def test_a_faulty_sensor_finding_is_certain() -> None:
@@ -679,11 +679,11 @@ def test_a_single_cylinder_on_its_limits(
 @pytest.mark.parametrize(
     ("impact", "expected"),
     [
-        (_impact(1.25), ("warning", 1.25)),
-        (_impact(3.0, significance=4.0, needed=1.0), ("warning", 1.25)),
-        (_impact(3.0, elsewhere=2.0), ("warning", 1.25)),
+        (_impact(1.5), ("warning", 1.5)),
+        (_impact(3.0, significance=4.0, needed=1.0), ("warning", 1.5)),
+        (_impact(3.0, elsewhere=2.0), ("warning", 1.5)),
     ],
-    ids=["at 1.25 x", "at a significance of 4", "localised: excess elsewhere exactly half"],
+    ids=["at 1.5 x", "at a significance of 4", "localised: excess elsewhere exactly half"],
 )
 def test_an_impact_on_its_limits(impact: ImpactScore, expected: tuple[str, float]) -> None:
     result = BearingResult("mb5-vertical", 5, None, [impact], elsewhere=impact.elsewhere)
