@@ -17,6 +17,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
+from monitor.diagnosis.findings import IMPACT_WARNING, LOCALISED, SIGNIFICANCE
+
 #: The weakest cylinder of the "weak at 80 %" row: heat release over a healthy one's above this [-]
 #: (the off-point population draws 0.8 exactly; the at-point one 0.5-0.8 uniformly).
 WEAK_80_ABOVE = 0.75
@@ -201,6 +203,13 @@ def operating_sections(outcomes: Sequence[Case], classes: Sequence[str]) -> list
     return lines
 
 
+class Scored(Case, Protocol):
+    """What the impact limit's table reads besides a row's fields (the bench's Outcome)."""
+
+    impact_true: tuple[float, float, float, float]
+    impact_other: tuple[float, float, float, float]
+
+
 class Missed(Case, Protocol):
     """What the list of cases not named reads besides a row's fields."""
 
@@ -271,6 +280,52 @@ def knock_table(outcomes: Sequence[Missed]) -> list[str]:
         lines.append(
             f"| {what} | {len(group)} | {hits}/{len(group)} ({100 * hits / len(group):.1f} %) | "
             f"{min(sizes):.1f} to {max(sizes):.1f} |"
+        )
+    return lines
+
+
+def _heard_but_for_the_limit(score: tuple[float, float, float, float]) -> bool:
+    """Whether an impact score (score, significance, needed, elsewhere) passes the bearing rule's
+    significance and localisation, whatever its size (:func:`monitor.diagnosis.findings.bearing_findings`)."""
+    size, significance, needed, elsewhere = score
+    localised = math.isnan(elsewhere) or size - 1.0 >= LOCALISED * max(elsewhere - 1.0, 0.0)
+    return math.isfinite(size) and significance >= max(SIGNIFICANCE, needed) and localised
+
+
+def impact_limit_table(outcomes: Sequence[Scored]) -> list[str]:
+    """The impact warning limit against what healthy runs and worn bearings read, every diagnosis of the
+    whole recording (segments aside), in-line and V engines (Markdown lines)."""
+    lines = [
+        "## The impact warning limit against the population",
+        "",
+        f"A knock span is a bearing's finding where it stands out significantly, is localised, and reads "
+        f"at least {IMPACT_WARNING:g} x the baseline's power (`IMPACT_WARNING`). The rows give, over every "
+        "diagnosis of the whole recording (segments aside; each way of being told the load), the most "
+        "significant span that passes the first two: of any bearing on a healthy run, and of the true "
+        "bearing on a worn-bearing run. The limit must lie above the first and below the second.",
+        "",
+        "| where | healthy diagnoses | with such a span | its largest score [x baseline] | at or above the "
+        "limit | worn-bearing diagnoses | with such a span at the true bearing | its smallest score | below "
+        "the limit |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    places: list[tuple[str, Callable[[Scored], bool]]] = [
+        ("at the baseline's point", lambda o: o.operating == "baseline point"),
+        ("off it, one point", lambda o: o.operating != "baseline point" and o.points == 1),
+        ("off it, three points", lambda o: o.operating != "baseline point" and o.points == 3),
+    ]
+    for where, pick in places:
+        here = [o for o in judged(outcomes) if pick(o)]
+        healthy = [o for o in here if o.truth == "healthy"]
+        worn = [o for o in here if o.truth == "worn_bearing"]
+        loud = [o.impact_other[0] for o in healthy if _heard_but_for_the_limit(o.impact_other)]
+        knocks = [o.impact_true[0] for o in worn if _heard_but_for_the_limit(o.impact_true)]
+        if not healthy and not worn:
+            continue
+        lines.append(
+            f"| {where} | {len(healthy)} | {len(loud)} | {f'{max(loud):.2f}' if loud else '-'} | "
+            f"{sum(s >= IMPACT_WARNING for s in loud)} | {len(worn)} | {len(knocks)} | "
+            f"{f'{min(knocks):.2f}' if knocks else '-'} | {sum(s < IMPACT_WARNING for s in knocks)} |"
         )
     return lines
 

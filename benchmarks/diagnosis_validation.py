@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.diagnosed import diagnose_as_compare
-from benchmarks.diagnosis_operating import knock_table, operating_part, put_in
+from benchmarks.diagnosis_operating import impact_limit_table, knock_table, operating_part, put_in
 from benchmarks.diagnosis_vee import (
     VEE_FIRST_SEED,
     VEE_OFF_POINT_FIRST_SEED,
@@ -550,7 +550,7 @@ def report(everything: list[Outcome], *, cases: int, off_point: int, seconds: fl
             f"| {o.seed} | {o.duration_s:g} | {o.cylinders} cyl {o.cycle}, {o.speed_rpm:g} rpm | "
             f"{put_in(o)} | {o.subject} | {o.status} | {said.replace('|', '/')} |"
         )
-    lines += ["", *knock_table(everything), ""]
+    lines += ["", *knock_table(everything), "", *impact_limit_table(everything), ""]
     lines += operating_part([o for o in everything if not o.vee], OPERATING_CLASSES)
     lines += [*vee_section(everything), *vee_off_point_section(everything, OPERATING_CLASSES)]
     return "\n".join(lines)

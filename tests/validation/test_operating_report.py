@@ -6,7 +6,14 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from benchmarks.diagnosis_operating import ROWS, cell, knock_table, missed_table, unjudged_table
+from benchmarks.diagnosis_operating import (
+    ROWS,
+    cell,
+    impact_limit_table,
+    knock_table,
+    missed_table,
+    unjudged_table,
+)
 from benchmarks.diagnosis_validation import Outcome
 
 
@@ -80,4 +87,33 @@ def test_a_worn_bearing_not_named_is_listed_with_its_knocks() -> None:
     rows = lines[lines.index("|---|---|---|---|---|---|---|---|---|") + 1 :]
     assert rows == [
         "| 200132 | 10 | load step | worn_bearing (13 knocks, 3.4 x noise) | 5 | yes | 1 | healthy | - |"
+    ]
+
+
+def test_the_impact_limit_is_set_against_spans_heard_but_for_it() -> None:
+    """A healthy run's span counts where it is significant (at least 4 and the family's) and localised,
+    whatever its size; a worn bearing's at its true bearing alike. 1.4 x on a healthy run lies below
+    the 1.5 x limit, a worn bearing's 1.3 x below it too (a miss), its 2.5 x above."""
+    healthy = [
+        replace(
+            _healthy(1, "healthy", operating="baseline point", points=1), impact_other=(1.4, 5.0, 4.6, 1.0)
+        ),
+        # not significant, not localised, none at all: not counted
+        replace(
+            _healthy(2, "healthy", operating="baseline point", points=1), impact_other=(9.0, 4.5, 4.6, 1.0)
+        ),
+        replace(
+            _healthy(3, "healthy", operating="baseline point", points=1), impact_other=(9.0, 9.0, 4.6, 6.0)
+        ),
+        _healthy(4, "healthy", operating="baseline point", points=1),
+        replace(_healthy(5, "healthy", points=1), impact_other=(1.6, 12.0, 4.6, math.nan)),
+    ]
+    worn = [
+        replace(_worn(6, 30, 4.0, False), operating="baseline point", impact_true=(1.3, 20.0, 4.6, 1.0)),
+        replace(_worn(7, 30, 4.0, True), operating="baseline point", impact_true=(2.5, 20.0, 4.6, 1.2)),
+    ]
+    rows = impact_limit_table(healthy + worn)[-2:]
+    assert rows == [
+        "| at the baseline's point | 4 | 1 | 1.40 | 0 | 2 | 2 | 1.30 | 1 |",
+        "| off it, one point | 1 | 1 | 1.60 | 1 | 0 | 0 | - | 0 |",
     ]
