@@ -54,12 +54,15 @@ from monitor.signal.spectrum import OrderSpectrum
 from monitor.types import ComplexArray, FloatArray
 
 __all__ = [
+    "AWAY_SHARE",
+    "AWAY_SIGNIFICANCE",
     "REPEATING_SPEED_TOLERANCE",
     "SPEED_TOLERANCE",
     "WINDOW_AFTER_DEG",
     "WINDOW_BEFORE_DEG",
     "ImpactScore",
     "OrderDeviation",
+    "away_note",
     "impact_score",
     "order_deviations",
     "repeats_at",
@@ -79,6 +82,13 @@ RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
 #: two rings that overlap for up to RING_S (10 ms) at the band's lowest 1 kHz are up to 10 periods
 #: apart, and a speed 1 % away moves one against the other by a tenth of a period.
 REPEATING_SPEED_TOLERANCE = 0.01
+#: The share of a sensor's spans clear of a bearing's windows whose excess :attr:`ImpactScore.away` gives
+#: [-]: a worn bearing's knocks lift a few spans of the cycle (some outside the windows, where the
+#: engine's reversals differ from the model's), the engine's own noise at a load and speed its baseline
+#: does not know lifts spans all round it.
+AWAY_SHARE = 0.05
+#: A span away from the windows counts as lifted where it stands this many standard errors out [-].
+AWAY_SIGNIFICANCE = 4.0
 
 
 @dataclass(frozen=True)
@@ -190,6 +200,11 @@ class ImpactScore:
         The same span's power over its reference on the other bearing sensors, the highest (NaN
         without others; :func:`span_score`): a knock of this bearing is heard loudest on its own
         sensor, a change of the engine's own noise (combustion moved by a misfire) on all alike [-].
+    away : float
+        The excess over the reference that :data:`AWAY_SHARE` of the sensor's spans clear of the
+        bearing's windows reach, a span counted only where it stands :data:`AWAY_SIGNIFICANCE` standard
+        errors out (1 where fewer do; NaN where no span is clear): a knock is heard where the load
+        reverses, the engine's own noise at a point its baseline does not know all round the cycle [-].
     """
 
     bearing: int
@@ -201,6 +216,7 @@ class ImpactScore:
     significance_needed: float = math.nan
     angle_deg: float = math.nan
     elsewhere: float = math.nan
+    away: float = math.nan
 
 
 def window_bins(reversals: FloatArray, bins: int, cycle_revolutions: int) -> FloatArray:
@@ -294,6 +310,32 @@ def varying_note(profile: HighFrequencyPower, reference: HighFrequencyPower | No
     )
 
 
+def away_note(channel: str, scores: list[ImpactScore], limit: float) -> str | None:
+    """What the diagnosis says of a sensor whose spans away from the windows reach ``limit`` (the
+    warning's) over its reference: the reference does not describe the engine's own noise there.
+
+    Parameters
+    ----------
+    channel : str
+    scores : list of ImpactScore
+        The sensor's, one per bearing scored.
+    limit : float
+        [-]
+
+    Returns
+    -------
+    str or None
+    """
+    away = max((s.away for s in scores if math.isfinite(s.away)), default=math.nan)
+    if not away >= limit:
+        return None
+    return (
+        f"{channel}: {100 * AWAY_SHARE:.0f} % of the cycle away from the load-reversal windows reads "
+        f"{away:.1f} x the reference (the engine's own noise at a load or speed the baseline does not "
+        "know): a knock is named only where it stands out well beyond that (calibrate at this point)"
+    )
+
+
 def _span_significance(
     profile: HighFrequencyPower, baseline: HighFrequencyPower | None, span: int
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -346,6 +388,7 @@ def impact_score(
     ):
         # the engine's own rings repeat; how they add is not known at this speed (module docstring)
         z = np.minimum(z, _span_significance(varying, theirs, span)[3])
+    away = _away(measured / expected, z, mask, span)
     z = np.where(mask, z, -np.inf)
     peak = int(np.argmax(z))
     tested = max(1.0, float(mask.sum()) / span)  # about independent spans in the windows
@@ -359,7 +402,18 @@ def impact_score(
         float(z[peak]),
         float(needed),
         round((peak + 0.5) * cycle_deg / bins, 2),
+        away=away,
     )
+
+
+def _away(ratio: FloatArray, z: FloatArray, windows: FloatArray, span: int) -> float:
+    """:attr:`ImpactScore.away` from every span's power over its reference, its significance, the
+    windows' bins, and the span's bins (a span is clear where no bin of it lies in a window)."""
+    clear = _span_sums(windows.astype(np.float64), 2 * span + 1) == 0.0
+    if not clear.any():
+        return math.nan
+    lifted = np.where(z >= AWAY_SIGNIFICANCE, ratio, 1.0)[clear]
+    return float(np.quantile(lifted, 1.0 - AWAY_SHARE))
 
 
 def span_score(

@@ -47,12 +47,14 @@ from monitor.diagnosis.baseline import Baseline, SensorBaseline
 from monitor.diagnosis.bearings import (
     SPEED_TOLERANCE,
     OrderDeviation,
+    away_note,
     impact_score,
     order_deviations,
     varying_note,
 )
 from monitor.diagnosis.elsewhere import with_elsewhere
 from monitor.diagnosis.findings import (
+    IMPACT_WARNING,
     BearingResult,
     Finding,
     bearing_findings,
@@ -576,6 +578,8 @@ def _bearing_result(
                 analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
             )
             impacts.append(impact_score(matched.profile, reversals, neighbour, R, matched.reference))
+        if (note := away_note(channel.name, impacts, IMPACT_WARNING)) is not None:
+            notes.append(note)
     return BearingResult(channel.name, b, deviation, impacts), comparison
 
 

@@ -59,7 +59,8 @@ IMPACT_WITH_CYLINDER_FINDING = 2.0
 IMPACT_WITHOUT_BASELINE = 10.0
 # and always: the span's excess over its reference on the bearing's own sensor at least this many times
 # its excess on any other bearing sensor (a knock is heard loudest where it is; the engine's own noise,
-# moved by a misfire or a load change, alike on all) [-]
+# moved by a misfire or a load change, alike on all); and as many times its excess away from the
+# bearing's windows on its own sensor (bearings.AWAY_SHARE: a knock is heard where the load reverses) [-]
 LOCALISED = 2.0
 SEVERITIES = ("healthy", "warning", "alarm")
 NEARLY_PATTERN = "it lacks most of its firing impulse"  # the pattern's label between 30 and 50 %
@@ -619,8 +620,9 @@ def _heard(score: ImpactScore, *, with_baseline: bool, cylinders_changed: bool) 
     least = IMPACT_WARNING if with_baseline else IMPACT_WITHOUT_BASELINE
     if cylinders_changed:  # a cylinder that fires unlike before moves the engine's own noise
         least = max(least, IMPACT_WITH_CYLINDER_FINDING)
-    localised = math.isnan(score.elsewhere) or score.score - 1.0 >= LOCALISED * max(
-        score.elsewhere - 1.0, 0.0
+    excess = score.score - 1.0
+    localised = all(
+        math.isnan(x) or excess >= LOCALISED * max(x - 1.0, 0.0) for x in (score.elsewhere, score.away)
     )
     return (
         score.score >= least

@@ -36,7 +36,7 @@ import pytest
 
 from monitor.diagnosis import findings
 from monitor.diagnosis.balance import CylinderBalance
-from monitor.diagnosis.bearings import ImpactScore, OrderDeviation
+from monitor.diagnosis.bearings import AWAY_SHARE, AWAY_SIGNIFICANCE, ImpactScore, OrderDeviation
 from monitor.diagnosis.diagnose import _zones
 from monitor.diagnosis.findings import (
     BearingResult,
@@ -65,8 +65,9 @@ def test_the_limits_are_those_documented() -> None:
     error at least 15 % against the model (10 % against its baseline), a limit crossed 2 errors beyond it;
     bearing orders 50 % and 100 %;
     impacts 1.5 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
-    alarm, localised by a factor of 2; zones C and D from 11 and 18 mm/s; a missing impulse's pattern
-    explaining at least 50 % of the orders where the cylinders cancel."""
+    alarm, localised by a factor of 2 against other sensors and against 5 % of its own spans away from
+    its windows (each counted beyond 4 standard errors); zones C and D from 11 and 18 mm/s; a missing
+    impulse's pattern explaining at least 50 % of the orders where the cylinders cancel."""
     assert findings.SIGNIFICANCE == 4.0
     assert findings.CYLINDER_WARNING == (0.85, 1.15)
     assert findings.CYLINDER_ALARM == (0.5, 1.3)
@@ -79,6 +80,7 @@ def test_the_limits_are_those_documented() -> None:
     assert findings.IMPACT_WITH_CYLINDER_FINDING == 2.0
     assert findings.IMPACT_WITHOUT_BASELINE == 10.0
     assert findings.LOCALISED == 2.0
+    assert (AWAY_SHARE, AWAY_SIGNIFICANCE) == (0.05, 4.0)
     assert findings.PATTERN_EXPLAINED == 0.5
     assert DEFAULT_BOUNDARIES_MM_S == (7.1, 11.0, 18.0)
 
@@ -372,7 +374,12 @@ def test_a_single_cylinder(
 
 
 def _impact(
-    score: float, significance: float = 20.0, needed: float = 3.0, elsewhere: float = 1.0, bearing: int = 5
+    score: float,
+    significance: float = 20.0,
+    needed: float = 3.0,
+    elsewhere: float = 1.0,
+    bearing: int = 5,
+    away: float = 1.0,
 ) -> ImpactScore:
     return ImpactScore(
         bearing=bearing,
@@ -384,6 +391,7 @@ def _impact(
         significance_needed=needed,
         angle_deg=100.0,
         elsewhere=elsewhere,
+        away=away,
     )
 
 
@@ -410,6 +418,11 @@ IMPACTS: list[tuple[str, ImpactScore, bool, bool, tuple[str, float] | None]] = [
     ("localised: excess elsewhere below half", _impact(3.0, elsewhere=1.99), True, False, ("warning", 1.5)),
     ("not localised: excess elsewhere above half", _impact(3.0, elsewhere=2.01), True, False, None),
     ("localised: quieter elsewhere", _impact(3.0, elsewhere=0.5), True, False, ("warning", 1.5)),
+    # and away from its windows on its own sensor alike
+    ("in its windows: excess away below half", _impact(3.0, away=1.99), True, False, ("warning", 1.5)),
+    ("not in its windows: excess away above half", _impact(3.0, away=2.01), True, False, None),
+    ("in its windows: nothing clear of them", _impact(3.0, away=math.nan), True, False, ("warning", 1.5)),
+    ("no baseline: excess away above half", _impact(30.0, away=15.6), False, False, None),
 ]
 
 
@@ -682,8 +695,14 @@ def test_a_single_cylinder_on_its_limits(
         (_impact(1.5), ("warning", 1.5)),
         (_impact(3.0, significance=4.0, needed=1.0), ("warning", 1.5)),
         (_impact(3.0, elsewhere=2.0), ("warning", 1.5)),
+        (_impact(3.0, away=2.0), ("warning", 1.5)),
     ],
-    ids=["at 1.5 x", "at a significance of 4", "localised: excess elsewhere exactly half"],
+    ids=[
+        "at 1.5 x",
+        "at a significance of 4",
+        "localised: excess elsewhere exactly half",
+        "in its windows: excess away exactly half",
+    ],
 )
 def test_an_impact_on_its_limits(impact: ImpactScore, expected: tuple[str, float]) -> None:
     result = BearingResult("mb5-vertical", 5, None, [impact], elsewhere=impact.elsewhere)
