@@ -11,7 +11,9 @@ at its middle, off by the case's own error of the stated load.
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from monitor.diagnosis import Baseline, Diagnosis
@@ -19,10 +21,18 @@ from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.diagnosis.segments import diagnose_segments, steady_parts
 from monitor.io.recording import Recording
-from monitor.model.engine import Engine
+from monitor.model.engine import Engine, load_engine
 from monitor.signal.steady import Segment
 
-__all__ = ["diagnose_as_compare", "loads_told"]
+__all__ = ["case_engine", "diagnose_as_compare", "loads_told"]
+
+
+def case_engine(engine_toml: str) -> Engine:
+    """The engine file a simulated case comes with, loaded as ``engine-monitor`` loads one from disk."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "engine.toml"
+        path.write_text(engine_toml)
+        return load_engine(path)
 
 
 def diagnose_as_compare(

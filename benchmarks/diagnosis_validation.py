@@ -24,7 +24,6 @@ import argparse
 import json
 import math
 import sys
-import tempfile
 import time
 import traceback
 from collections import Counter, defaultdict
@@ -37,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.diagnosed import diagnose_as_compare
+from benchmarks.diagnosed import case_engine, diagnose_as_compare
 from benchmarks.diagnosis_operating import impact_limit_table, knock_table, operating_part, put_in
 from benchmarks.diagnosis_vee import (
     VEE_FIRST_SEED,
@@ -51,7 +50,7 @@ from monitor.diagnosis import Baseline, calibrate
 from monitor.diagnosis.findings import MISFIRE_BELOW
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.errors import MonitorError
-from monitor.model.engine import Engine, load_engine
+from monitor.model.engine import Engine
 from validation.simulator import Case, healthy_twin, law_loads, random_case
 from validation.simulator.operating import OPERATING_CLASSES
 
@@ -205,10 +204,7 @@ def run_ways(
     stage = "calibration"
     outcomes: list[Outcome] = []
     try:
-        with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / "engine.toml"
-            path.write_text(case.engine_toml)
-            engine = load_engine(path)
+        engine = case_engine(case.engine_toml)
         cylinders = engine.cylinders
         baselines = {1: OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])}
         for told, points in plan:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import tempfile
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
@@ -28,10 +27,10 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from benchmarks.diagnosed import case_engine
 from benchmarks.sections import replace_section
 from monitor.diagnosis.calibration import calibrate
 from monitor.diagnosis.diagnose import diagnose
-from monitor.model.engine import load_engine
 from validation.simulator import cases
 from validation.simulator.operating import OperatingPoint
 from validation.simulator.shared import SimulationError
@@ -86,10 +85,7 @@ def run_case(seed: int, fault: str, held: bool, load: float) -> list[dict[str, A
         )
     except SimulationError:  # a misfire on a single-cylinder engine
         return []
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(case.engine_toml)
-        engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     if engine.cylinders < 2:
         return []
     rows = []

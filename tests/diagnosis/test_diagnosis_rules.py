@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import math
 import re
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from benchmarks.diagnosed import case_engine
 from monitor.diagnosis import calibrate, diagnose
 from monitor.diagnosis.analysis import engine_orders
 from monitor.diagnosis.balance import CrankCalibration, cylinder_balance
@@ -257,7 +257,7 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     from monitor.signal.reference import PLAUSIBLE_PITCH_ERROR
 
     case = random_case(525, duration_s=10.0)
-    engine = _validation_engine(case.engine_toml)
+    engine = case_engine(case.engine_toml)
     twin = healthy_twin(case, seed=525 + 1_000_000)
     from monitor.signal.reference import learn_pitch_errors
 
@@ -268,14 +268,6 @@ def test_a_pitch_correction_no_wheel_has_is_not_learned() -> None:
     assert baseline.pitch is None or baseline.pitch.largest <= PLAUSIBLE_PITCH_ERROR * 2 * math.pi / 60
     diagnosis = diagnose(case.recording, engine, baseline=baseline, load=case.load_given)
     assert diagnosis.status in ("healthy", "warning", "alarm", "inconclusive")
-
-
-def _validation_engine(text: str) -> Engine:
-
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(text)
-        return load_engine(path)
 
 
 @pytest.mark.parametrize(
@@ -311,7 +303,7 @@ def test_cylinders_firing_nearly_together_are_named_as_the_crank_speed_cannot_pa
     from validation.simulator.vee_engine import engine_of_seed
 
     def engine(seed: int) -> Engine:
-        return _validation_engine(engine_description(engine_of_seed(seed, True)))
+        return case_engine(engine_description(engine_of_seed(seed, True)))
 
     v16 = firing_together(engine(300046), 8.0)
     pairs = re.findall(r"([AB]\d+) and ([AB]\d+) \((\d+\.\d) deg\)", v16)

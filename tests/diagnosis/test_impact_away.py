@@ -9,8 +9,6 @@ stand out :data:`LOCALISED` times as far (:func:`bearing_findings`), as against 
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -147,19 +145,15 @@ def test_a_healthy_run_far_above_its_one_calibrated_load_is_no_worn_bearing() ->
     0.60, calibrated on one healthy run at 0.51 and 406 rpm. Its first segment runs at 542 rpm, where
     one sensor's spans read 8 to 18 x the baseline in the windows of three bearings and as much all
     round the cycle: no bearing finding (it was an alarm), and the note says why."""
-    from benchmarks.diagnosed import diagnose_as_compare
+    from benchmarks.diagnosed import case_engine, diagnose_as_compare
     from benchmarks.judging import vibrating
     from monitor.diagnosis import calibrate
     from monitor.diagnosis.operating_points import OperatingPoints
-    from monitor.model.engine import load_engine
     from validation.simulator import healthy_twin, random_case
 
     case = random_case(200259, duration_s=30.0, operating="random")
     twin = healthy_twin(case, seed=200259 + 1_000_000)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(case.engine_toml)
-        engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
     truth = vibrating(case.truth)
     assert truth["class"] == "healthy" and truth["operating_class"] == "load step"

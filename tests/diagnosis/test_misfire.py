@@ -12,8 +12,6 @@ model lets it fall with load.
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -150,9 +148,9 @@ def test_through_diagnose_with_the_charge_pressure_held(
     charge pressure held at rated (the product's model lets it fall with load), told the load with
     the simulator's error: the misfire is an alarm at its cylinder, the healthy run has no cylinder
     finding."""
+    from benchmarks.diagnosed import case_engine
     from monitor.diagnosis.calibration import calibrate
     from monitor.diagnosis.diagnose import diagnose
-    from monitor.model.engine import load_engine
     from validation.simulator import cases
     from validation.simulator.operating import OperatingPoint
 
@@ -169,10 +167,7 @@ def test_through_diagnose_with_the_charge_pressure_held(
     case = cases._simulate(seed, seed, twin=False, duration_s=10.0, fault=fault)
     rated = OperatingPoint("baseline point", (1.0,), charge_law="held")
     twin = cases._simulate(seed, seed + 1_000_000, twin=True, duration_s=10.0, fault=None, operating=rated)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(case.engine_toml)
-        engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     baseline = calibrate(twin.recording, engine, load=min(twin.load_given, 1.1))
     diagnosis = diagnose(case.recording, engine, baseline=baseline, load=case.load_given)
     named = [(f.subject, f.severity) for f in diagnosis.findings if f.kind == "cylinder"]

@@ -9,9 +9,7 @@ ramping from 356 to 493 rpm over the 15 cycles after it.
 
 from __future__ import annotations
 
-import tempfile
 from dataclasses import replace
-from pathlib import Path
 from types import SimpleNamespace
 from typing import cast
 
@@ -19,11 +17,12 @@ import numpy as np
 import pytest
 
 import monitor.diagnosis.segments as segments
+from benchmarks.diagnosed import case_engine
 from monitor.diagnosis import calibrate
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.diagnose import Diagnosis, unsteady_speeds
 from monitor.diagnosis.operating_points import OperatingPoints
-from monitor.model.engine import Engine, load_engine
+from monitor.model.engine import Engine
 from monitor.signal.measure import SpectrumResult
 from monitor.signal.steady import MIN_CYCLES, SPEED_STEP, Segment, Segmentation
 from tests.diagnosis.hand_built import hand_built
@@ -86,10 +85,7 @@ def test_a_propeller_engine_s_load_step_in_ten_seconds_is_judged_on_its_steady_s
     case = random_case(200138, duration_s=10.0, operating="random")
     assert case.truth["class"] == "healthy" and case.truth["operating_class"] == "load step"
     twin = healthy_twin(case, seed=200138 + 1_000_000)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(case.engine_toml)
-        engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     points = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
     whole = diagnose_at_point(case.recording, engine, points=points, load=case.load_given)
     assert whole.status == "inconclusive" and "the speed was not steady" in " ".join(whole.notes)

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import pytest
 
+from benchmarks.diagnosed import case_engine
 from monitor.diagnosis import Diagnosis, calibrate
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
-from monitor.model.engine import load_engine
 from validation.simulator import Case, healthy_twin, random_case
 
 SEED = 200_534  # of the benchmark's off-point population: its class and loads are its own draw
@@ -24,12 +24,10 @@ Judged = tuple[Case, Diagnosis, Diagnosis]  # the case; diagnosed not told its l
 
 
 @pytest.fixture(scope="module")
-def judged(tmp_path_factory: pytest.TempPathFactory) -> Judged:
+def judged() -> Judged:
     case = random_case(SEED, duration_s=LENGTH_S, operating="random")
     twin = healthy_twin(case, seed=SEED + 1_000_000)
-    path = tmp_path_factory.mktemp("single") / "engine.toml"
-    path.write_text(case.engine_toml)
-    engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     points = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
     untold = diagnose_at_point(case.recording, engine, points=points)
     told = diagnose_at_point(case.recording, engine, points=points, load=case.load_given)

@@ -11,16 +11,14 @@ standard errors and the cylinder balance of a healthy V16 came out inconclusive.
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from benchmarks.diagnosed import case_engine
 from monitor.diagnosis import calibrate
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
-from monitor.model.engine import load_engine
 from monitor.signal.anglemap import AngleMap
 from validation.simulator import healthy_twin, random_case
 
@@ -87,10 +85,7 @@ def test_healthy_v16_runs_fit_each_others_baseline(seed: int, seconds: float) ->
     against another healthy run's baseline fits the crank-speed model (reduced chi-square below 5;
     they read 100 to 130 when the gap was filled on one run and not the other) and is healthy."""
     case = random_case(seed, duration_s=seconds, vee=True)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "engine.toml"
-        path.write_text(case.engine_toml)
-        engine = load_engine(path)
+    engine = case_engine(case.engine_toml)
     first, second = (healthy_twin(case, seed=seed + k * 1_000_000) for k in (1, 2))
     points = OperatingPoints.of([calibrate(first.recording, engine, load=first.load_given)])
     diagnosis = diagnose_at_point(second.recording, engine, points=points, load=second.load_given)
