@@ -46,6 +46,7 @@ COPIED = ("monitor", "tests", "pyproject.toml")
 _ONE_CYLINDER = "equivalent: a single cylinder's arrays hold one value, index 0 and -1 alike"
 _ONE_EVIDENCE = "equivalent: a cylinder finding holds one piece of evidence, index 0 and -1 alike"
 _WORST = "worst = int(np.argmax(np.where(beyond, dev.deviation, -1)))"
+_APART = "math.isnan(x) or excess >= LOCALISED * max(x - 1.0, 0.0) for x in (score.elsewhere, score.away)"
 ACCEPTED: dict[tuple[str, str], str] = {
     (
         "low = r < 1.0",
@@ -77,8 +78,8 @@ ACCEPTED: dict[tuple[str, str], str] = {
     (_WORST, _WORST.replace("-1", "- 2")): "equivalent: the fill of the orders within their limits; any "
     "value below 50 % (the least deviation beyond) picks the same worst order",
     (_WORST, _WORST.replace("-1", "- 0")): "equivalent: as above, 0 is below 50 % too",
-    ("score.elsewhere - 1.0, 0.0", "score.elsewhere - 1.0, -1.0"): "equivalent: a heard score is at least "
-    "1.25 x, so its excess is positive and beats 2 x any excess elsewhere at or below zero",
+    (_APART, _APART.replace("0.0)", "-1.0)")): "equivalent: a heard score is at least 1.5 x, so its "
+    "excess is positive and beats 2 x any excess elsewhere or away at or below zero",
 }
 
 

@@ -445,15 +445,16 @@ def test_impacts(
 
 @pytest.mark.parametrize(
     ("neighbour", "sensed", "expected"),
-    [(1.49, False, None), (1.51, False, "main bearing 6"), (3.0, True, None)],
+    [(1.87, False, None), (1.88, False, "main bearing 6"), (3.0, True, None)],
     ids=["below 1.5 x its own", "above 1.5 x its own", "a sensor sits on the neighbour"],
 )
 def test_a_neighbour_is_named_only_when_clearly_louder_and_unsensed(
     neighbour: float, sensed: bool, expected: str | None
 ) -> None:
-    """Bearing 5's own windows quiet (1 x): its neighbour 6 is named from this sensor only if it hears it
-    at least 1.5 times as loud and no sensor sits on bearing 6."""
-    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.0), _impact(neighbour, bearing=6)])]
+    """Bearing 5's own windows at 1.25 x, below the warning: its neighbour 6, heard beyond the warning
+    either way, is named from this sensor only if it hears it at least 1.5 times as loud (1.875 x) and
+    no sensor sits on bearing 6."""
+    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.25), _impact(neighbour, bearing=6)])]
     if sensed:
         results.append(BearingResult("mb6-vertical", 6, None, []))
     found = bearing_findings(results, with_baseline=True)
@@ -711,7 +712,8 @@ def test_an_impact_on_its_limits(impact: ImpactScore, expected: tuple[str, float
 
 
 def test_a_neighbour_exactly_1_5_times_as_loud_is_named() -> None:
-    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.0), _impact(1.5, bearing=6)])]
+    """1.875 x against its own 1.25 x: exactly 1.5 times, in binary too."""
+    results = [BearingResult("mb5-vertical", 5, None, [_impact(1.25), _impact(1.875, bearing=6)])]
     assert [f.subject for f in bearing_findings(results, with_baseline=True)] == ["main bearing 6"]
 
 
