@@ -202,9 +202,10 @@ class ImpactScore:
         sensor, a change of the engine's own noise (combustion moved by a misfire) on all alike [-].
     away : float
         The excess over the reference that :data:`AWAY_SHARE` of the sensor's spans clear of the
-        bearing's windows reach, a span counted only where it stands :data:`AWAY_SIGNIFICANCE` standard
-        errors out (1 where fewer do; NaN where no span is clear): a knock is heard where the load
-        reverses, the engine's own noise at a point its baseline does not know all round the cycle [-].
+        windows of every bearing it is scored for reach, a span counted only where its whole power
+        stands :data:`AWAY_SIGNIFICANCE` standard errors out (1 where fewer do; NaN where none is clear):
+        a knock is heard where a load reverses, the engine's own noise at a point its baseline does
+        not know all round the cycle [-].
     """
 
     bearing: int
@@ -355,6 +356,7 @@ def impact_score(
     bearing: int,
     cycle_revolutions: int,
     baseline: HighFrequencyPower | None = None,
+    heard: FloatArray | None = None,
 ) -> ImpactScore:
     """Score a bearing's reversal windows in a sensor's high-frequency profile (module docstring).
 
@@ -367,6 +369,10 @@ def impact_score(
     cycle_revolutions : int
     baseline : HighFrequencyPower, optional
         The same sensor's profile on the healthy baseline (same bins and sampling rate).
+    heard : ndarray, optional
+        The load reversals of every bearing the sensor is scored for [rad]: the spans
+        :attr:`ImpactScore.away` reads are clear of all their windows (a worn neighbour's knocks are
+        none of this bearing's engine noise); default: ``reversals``.
 
     Returns
     -------
@@ -378,6 +384,9 @@ def impact_score(
     span = _span_bins(profile, cycle_revolutions)
     how = "baseline" if baseline is not None else "own median"
     measured, expected, error, z = _span_significance(profile, baseline, span)
+    # how far the reference falls short of the engine's noise away from every window: in the whole power
+    windows = mask if heard is None else np.logical_or(mask, window_bins(heard, bins, cycle_revolutions))
+    away = _away(measured / expected, z, windows, span)
     varying = profile.varying_part()
     theirs = baseline.varying_part() if baseline is not None else None
     if (
@@ -388,7 +397,6 @@ def impact_score(
     ):
         # the engine's own rings repeat; how they add is not known at this speed (module docstring)
         z = np.minimum(z, _span_significance(varying, theirs, span)[3])
-    away = _away(measured / expected, z, mask, span)
     z = np.where(mask, z, -np.inf)
     peak = int(np.argmax(z))
     tested = max(1.0, float(mask.sum()) / span)  # about independent spans in the windows

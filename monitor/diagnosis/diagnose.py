@@ -571,13 +571,12 @@ def _bearing_result(
         notes += matched.notes(channel.name)
         if (note := varying_note(profile, matched.reference)) is not None and note not in notes:
             notes.append(note)
-        for neighbour in (b - 1, b, b + 1):
-            if not 1 <= neighbour <= engine.bearing_count:
-                continue
-            reversals = load_reversals(
-                analysis.combined.bearing_force[neighbour - 1], analysis.combined.orders, R
-            )
-            impacts.append(impact_score(matched.profile, reversals, neighbour, R, matched.reference))
+        force, orders = analysis.combined.bearing_force, analysis.combined.orders
+        near = [n for n in (b - 1, b, b + 1) if 1 <= n <= engine.bearing_count]
+        heard = {n: load_reversals(force[n - 1], orders, R) for n in near}
+        every = np.concatenate(list(heard.values()))
+        for n, reversals in heard.items():
+            impacts.append(impact_score(matched.profile, reversals, n, R, matched.reference, heard=every))
         if (note := away_note(channel.name, impacts, IMPACT_WARNING)) is not None:
             notes.append(note)
     return BearingResult(channel.name, b, deviation, impacts), comparison
