@@ -82,10 +82,10 @@ RELEVANT_SIGMAS = 10.0  # nor those predicted below this many standard errors
 #: two rings that overlap for up to RING_S (10 ms) at the band's lowest 1 kHz are up to 10 periods
 #: apart, and a speed 1 % away moves one against the other by a tenth of a period.
 REPEATING_SPEED_TOLERANCE = 0.01
-#: The share of a sensor's spans clear of a bearing's windows whose excess :attr:`ImpactScore.away` gives
-#: [-]: a worn bearing's knocks lift a few spans of the cycle (some outside the windows, where the
-#: engine's reversals differ from the model's), the engine's own noise at a load and speed its baseline
-#: does not know lifts spans all round it.
+#: The share of a sensor's spans clear of the windows it is scored for whose excess
+#: :attr:`ImpactScore.away` gives [-]: a worn bearing's knocks lift a few spans of the cycle (some
+#: outside the windows, where the engine's reversals differ from the model's), the engine's own noise at
+#: a load and speed its baseline does not know lifts spans all round it.
 AWAY_SHARE = 0.05
 #: A span away from the windows counts as lifted where it stands this many standard errors out [-].
 AWAY_SIGNIFICANCE = 4.0

@@ -59,8 +59,8 @@ IMPACT_WITH_CYLINDER_FINDING = 2.0
 IMPACT_WITHOUT_BASELINE = 10.0
 # and always: the span's excess over its reference on the bearing's own sensor at least this many times
 # its excess on any other bearing sensor (a knock is heard loudest where it is; the engine's own noise,
-# moved by a misfire or a load change, alike on all); and as many times its excess away from the
-# bearing's windows on its own sensor (bearings.AWAY_SHARE: a knock is heard where the load reverses) [-]
+# moved by a misfire or a load change, alike on all); and as many times the excess of its own sensor
+# away from every window it is scored for (bearings.AWAY_SHARE: a knock is heard where a load reverses) [-]
 LOCALISED = 2.0
 SEVERITIES = ("healthy", "warning", "alarm")
 NEARLY_PATTERN = "it lacks most of its firing impulse"  # the pattern's label between 30 and 50 %
