@@ -37,9 +37,16 @@ release is late and gives the combustion's orders a cosine part: ``L`` is read f
 the firing harmonic that neither the masses nor the compression can make.  The share the cylinder
 fires, ``r = 1 - a / L``, is then the model's level cancelled out twice: ``a`` and ``L`` are both in
 the model's units.  Where the compression and the combustion are nearly parallel at the firing
-harmonic (a four-cylinder four-stroke's second order, which the masses dominate) ``L`` is loose;
-it is weighed with the balance's own level (the mean strength of the others, the model at the
-stated load) by their inverse variances, so the firing harmonic decides wherever it can.
+harmonic (a four-cylinder four-stroke's second order, which the masses dominate, or a
+six-cylinder four-stroke's third) ``L`` is loose; it is weighed with the model's level at the stated
+load, 1 to :data:`~monitor.diagnosis.balance.LEVEL_UNCERTAINTY` (what the balance assumes of the
+cylinders' common level), by their inverse variances, so the firing harmonic decides wherever it
+can.  The balance's own level (the others' mean strength) is not a second reading: it is the same
+firing harmonic read with ``beta`` held at 1, so where the charge-pressure law is not the engine's
+its strengths take up the compression's misfit.  On the validation simulator a motored cylinder at
+47 % load with its boost held read 51 % of the others by the balance, whose strengths were 2.4 times
+the model's, while its deficit, 1.18 of the model's cylinder, said that the engine fired about as
+the model does (seed 200239).
 
 A missing impulse explains most of what the cancelling orders carry: the share of their weighted
 power the fitted pattern leaves unexplained tells a misfire from a disturbance of another shape
@@ -78,6 +85,7 @@ from monitor.diagnosis.balance import (
     CALIBRATED_UNCERTAINTY,
     IMBALANCE,
     INERTIA_SHARE,
+    LEVEL_UNCERTAINTY,
     MODEL_UNCERTAINTY,
     TIMING_UNCERTAINTY,
     CylinderBalance,
@@ -101,8 +109,8 @@ class MissingFiring:
         Its standard error (the measurement's spread, never scaled by a misfit) [-].
     level : ndarray, shape (n_cylinders,)
         ``L``: the healthy cylinders' level, from the firing harmonics with the cylinder's
-        deficit and a free compression scale, weighed with the balance's level by their
-        errors [-].
+        deficit and a free compression scale, weighed with the model's level at the stated
+        load (1) by their errors [-].
     level_error : ndarray, shape (n_cylinders,)
         Its standard error [-].
     share : ndarray, shape (n_cylinders,)
@@ -150,6 +158,7 @@ def missing_firing(
     inertia_share: float = INERTIA_SHARE,
     model_uncertainty: float = MODEL_UNCERTAINTY,
     timing_uncertainty: float = TIMING_UNCERTAINTY,
+    level_uncertainty: float = LEVEL_UNCERTAINTY,
 ) -> MissingFiring | None:
     """Each cylinder's missing firing impulse by its pattern (see the module docstring).
 
@@ -165,6 +174,9 @@ def missing_firing(
         The combustion's relative uncertainty at an order no baseline calibrated [-].
     timing_uncertainty : float, optional
         The combustion timing's uncertainty [rad].
+    level_uncertainty : float, optional
+        The healthy cylinders' level is the model's at the stated load (1) to this standard error,
+        beside the firing harmonics [-].
 
     Returns
     -------
@@ -212,7 +224,7 @@ def missing_firing(
         design = np.stack([balance.gas_part, together, -columns[:, c]], axis=1)
         out[:, c] = _fit(design, rhs, fixed_error, shape, cancelling)
     deficit, deficit_error, read, read_error, covariance, compression, explained = out
-    level, level_error, weight = _level(balance, read, read_error)
+    level, level_error, weight = _level(read, read_error, level_uncertainty)
     covariance = weight * covariance  # the deficit's covariance with the level, the pattern's share
     safe = np.where(np.abs(level) > 0, level, math.nan)
     share = 1.0 - deficit / safe
@@ -240,29 +252,18 @@ def missing_firing(
 
 
 def _level(
-    balance: CylinderBalance, read: FloatArray, read_error: FloatArray
+    read: FloatArray, read_error: FloatArray, uncertainty: float
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Each cylinder's healthy level: the firing harmonic's, weighed with the balance's (the mean
-    strength of the others, the model at the stated load) by their inverse variances; with the
-    weight of the former [-]."""
-    n = balance.strength.size
-    covariance = balance.strength_covariance
-    if balance.strength.size != read.size or covariance.shape != (n, n):
-        return read, read_error, np.ones(n)
-    level = np.empty(n)
-    error = np.empty(n)
-    weight = np.empty(n)
-    for c in range(n):
-        others = np.full(n, 1.0 / (n - 1))
-        others[c] = 0.0
-        model, model_variance = float(others @ balance.strength), float(others @ covariance @ others)
-        variance = float(read_error[c]) ** 2
-        if not (math.isfinite(variance) and math.isfinite(model_variance) and model_variance > 0):
-            level[c], error[c], weight[c] = read[c], read_error[c], 1.0
-            continue
-        weight[c] = model_variance / (model_variance + variance) if variance > 0 else 1.0
-        level[c] = weight[c] * read[c] + (1 - weight[c]) * model
-        error[c] = math.sqrt(variance * model_variance / (variance + model_variance))
+    """Each cylinder's healthy level: the firing harmonic's, weighed with the model's at the stated load
+    (1, to ``uncertainty``) by their inverse variances; with the weight of the former [-]."""
+    if not uncertainty > 0:
+        return read, read_error, np.ones(read.size)
+    prior = uncertainty**2
+    seen = np.isfinite(read) & np.isfinite(read_error)
+    variance = np.where(seen, read_error, 0.0) ** 2
+    weight = np.where(seen, prior / (prior + variance), 0.0)
+    level = np.where(seen, weight * np.where(seen, read, 0.0) + (1 - weight), 1.0)
+    error = np.where(seen, np.sqrt(variance * prior / (variance + prior)), uncertainty)
     return level, error, weight
 
 
