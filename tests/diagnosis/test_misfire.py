@@ -122,6 +122,68 @@ def test_a_weak_cylinder_reads_its_share(rng: np.random.Generator) -> None:
     assert missing_firing_findings(balance) == []
 
 
+def test_the_balances_strengths_do_not_set_the_level(rng: np.random.Generator) -> None:
+    """The balance's strengths are the firing harmonic read with the compression held at the model's, no
+    second reading of the healthy level: a dead cylinder's share is the same whatever they say (the
+    others at 2.4 times the model's, as a wrong charge-pressure law makes them read, or at 1)."""
+    strengths = [1.0, 1.0, 1.0, 0.0, 1.0, 1.0]
+    balance = _vectors(strengths, rng, level=1.0, compression=1.6, misfit=0.2)
+    inflated = CylinderBalance(
+        **{
+            **balance.__dict__,
+            "strength": np.array([2.4, 2.4, 2.4, 1.2, 2.4, 2.4]),
+            "strength_covariance": 0.03 * np.eye(6),
+        }
+    )
+    plain, misled = missing_firing(balance), missing_firing(inflated)
+    assert plain is not None and misled is not None
+    np.testing.assert_array_equal(misled.share, plain.share)
+    np.testing.assert_array_equal(misled.level, plain.level)
+
+
+def test_the_level_is_the_firing_harmonics_read_weighed_with_the_models(rng: np.random.Generator) -> None:
+    """An engine that fires twice the model's combustion: the firing harmonic alone reads 2 within its
+    error (the combustion's shape uncertainty makes that error some 13 % of the level whatever the
+    noise). Weighed with the model's level (1 to 0.3) the level lies between 1 and the read, nearer the
+    read the smaller the measurement's noise, and its error is below both the read's and 0.3."""
+    strengths = [1.0] * 6
+    balance = _vectors(strengths, rng, level=2.0, compression=1.0, misfit=0.0)
+    noisy = CylinderBalance(**{**balance.__dict__, "standard_error": 100 * balance.standard_error})
+    levels = []
+    for measured in (balance, noisy):
+        read, weighed = missing_firing(measured, level_uncertainty=0.0), missing_firing(measured)
+        assert read is not None and weighed is not None
+        assert np.all(np.abs(read.level - 2.0) < 2 * read.level_error), read.level
+        assert np.all((weighed.level > 1.0) & (weighed.level < read.level)), weighed.level
+        assert np.all(weighed.level_error < np.minimum(read.level_error, 0.3))
+        levels.append(weighed.level)
+    assert np.all(levels[0] > levels[1])
+
+
+def test_a_motored_cylinder_with_its_boost_held_is_misfiring_against_one_point() -> None:
+    """The validation population's seed 200239: a six-cylinder four-stroke on the propeller curve at 47 %
+    load, its boost held at rated (the product's model lets it fall), cylinder 4 motored, calibrated on
+    one healthy run at rated load. The balance's strengths read 2.4 times the model's and the dead
+    cylinder 51 % of them, a weak cylinder's warning; the pattern's deficit, 1.18 of the model's
+    cylinder, with the level weighed with the model's: misfiring."""
+    from benchmarks.diagnosed import case_engine, diagnose_as_compare
+    from benchmarks.judging import vibrating
+    from monitor.diagnosis import calibrate
+    from monitor.diagnosis.operating_points import OperatingPoints
+    from validation.simulator import healthy_twin, random_case
+
+    case = random_case(200239, duration_s=30.0, operating="random")
+    twin = healthy_twin(case, seed=200239 + 1_000_000)
+    engine = case_engine(case.engine_toml)
+    baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
+    truth = vibrating(case.truth)
+    assert truth["class"] == "misfire" and truth["cylinder"] == 4 and truth["charge_law"] == "held"
+    diagnosis = diagnose_as_compare(case.recording, engine, baseline, case.load_given, truth)
+    named = [(f.subject, f.severity) for f in diagnosis.findings if f.kind == "cylinder"]
+    assert named == [("cylinder 4", "alarm")], diagnosis.findings
+    assert "(misfiring;" in diagnosis.findings[0].summary
+
+
 def test_without_its_parts_a_balance_has_no_pattern_test(rng: np.random.Generator) -> None:
     """A balance built without the per-cylinder columns (an older one, a constructed one) gives None."""
     balance = _vectors([1.0, 0.0, 1.0, 1.0, 1.0, 1.0], rng, level=1.0, compression=1.0, misfit=0.0)
