@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.findings import cylinder_findings, missing_firing_findings
@@ -158,6 +160,33 @@ def test_the_level_is_the_firing_harmonics_read_weighed_with_the_models(rng: np.
         assert np.all(weighed.level_error < np.minimum(read.level_error, 0.3))
         levels.append(weighed.level)
     assert np.all(levels[0] > levels[1])
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    level=st.floats(0.3, 3.0),
+    compression=st.floats(0.5, 2.0),
+    noise=st.floats(1.0, 300.0),
+    seed=st.integers(0, 2**31),
+)
+def test_the_weighed_level_lies_between_the_model_and_the_read(
+    level: float, compression: float, noise: float, seed: int
+) -> None:
+    """Whatever the engine's level, compression and noise: each cylinder's weighed level lies between the
+    model's (1) and the firing harmonic's read, and its error is no larger than the read's or 0.3."""
+    balance = _vectors(
+        [1.0] * 6, np.random.default_rng(seed), level=level, compression=compression, misfit=0.2
+    )
+    balance = CylinderBalance(**{**balance.__dict__, "standard_error": noise * balance.standard_error})
+    read, weighed = missing_firing(balance, level_uncertainty=0.0), missing_firing(balance)
+    assert read is not None and weighed is not None
+    low, high = np.minimum(read.level, 1.0), np.maximum(read.level, 1.0)
+    slack = 1e-9 * np.maximum(high, 1.0)  # the weighted mean's rounding
+    assert np.all((weighed.level >= low - slack) & (weighed.level <= high + slack)), (
+        weighed.level,
+        read.level,
+    )
+    assert np.all(weighed.level_error <= np.minimum(read.level_error, 0.3) + 1e-12)
 
 
 def test_a_motored_cylinder_with_its_boost_held_is_misfiring_against_one_point() -> None:
