@@ -16,15 +16,17 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from monitor.diagnosis import Baseline, Diagnosis
+from benchmarks.judging import vibrating
+from monitor.diagnosis import Baseline, Diagnosis, calibrate
 from monitor.diagnosis.at_point import diagnose_at_point
 from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.diagnosis.segments import diagnose_segments, steady_parts
 from monitor.io.recording import Recording
 from monitor.model.engine import Engine, load_engine
 from monitor.signal.steady import Segment
+from validation.simulator import healthy_twin, random_case
 
-__all__ = ["case_engine", "diagnose_as_compare", "loads_told"]
+__all__ = ["case_engine", "diagnose_as_compare", "loads_told", "one_point"]
 
 
 def case_engine(engine_toml: str) -> Engine:
@@ -71,6 +73,18 @@ def diagnose_as_compare(
             loads = loads_told(found.segments, truth)
     segmented = diagnose_segments(recording, engine, whole, baseline=points, load=load, loads=loads)
     return segmented.as_one()
+
+
+def one_point(seed: int, length_s: float) -> tuple[dict[str, Any], Diagnosis]:
+    """A case of the validation population off its point, diagnosed told its load against its healthy
+    twin alone (one calibrated point), as the bench diagnoses it; with the truth as the bench judges it
+    (:func:`benchmarks.judging.vibrating`)."""
+    case = random_case(seed, duration_s=length_s, operating="random")
+    twin = healthy_twin(case, seed=seed + 1_000_000)
+    engine = case_engine(case.engine_toml)
+    baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
+    truth = vibrating(case.truth)
+    return truth, diagnose_as_compare(case.recording, engine, baseline, case.load_given, truth)
 
 
 def loads_told(segments: Sequence[Segment], truth: dict[str, Any]) -> list[float]:

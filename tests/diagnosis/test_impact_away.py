@@ -16,14 +16,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from benchmarks.diagnosed import case_engine, diagnose_as_compare
-from benchmarks.judging import vibrating
-from monitor.diagnosis import Diagnosis, calibrate
+from benchmarks.diagnosed import one_point
 from monitor.diagnosis.bearings import AWAY_SHARE, ImpactScore, away_note, impact_score, window_bins
 from monitor.diagnosis.findings import IMPACT_WARNING, LOCALISED, BearingResult, bearing_findings
-from monitor.diagnosis.operating_points import OperatingPoints
 from monitor.signal.impact import HighFrequencyPower
-from validation.simulator import healthy_twin, random_case
 
 BINS = 1024  # over a four-stroke's cycle: 0.70 deg a bin
 R = 2  # revolutions a cycle
@@ -160,23 +156,12 @@ def test_the_note_names_the_sensor_and_the_excess_where_it_reaches_the_warning()
     assert note.startswith(f"mb5-vertical: {said}")
 
 
-def _one_point(seed: int, length_s: float) -> tuple[dict[str, object], Diagnosis]:
-    """A case of the validation population off its point, diagnosed told its load against its healthy
-    twin alone (one calibrated point), as the bench diagnoses it; with what the simulator put in."""
-    case = random_case(seed, duration_s=length_s, operating="random")
-    twin = healthy_twin(case, seed=seed + 1_000_000)
-    engine = case_engine(case.engine_toml)
-    baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
-    truth = vibrating(case.truth)
-    return truth, diagnose_as_compare(case.recording, engine, baseline, case.load_given, truth)
-
-
 def test_a_healthy_run_far_above_its_one_calibrated_load_is_no_worn_bearing() -> None:
     """The validation population's seed 200259: a healthy propeller engine whose load steps from 0.86 to
     0.60, calibrated on one healthy run at 0.51 and 406 rpm. Its first segment runs at 542 rpm, where
     one sensor's spans read 8 to 18 x the baseline in the windows of three bearings and as much all
     round the cycle: no bearing finding (it was an alarm), and the note says why."""
-    truth, diagnosis = _one_point(200259, 30.0)
+    truth, diagnosis = one_point(200259, 30.0)
     assert truth["class"] == "healthy" and truth["operating_class"] == "load step"
     assert not [f for f in diagnosis.findings if f.kind == "main bearing"], diagnosis.findings
     assert any("away from the load-reversal windows" in n for n in diagnosis.notes), diagnosis.notes
@@ -187,6 +172,6 @@ def test_a_worn_bearing_that_knocks_where_its_neighbours_load_reverses_is_named(
     in 10 s, some where bearings 1 and 3 reverse. Away from bearing 2's windows alone its sensor's spans
     read 3.4 x in 5 % of them, and the 5.0 x knock was lost; away from every window the sensor is scored
     for they read as the baseline, and bearing 2 is named."""
-    truth, diagnosis = _one_point(200496, 10.0)
+    truth, diagnosis = one_point(200496, 10.0)
     assert truth["class"] == "worn_bearing" and str(truth["bearing"]) == "2"
     assert [f.subject for f in diagnosis.findings if f.kind == "main bearing"] == ["main bearing 2"]

@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from monitor.diagnosis import Diagnosis
+from benchmarks.diagnosed import one_point
 from monitor.diagnosis.balance import CylinderBalance
 from monitor.diagnosis.findings import cylinder_findings, missing_firing_findings
 from monitor.diagnosis.misfire import missing_firing
@@ -190,30 +190,13 @@ def test_the_weighed_level_lies_between_the_model_and_the_read(
     assert np.all(weighed.level_error <= np.minimum(read.level_error, 0.3) + 1e-12)
 
 
-def _one_point(seed: int, length_s: float) -> tuple[dict[str, object], Diagnosis]:
-    """A case of the validation population off its point, diagnosed told its load against its healthy
-    twin alone (one calibrated point), as the bench diagnoses it; with what the simulator put in."""
-    from benchmarks.diagnosed import case_engine, diagnose_as_compare
-    from benchmarks.judging import vibrating
-    from monitor.diagnosis import calibrate
-    from monitor.diagnosis.operating_points import OperatingPoints
-    from validation.simulator import healthy_twin, random_case
-
-    case = random_case(seed, duration_s=length_s, operating="random")
-    twin = healthy_twin(case, seed=seed + 1_000_000)
-    engine = case_engine(case.engine_toml)
-    baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
-    truth = vibrating(case.truth)
-    return truth, diagnose_as_compare(case.recording, engine, baseline, case.load_given, truth)
-
-
-def test_a_motored_cylinder_with_its_boost_held_is_misfiring_against_one_point() -> None:
+def test_a_motored_cylinder_with_its_boost_held_is_misfiring_againstone_point() -> None:
     """The validation population's seed 200239: a six-cylinder four-stroke on the propeller curve at 47 %
     load, its boost held at rated (the product's model lets it fall), cylinder 4 motored, calibrated on
     one healthy run at rated load. The balance's strengths read 2.4 times the model's and the dead
     cylinder 51 % of them, a weak cylinder's warning; the pattern's deficit, 1.18 of the model's
     cylinder, with the level weighed with the model's: misfiring."""
-    truth, diagnosis = _one_point(200239, 30.0)
+    truth, diagnosis = one_point(200239, 30.0)
     assert truth["class"] == "misfire" and truth["cylinder"] == 4 and truth["charge_law"] == "held"
     named = [(f.subject, f.severity) for f in diagnosis.findings if f.kind == "cylinder"]
     assert named == [("cylinder 4", "alarm")], diagnosis.findings
@@ -226,7 +209,7 @@ def test_a_level_read_near_nothing_keeps_the_models_shape_error() -> None:
     combustion alone the fit read the level as -0.09 +- 0.06 (the error shrinking with the level) and the
     share as 1600 %: no pattern finding, and the balance called the cylinder weak. With the error on the
     model's combustion at the stated load the level's read is loose, and the cylinder is misfiring."""
-    truth, diagnosis = _one_point(200225, 30.0)
+    truth, diagnosis = one_point(200225, 30.0)
     assert truth["class"] == "misfire" and truth["cylinder"] == 7
     named = [(f.subject, f.severity) for f in diagnosis.findings if f.kind == "cylinder"]
     assert named == [("cylinder 7", "alarm")], diagnosis.findings
