@@ -64,6 +64,9 @@ IMPACT_WITHOUT_BASELINE = 10.0
 LOCALISED = 2.0
 SEVERITIES = ("healthy", "warning", "alarm")
 NEARLY_PATTERN = "it lacks most of its firing impulse"  # the pattern's label between 30 and 50 %
+# a share whose 95 % interval reaches further than this either side says nothing of its size (the
+# others' level read near nothing): the summary gives the deficit in the model's terms instead [-]
+SHARE_READABLE = 1.0
 # a missing impulse's pattern explains at least this share of the weighted power at the orders where
 # the cylinders cancel: a disturbance of another shape there (a transfer that is not the engine's, a
 # torsional resonance) is not one cylinder's missing impulse [-]
@@ -227,14 +230,20 @@ def missing_firing_findings(
     e = max(float(test.share_error[c]), 1e-12)
     named = _named(balance, c, partners)
     what = "misfiring" if share < MISFIRE_BELOW else f"misfiring, or nearly: {NEARLY_PATTERN}"
+    told = f"{named} at {round(100 * share)} % +- {round(196 * e)} % of the others' firing impulse"
+    if 1.96 * e > SHARE_READABLE:
+        told = (
+            f"{named} lacks {a:.2f} +- {1.96 * float(test.deficit_error[c]):.2f} of a cylinder's firing "
+            f"impulse in the model at the load used, the others firing {float(test.level[c]):.2f} +- "
+            f"{1.96 * float(test.level_error[c]):.2f} of it: too uncertain a level to give a share"
+        )
     return [
         Finding(
             kind="cylinder",
             subject=named,
             severity="alarm",
             summary=(
-                f"{named} at {round(100 * share)} % +- {round(196 * e)} % of the others' firing impulse "
-                f"({what}; the pattern of a missing impulse in the crank-speed orders, "
+                f"{told} ({what}; the pattern of a missing impulse in the crank-speed orders, "
                 "whatever the model's level)" + _either(balance, c, partners)
             ),
             confidence=confidence_beyond((CYLINDER_ALARM[0] - share) / e),

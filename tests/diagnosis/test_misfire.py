@@ -208,12 +208,15 @@ def test_a_level_read_near_nothing_keeps_the_models_shape_error() -> None:
     stepping from 0.41 to 0.53, calibrated on one healthy run at 0.80. With the shape's error on the fitted
     combustion alone the fit read the level as -0.09 +- 0.06 (the error shrinking with the level) and the
     share as 1600 %: no pattern finding, and the balance called the cylinder weak. With the error on the
-    model's combustion at the stated load the level's read is loose, and the cylinder is misfiring."""
+    model's combustion at the stated load the level's read is loose, and the cylinder is misfiring. Its share
+    then says nothing of its size (it read -1244 % +- 3703 %): the summary gives the deficit instead."""
     truth, diagnosis = one_point(200225, 30.0)
     assert truth["class"] == "misfire" and truth["cylinder"] == 7
     named = [(f.subject, f.severity) for f in diagnosis.findings if f.kind == "cylinder"]
     assert named == [("cylinder 7", "alarm")], diagnosis.findings
     assert "(misfiring;" in diagnosis.findings[0].summary
+    assert diagnosis.findings[0].summary.startswith("cylinder 7 lacks "), diagnosis.findings[0].summary
+    assert "too uncertain a level to give a share" in diagnosis.findings[0].summary
 
 
 def test_without_its_parts_a_balance_has_no_pattern_test(rng: np.random.Generator) -> None:

@@ -67,7 +67,8 @@ def test_the_limits_are_those_documented() -> None:
     impacts 1.5 x, 2 x with a cylinder finding, 10 x without a baseline (a warning) and 10 x for an
     alarm, localised by a factor of 2 against other sensors and against 5 % of its own spans away from
     its windows (each counted beyond 4 standard errors); zones C and D from 11 and 18 mm/s; a missing
-    impulse's pattern explaining at least 50 % of the orders where the cylinders cancel."""
+    impulse's pattern explaining at least 50 % of the orders where the cylinders cancel, its share given
+    while its 95 % interval reaches no further than 100 % either side."""
     assert findings.SIGNIFICANCE == 4.0
     assert findings.CYLINDER_WARNING == (0.85, 1.15)
     assert findings.CYLINDER_ALARM == (0.5, 1.3)
@@ -82,6 +83,7 @@ def test_the_limits_are_those_documented() -> None:
     assert findings.LOCALISED == 2.0
     assert (AWAY_SHARE, AWAY_SIGNIFICANCE) == (0.05, 4.0)
     assert findings.PATTERN_EXPLAINED == 0.5
+    assert findings.SHARE_READABLE == 1.0
     assert DEFAULT_BOUNDARIES_MM_S == (7.1, 11.0, 18.0)
 
 
@@ -315,6 +317,38 @@ def test_a_missing_firing_impulse_states_its_share_and_95_interval(
     assert (found.evidence[0]["predicted"], found.evidence[0]["threshold"]) == (1.0, 0.5)
     expected = findings.confidence_beyond((0.5 - share) / max(share_error, 1e-12))
     assert found.confidence == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("share_error", "summary"),
+    [
+        (0.51, "cylinder 2 at -200 % +- 100 % of the others' firing impulse (misfiring; "),
+        (1 / 1.96, "cylinder 2 at -200 % +- 100 % of the others' firing impulse (misfiring; "),
+        (
+            0.511,
+            "cylinder 2 lacks 1.00 +- 0.02 of a cylinder's firing impulse in the model at the load used, the "
+            "others firing 0.33 +- 0.02 of it: too uncertain a level to give a share (misfiring; ",
+        ),
+    ],
+    ids=[
+        "95 % interval 99.96 %: the share",
+        "95 % interval exactly 100 %: the share",
+        "95 % interval 100.16 %: the deficit and the level",
+    ],
+)
+def test_a_missing_firing_impulse_whose_share_says_nothing_gives_its_deficit(
+    share_error: float, summary: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A share whose 95 % interval reaches further than 100 % either side (``SHARE_READABLE``) is no size:
+    the summary gives the deficit and the others' level, each with its 95 % interval, in the model's units;
+    the evidence and the confidence stay the share's."""
+    balance = _balance([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 0.01, 0.01)
+    given = dataclasses.replace(_missing(-2.0, 1.0, 0.01, 0.9), share_error=np.full(3, share_error))
+    monkeypatch.setattr(findings, "missing_firing", lambda _: given)
+    (found,) = findings.missing_firing_findings(balance)
+    assert found.summary.startswith(summary), found.summary
+    assert found.evidence[0]["measured"] == -2.0
+    assert found.confidence == pytest.approx(findings.confidence_beyond(2.5 / share_error), rel=1e-12)
 
 
 def test_a_missing_firing_impulse_of_unknown_cycle_phase_names_its_partner(
