@@ -75,16 +75,17 @@ def diagnose_as_compare(
     return segmented.as_one()
 
 
-def one_point(seed: int, length_s: float) -> tuple[dict[str, Any], Diagnosis]:
-    """A case of the validation population off its point, diagnosed told its load against its healthy
-    twin alone (one calibrated point), as the bench diagnoses it; with the truth as the bench judges it
-    (:func:`benchmarks.judging.vibrating`)."""
+def one_point(seed: int, length_s: float, *, told: bool = True) -> tuple[dict[str, Any], Diagnosis]:
+    """A case of the validation population off its point, diagnosed told its load (or not, ``told``
+    False) against its healthy twin alone (one calibrated point), as the bench diagnoses it; with the
+    truth as the bench judges it (:func:`benchmarks.judging.vibrating`)."""
     case = random_case(seed, duration_s=length_s, operating="random")
     twin = healthy_twin(case, seed=seed + 1_000_000)
     engine = case_engine(case.engine_toml)
     baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
     truth = vibrating(case.truth)
-    return truth, diagnose_as_compare(case.recording, engine, baseline, case.load_given, truth)
+    load = case.load_given if told else None
+    return truth, diagnose_as_compare(case.recording, engine, baseline, load, truth)
 
 
 def loads_told(segments: Sequence[Segment], truth: dict[str, Any]) -> list[float]:

@@ -9,9 +9,9 @@ fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower
 the estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
 followed.  Without a stated load, against several calibrated points whose speeds rise with their
 loads (an engine on a propeller curve) the load is read from the recording's speed on theirs; against
-several at one speed the estimate is used (the first pass at the middle point's load, the second at
-the load found); against a single point or none, as before: the baseline's load, else rated (the
-estimate reported beside it).
+several at one speed, or a single point, the estimate is used (the first pass at the middle point's
+load, the second at the load found: judged at the baseline's load instead, a recording far from it
+reads weak cylinders as healthy); without a baseline, rated (the estimate reported beside it).
 """
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ def diagnose_at_point(
             # a propeller curve reads the load off the speed as well as an operator reads the log
             within = (by_speed - LOAD_UNCERTAINTY, by_speed + LOAD_UNCERTAINTY)
             diagnosis, reference = run(by_speed, within)  # the model and reference at the speed's load
-        elif estimate is not None and len(_calibrated(points)) > 1:
+        elif estimate is not None and points is not None:
             used = "estimated"
             diagnosis, reference = run(estimate.load, within)  # the model and reference at the estimate
     notes = _load_notes(load, estimate, diagnosis.load, used)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.diagnosed import one_point
 from monitor.cli import main
 from monitor.diagnosis import Baseline
 from monitor.diagnosis.at_point import diagnose_at_point
@@ -316,3 +317,17 @@ def test_of_several_matching_loads_the_lowest_is_taken_its_error_spanning_the_ot
     notes = _load_notes(0.8, estimate, 0.8, "stated")
     assert any(n.startswith("the cylinders' strengths also match the reference at load 0.83") for n in notes)
     assert not any("disagree beyond their uncertainties" in n for n in notes)  # 0.8 lies within the span
+
+
+def test_against_one_point_without_a_stated_load_the_load_estimated_is_used() -> None:
+    """Seed 200066 of the validation population: a six-cylinder four-stroke with its crank-speed sensors
+    alone, cylinder 4 weak, at 38 % load, calibrated on one healthy run at 64 % and not told its load.
+    Judged at the baseline's load the model's gas torque was wrong and the run read healthy; judged at
+    the load its crank-speed orders give (0.40 +- 0.03) cylinder 4 is weak."""
+    truth, diagnosis = one_point(200066, 10.0, told=False)
+    assert truth["class"] == "weak" and truth["cylinder"] == 4
+    point = diagnosis.operating_point
+    assert point["load_used_from"] == "estimated"
+    # the estimate within 3 of its standard errors of the load the simulator ran
+    assert abs(point["load_used"] - truth["true_load"]) < 3 * point["load_estimated_standard_error"]
+    assert [(f.subject, f.severity) for f in diagnosis.findings] == [("cylinder 4", "warning")]
