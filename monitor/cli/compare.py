@@ -55,8 +55,9 @@ def add_compare_parser(sub: Any) -> None:
     compare.add_argument(
         "--load",
         type=float,
-        help="load the engine ran at, fraction of rated, as a log reads it (+-0.1); default: estimated "
-        "against a baseline of several loads, else the baseline's, else 1",
+        help="load the engine ran at, fraction of rated, as a log reads it (+-0.1); default: read from "
+        "the speed on a baseline of several loads along a propeller curve, else estimated from the "
+        "crank-speed orders against the baseline, else the baseline's, else 1",
     )
     compare.add_argument(
         "--segment-loads",

@@ -290,7 +290,8 @@ def diagnose_segments(
         The calibrated points; each segment is compared at its own load, estimated where not given
         (:func:`monitor.diagnosis.at_point.diagnose_at_point`).
     load : float, optional
-        The load given for the recording [-]; default: the baseline's, else rated (1).
+        The load given for the recording [-]; default: each segment's as
+        :func:`monitor.diagnosis.at_point.diagnose_at_point` finds it without one.
     transfer : {"rigid", "shaft-line"}, optional
     cycle_phase : float or "unknown", optional
     exclude : sequence of str, optional

@@ -114,8 +114,9 @@ class AnalysisOptions:
     Attributes
     ----------
     load : float or None
-        The load the engine ran at [-]; None: estimated against a baseline of several operating
-        points, else the baseline's, else rated (1) (:mod:`monitor.diagnosis.at_point`).
+        The load the engine ran at [-]; None: read from the speed on several points along a
+        propeller curve, else estimated from the crank-speed orders against the baseline, else the
+        baseline's, else rated (1) (:mod:`monitor.diagnosis.at_point`).
     transfer : {"rigid", "shaft-line"}
         Torque to crank speed: the rigid engine side or the shaft line's receptance.
     cycle_phase : float, "unknown" or None
