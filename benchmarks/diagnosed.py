@@ -75,11 +75,13 @@ def diagnose_as_compare(
     return segmented.as_one()
 
 
-def one_point(seed: int, length_s: float, *, told: bool = True) -> tuple[dict[str, Any], Diagnosis]:
-    """A case of the validation population off its point, diagnosed told its load (or not, ``told``
-    False) against its healthy twin alone (one calibrated point), as the bench diagnoses it; with the
-    truth as the bench judges it (:func:`benchmarks.judging.vibrating`)."""
-    case = random_case(seed, duration_s=length_s, operating="random")
+def one_point(
+    seed: int, length_s: float, *, told: bool = True, vee: bool = False
+) -> tuple[dict[str, Any], Diagnosis]:
+    """A case of the validation population off its point (a V engine's with ``vee``), diagnosed told its
+    load (or not, ``told`` False) against its healthy twin alone (one calibrated point), as the bench
+    diagnoses it; with the truth as the bench judges it (:func:`benchmarks.judging.vibrating`)."""
+    case = random_case(seed, duration_s=length_s, operating="random", vee=vee)
     twin = healthy_twin(case, seed=seed + 1_000_000)
     engine = case_engine(case.engine_toml)
     baseline = OperatingPoints.of([calibrate(twin.recording, engine, load=twin.load_given)])
