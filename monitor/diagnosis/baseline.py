@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from monitor.diagnosis.analysis import bearing_sensors
 from monitor.diagnosis.balance import CrankCalibration
 from monitor.errors import DiagnosisError
+from monitor.io.recording import Recording
 from monitor.model.engine import Engine
 from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.pitch import PitchCorrection
@@ -111,6 +113,54 @@ class Baseline:
     pitch: PitchCorrection | None = None
     pitch_channel: str = ""
     crank: CrankCalibration | None = None
+
+    def check_layout(self, recording: Recording, engine: Engine) -> None:
+        """Raise a :class:`~monitor.errors.DiagnosisError` where the baseline is of another engine, or lacks
+        a bearing sensor of the recording (or has it on another bearing, direction, unit or sampling rate).
+        """
+        if self.engine_id != engine.id:
+            raise DiagnosisError(
+                f"the baseline is of engine {self.engine_id!r}, the recording of {engine.id!r}: "
+                "calibrate a baseline of this engine"
+            )
+        missing = []
+        for channel, b in bearing_sensors(recording, engine):
+            known = self.sensors.get(channel.name)
+            rate = float(channel.sample_rate or 0.0)
+            if known is None:
+                missing.append(f"{channel.name!r} (not in the baseline)")
+            elif (known.bearing, known.direction, known.unit, known.sample_rate) != (
+                b,
+                channel.direction,
+                channel.unit,
+                rate,
+            ):
+                missing.append(
+                    f"{channel.name!r} (baseline: main bearing {known.bearing} {known.direction}, "
+                    f"{known.unit}, {known.sample_rate:g} Hz; recording: main bearing {b} "
+                    f"{channel.direction}, {channel.unit}, {rate:g} Hz)"
+                )
+        if missing:
+            raise DiagnosisError(
+                f"the baseline {self.source or ''} lacks the recording's channel layout: "
+                + ", ".join(missing)
+                + f"; baseline channels: {', '.join(sorted(self.sensors)) or 'none'}"
+            )
+
+    def pitch_for(self, recording: Recording) -> PitchCorrection | None:
+        """The pitch errors learned on the baseline, where they belong to the recording's angle-reference
+        wheel (the same channel, a tooth wheel or encoder of as many pulses); else None."""
+        if self.pitch is None:
+            return None
+        channel = {c.name: c for c in recording.channels}.get(self.pitch_channel)
+        if channel is None or channel.kind not in ("tooth", "encoder"):
+            return None
+        present = (
+            int(channel.fields["teeth"]) - int(channel.fields["missing_teeth"])
+            if channel.kind == "tooth"
+            else int(channel.fields["pulses_per_revolution"])
+        )
+        return self.pitch if self.pitch.errors.size == present else None
 
     def to_document(self) -> dict[str, Any]:
         """The JSON document (complex numbers as [re, im] pairs)."""

@@ -77,7 +77,7 @@ from monitor.diagnosis.zones import (
     velocity_rms,
     zone_of,
 )
-from monitor.errors import DiagnosisError, SignalError
+from monitor.errors import SignalError
 from monitor.io.recording import Channel, Recording
 from monitor.model.engine import Engine
 from monitor.model.inertia import engine_side_inertia_at
@@ -88,7 +88,6 @@ from monitor.model.predicted import (
 from monitor.signal.anglemap import AngleMap
 from monitor.signal.impact import HighFrequencyPower
 from monitor.signal.measure import SPEED_CHANNEL, SpectrumResult
-from monitor.signal.pitch import PitchCorrection
 from monitor.torsion.shaft_line import tooth_wheel_receptance
 from monitor.types import ComplexArray, FloatArray
 
@@ -193,22 +192,6 @@ class Diagnosis:
 
 
 # ------------------------------------------------------------------------------------------ model
-def _baseline_pitch(recording: Recording, baseline: Baseline | None) -> PitchCorrection | None:
-    """The baseline's learned pitch errors, if they belong to this recording's angle-reference wheel."""
-    if baseline is None or baseline.pitch is None:
-        return None
-    names = {c.name: c for c in recording.channels}
-    channel = names.get(baseline.pitch_channel)
-    if channel is None or channel.kind not in ("tooth", "encoder"):
-        return None
-    present = (
-        int(channel.fields["teeth"]) - int(channel.fields["missing_teeth"])
-        if channel.kind == "tooth"
-        else int(channel.fields["pulses_per_revolution"])
-    )
-    return baseline.pitch if baseline.pitch.errors.size == present else None
-
-
 def _speed_comparison(analysis: Analysis, engine: Engine, transfer: Transfer) -> ChannelComparison | None:
     speed = analysis.spectra.spectra.get(SPEED_CHANNEL)
     if speed is None or speed.orders.size < 2:
@@ -244,36 +227,6 @@ def _speed_comparison(analysis: Analysis, engine: Engine, transfer: Transfer) ->
         speed.standard_error[keep],
         basis,
     )
-
-
-def _check_baseline(recording: Recording, engine: Engine, baseline: Baseline) -> None:
-    if baseline.engine_id != engine.id:
-        raise DiagnosisError(
-            f"the baseline is of engine {baseline.engine_id!r}, the recording of {engine.id!r}: "
-            "calibrate a baseline of this engine"
-        )
-    missing = []
-    for channel, b in bearing_sensors(recording, engine):
-        known = baseline.sensors.get(channel.name)
-        if known is None:
-            missing.append(f"{channel.name!r} (not in the baseline)")
-        elif (known.bearing, known.direction, known.unit, known.sample_rate) != (
-            b,
-            channel.direction,
-            channel.unit,
-            float(channel.sample_rate or 0.0),
-        ):
-            missing.append(
-                f"{channel.name!r} (baseline: main bearing {known.bearing} {known.direction}, {known.unit}, "
-                f"{known.sample_rate:g} Hz; recording: main bearing {b} {channel.direction}, {channel.unit}, "
-                f"{float(channel.sample_rate or 0):g} Hz)"
-            )
-    if missing:
-        raise DiagnosisError(
-            f"the baseline {baseline.source or ''} lacks the recording's channel layout: "
-            + ", ".join(missing)
-            + f"; baseline channels: {', '.join(sorted(baseline.sensors)) or 'none'}"
-        )
 
 
 def unsteady_speeds(angle_map: AngleMap) -> FloatArray | None:
@@ -386,7 +339,7 @@ def diagnose(
     band = limits.band_hz if limits is not None else DEFAULT_BAND_HZ
     recording, sensor_faults, screen_notes, rms, unrated = _screen(recording, baseline, band, exclude)
     if baseline is not None:
-        _check_baseline(recording, engine, baseline)
+        baseline.check_layout(recording, engine)
     stated, load = load, load if load is not None else (baseline.load if baseline is not None else 1.0)
     analysis = analyse(
         recording,
@@ -395,7 +348,7 @@ def diagnose(
         transfer=transfer,
         max_order=max_order,
         cycle_phase=cycle_phase,
-        pitch=_baseline_pitch(recording, baseline),
+        pitch=baseline.pitch_for(recording) if baseline is not None else None,
         crank=baseline.crank if baseline is not None else None,
         progress=progress,
     )
