@@ -184,6 +184,7 @@ def analyse(
     pitch: PitchCorrection | None = None,
     crank: CrankCalibration | None = None,
     progress: Callable[[float], None] | None = None,
+    resampled: SpectrumResult | None = None,
 ) -> Analysis:
     """The recording's spectra, its cylinder balance and the model combined with the strengths found.
 
@@ -206,6 +207,9 @@ def analyse(
         A baseline's calibration of the crank-speed model.
     progress : callable, optional
         Told the fraction of the resampling done, from 0 to 1 [-].
+    resampled : SpectrumResult, optional
+        The recording's spectra with these channels, cycle phase and pitch correction, made already (at
+        another load: they do not depend on it); taken as they are. Default: resampled here.
 
     Returns
     -------
@@ -227,7 +231,7 @@ def analyse(
         phase = float(cycle_phase)
     elif ambiguous:
         phase = 0.0
-    result = spectra(
+    result = resampled or spectra(
         recording,
         cycle_revolutions=R,
         max_order=max_order,

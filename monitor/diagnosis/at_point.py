@@ -73,10 +73,17 @@ def diagnose_at_point(
         Its ``operating_point`` says the load stated, estimated and used, and the reference.
     """
 
-    def run(at: float | None, within: tuple[float, float]) -> tuple[Diagnosis, Reference | None]:
+    Pass = tuple[Diagnosis, Reference | None]
+
+    def run(at: float | None, within: tuple[float, float], earlier: Pass | None = None) -> Pass:
+        """The diagnosis at a load against the reference there. The earlier pass's spectra are taken
+        where its reference's baseline is this one (a single point's): they do not depend on the load."""
         reference = (
             points.reference_at(at if at is not None else _middle(points), within=within) if points else None
         )
+        resampled = None
+        if earlier is not None and earlier[1] is not None and reference is not None:
+            resampled = earlier[0].spectra if earlier[1].baseline is reference.baseline else None
         diagnosis = diagnose(
             recording,
             engine,
@@ -87,6 +94,7 @@ def diagnose_at_point(
             cycle_phase=cycle_phase,
             exclude=exclude,
             progress=progress,
+            resampled=resampled,
         )
         return diagnosis, reference
 
@@ -104,7 +112,7 @@ def diagnose_at_point(
         if load is not None
         else (calibrated[0], calibrated[-1])
     )
-    diagnosis, reference = run(first, within)
+    earlier = diagnosis, reference = run(first, within)
     estimate = _estimate(diagnosis, engine, points, transfer, max_order)
     used = "stated"
     by_speed = load_from_speed(diagnosis.speed_rpm, points) if load is None else None
@@ -114,10 +122,10 @@ def diagnose_at_point(
             used = "speed"
             # a propeller curve reads the load off the speed as well as an operator reads the log
             within = (by_speed - LOAD_UNCERTAINTY, by_speed + LOAD_UNCERTAINTY)
-            diagnosis, reference = run(by_speed, within)  # the model and reference at the speed's load
+            diagnosis, reference = run(by_speed, within, earlier)  # the model and reference at its load
         elif estimate is not None and points is not None:
             used = "estimated"
-            diagnosis, reference = run(estimate.load, within)  # the model and reference at the estimate
+            diagnosis, reference = run(estimate.load, within, earlier)  # the model and reference there
     notes = _load_notes(load, estimate, diagnosis.load, used)
     if reference is not None and len(_calibrated(points)) > 1:
         notes.append(reference.note())

@@ -294,6 +294,7 @@ def diagnose(
     cycle_phase: CyclePhase = None,
     exclude: tuple[str, ...] | list[str] = (),
     progress: Callable[[float], None] | None = None,
+    resampled: SpectrumResult | None = None,
 ) -> Diagnosis:
     """Diagnose a recording against the engine's model (see the module docstring).
 
@@ -318,6 +319,9 @@ def diagnose(
         Channels left out of the diagnosis.
     progress : callable, optional
         Told the fraction of the resampling done, from 0 to 1 [-].
+    resampled : SpectrumResult, optional
+        The recording's spectra from its diagnosis against the same baseline with the same options at
+        another load (they do not depend on it): taken as they are. Default: resampled here.
 
     Returns
     -------
@@ -351,6 +355,7 @@ def diagnose(
         pitch=baseline.pitch_for(recording) if baseline is not None else None,
         crank=baseline.crank if baseline is not None else None,
         progress=progress,
+        resampled=resampled,
     )
     result = analysis.spectra
     notes = screen_notes + list(analysis.notes) + unrated
