@@ -320,8 +320,8 @@ def diagnose(
     progress : callable, optional
         Told the fraction of the resampling done, from 0 to 1 [-].
     resampled : SpectrumResult, optional
-        The recording's spectra from its diagnosis against the same baseline with the same options at
-        another load (they do not depend on it): taken as they are. Default: resampled here.
+        Its spectra from its diagnosis against the same baseline and options at another load (they do
+        not depend on it): taken as they are. Default: resampled here.
 
     Returns
     -------
@@ -360,10 +360,7 @@ def diagnose(
     result = analysis.spectra
     notes = screen_notes + list(analysis.notes) + unrated
     speed_rpm = result.mean_speed * 30 / math.pi
-    comparisons = []
-    speed_comparison = _speed_comparison(analysis, engine, transfer)
-    if speed_comparison is not None:
-        comparisons.append(speed_comparison)
+    comparisons = [c for c in [_speed_comparison(analysis, engine, transfer)] if c is not None]
     # the transfers: the baseline's, else those given in the engine file
     transfers = baseline if baseline is not None else Baseline.from_engine(engine)
     usable = transfers is not None and abs(speed_rpm / transfers.speed_rpm - 1.0) <= SPEED_TOLERANCE
