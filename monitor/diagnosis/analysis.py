@@ -231,16 +231,18 @@ def analyse(
         phase = float(cycle_phase)
     elif ambiguous:
         phase = 0.0
-    result = resampled or spectra(
-        recording,
-        cycle_revolutions=R,
-        max_order=max_order,
-        high_frequency=True,
-        cycle_phase=phase,
-        pitch_correction="estimate" if pitch is None else pitch,
-        kept_orders=engine_orders(engine, recording),
-        progress=progress,
-    )
+    result = resampled
+    if result is None:
+        result = spectra(
+            recording,
+            cycle_revolutions=R,
+            max_order=max_order,
+            high_frequency=True,
+            cycle_phase=phase,
+            pitch_correction="estimate" if pitch is None else pitch,
+            kept_orders=engine_orders(engine, recording),
+            progress=progress,
+        )
     model = EngineModel(engine, gas="auto")
     parts = cylinder_parts(model, crank_speed=result.mean_speed, load=load, max_order=max_order)
     notes: list[str] = list(result.reference.notes)
