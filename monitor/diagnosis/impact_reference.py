@@ -31,7 +31,7 @@ engine 3.9 times as loud) read a reversal window on such a flank 1.6 times its c
 bearing warning; raised by its events' part it reads 1.0. The events are read over several bins because
 half the floor's bins stand above its median by their cycles' scatter alone: raised by each one's own
 excess, a floor window's reference at an engine ten times as loud grows with them and hides a knock
-(heard in 3 of 30 drawn profiles, 25 of 30 read over the median's bins: tests/diagnosis/
+(heard in at most 6 of 30 drawn profiles, at least 22 of 30 read over the median's bins: tests/diagnosis/
 test_impact_floor.py), and V engine seeds 310010 and 310040 (worn bearings, 31-32 % faster than their one
 calibrated point) went unheard. An event's rise and decay are runs longer than the median's span, which
 keeps them whole; a margin of the bin's own scatter instead would take an event's faint first bins for
@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import median_filter
 
-from monitor.signal.impact import HighFrequencyPower
+from monitor.signal.impact import HIGH_FREQUENCY_BIN_SECONDS, HighFrequencyPower
 from monitor.types import FloatArray
 
 __all__ = [
@@ -74,10 +74,11 @@ RING_S = 0.01
 CLASS_BINS = 8
 #: The lowest class whose level speaks for the engine's own events: four times the sensor's median.
 EVENT_CLASS = 2
-#: Bins a bin's events above the floor are read over (:func:`floor_raise`): about 4.5 ms at most (bins of
-#: at most 0.5 ms at the profile's speed, :data:`monitor.signal.impact.HIGH_FREQUENCY_BIN_SECONDS`), under
-#: half a ring's :data:`RING_S`, so an event's rise and decay pass whole [-].
-FLOOR_MEDIAN_BINS = 9
+#: Bins a bin's events above the floor are read over (:func:`floor_raise`): the most, in an odd count,
+#: that span no more than half a ring's :data:`RING_S` at the longest bins
+#: (:data:`~monitor.signal.impact.HIGH_FREQUENCY_BIN_SECONDS`), so an event's rise and decay pass whole:
+#: 9 bins, 4.5 ms (the 1e-9 keeps a quotient of exactly 10 from rounding down) [-].
+FLOOR_MEDIAN_BINS = int(RING_S / 2 / HIGH_FREQUENCY_BIN_SECONDS + 1e-9) // 2 * 2 - 1
 #: A reference raised by this much or more is noted in the diagnosis [-].
 LOUDER = 1.1
 

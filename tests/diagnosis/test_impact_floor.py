@@ -24,8 +24,8 @@ from benchmarks.diagnosed import one_point
 from monitor.diagnosis import impact_reference
 from monitor.diagnosis.bearings import impact_score
 from monitor.diagnosis.findings import IMPACT_WARNING, SIGNIFICANCE
-from monitor.diagnosis.impact_reference import floor_raise, reference_profile
-from monitor.signal.impact import HighFrequencyPower
+from monitor.diagnosis.impact_reference import FLOOR_MEDIAN_BINS, RING_S, floor_raise, reference_profile
+from monitor.signal.impact import HIGH_FREQUENCY_BIN_SECONDS, HighFrequencyPower
 
 BINS = 1024  # over a four-stroke's cycle: 0.7 deg a bin
 CYCLES = 300
@@ -177,7 +177,7 @@ def test_no_window_of_a_healthy_scattered_engine_is_heard(
 ) -> None:
     """The same draws without a knock, every 25 deg of the cycle (the flank, the event and the floor):
     no window is heard. Counting as events only a bin's excess beyond two standard errors of its mean
-    hears 85 and 90 of the 870 windows: the flank's faint first bins, taken for the floor, grown by the
+    hears 30 or more of the 870 windows: the flank's faint first bins, taken for the floor, grown by the
     engine's level."""
     everywhere = np.arange(0.0, 720.0, 25.0).tolist()
     assert _heard_on_scatter(level, 0.0, everywhere) == 0
@@ -189,7 +189,7 @@ def test_no_window_of_a_healthy_scattered_engine_is_heard(
         return np.asarray(1.0 + (raised_by - 1.0) * events)
 
     monkeypatch.setattr(impact_reference, "floor_raise", beyond_two_errors)
-    assert _heard_on_scatter(level, 0.0, everywhere) >= DRAWS  # 85 and 90: about three a draw
+    assert _heard_on_scatter(level, 0.0, everywhere) >= DRAWS
 
 
 def test_a_level_not_told_or_a_floor_of_nothing_raises_nothing() -> None:
@@ -216,3 +216,11 @@ def test_a_worn_bearing_of_a_v_engine_far_faster_than_its_one_calibrated_point_i
     truth, diagnosis = one_point(310010, 10.0, vee=True)
     assert truth["class"] == "worn_bearing" and truth["bearing"] == 3
     assert [f.subject for f in diagnosis.findings if f.kind == "main bearing"] == ["main bearing 3"]
+
+
+def test_the_events_are_read_over_the_most_bins_within_half_a_ring() -> None:
+    """The median's span at the longest bins is within half a ring (an event's rise and decay pass whole),
+    and two bins more would not be; an odd count, so the median is a bin's own value."""
+    longest = HIGH_FREQUENCY_BIN_SECONDS
+    assert FLOOR_MEDIAN_BINS % 2 == 1
+    assert FLOOR_MEDIAN_BINS * longest <= RING_S / 2 + 1e-12 < (FLOOR_MEDIAN_BINS + 2) * longest
