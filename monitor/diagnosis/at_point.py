@@ -5,17 +5,17 @@ Its load is known two ways: stated (``--load``, an engine log's reading: uncerta
 :data:`~monitor.diagnosis.operating_points.LOAD_UNCERTAINTY`) and estimated from its crank-speed
 orders (:mod:`monitor.diagnosis.load_estimate`).  The stated load, where there is one, is the load
 the model and the reference are taken at: the estimate rests on the cylinders' strengths, which a
-fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower load), so
-the estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
+fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower load), so the
+estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
 followed.  An estimate above the stated load by more than :data:`AGREE` of its own standard errors is
 another matter: no fault makes the median cylinder fire more, so the engine fires more at its load
-than the model does (its charge pressure does not
-fall with the load as the engine file's law has it, or the reading is low), and judged at the stated
-load the model's misfit widens the cylinders' errors until a weak one passes (validation seeds
-200051 and 200365: cylinders at 65 % and 69 % read within 4 standard errors of the others, boost
-held at part load).  The model and the reference are then taken at the estimate, at most
-:data:`AGREE` of the stated load's standard errors above it (``load_used_from: "raised"``); the
-bearings' impacts are still judged over the stated load's uncertainty.  Without a stated load, against several calibrated points whose speeds rise with their
+than the model does (its charge pressure does not fall with the load as the engine file's law has
+it, or the reading is low), and judged at the stated load the model's misfit widens the cylinders'
+errors until a weak one passes (validation seeds 200051 and 200365: cylinders at 65 % and 69 % read
+within 4 standard errors of the others, boost held at part load).  The model and the reference are
+then taken at the estimate, at most :data:`AGREE` of the stated load's standard errors above it
+(``load_used_from: "raised"``); the bearings' impacts are still judged over the stated load's
+uncertainty.  Without a stated load, against several calibrated points whose speeds rise with their
 loads (an engine on a propeller curve) the load is read from the recording's speed on theirs; against
 several at one speed, or a single point, the estimate is used (the first pass at the middle point's
 load, the second at the load found: judged at the baseline's load instead, a recording far from it

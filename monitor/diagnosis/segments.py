@@ -239,23 +239,28 @@ def steady_parts(
     return shorter, SHORT_SEGMENT
 
 
+#: What a segment was judged at, by where its load came from (``load_used_from``, or "segment").
+_JUDGED_AT = {
+    "segment": "the model at the load given for this segment ({load:.2f})",
+    "estimated": "the reference at the load estimated from this segment ({load:.2f})",
+    "speed": "the reference at the load this segment's speed reads on the calibrated points ({load:.2f})",
+    "raised": "the model at the load estimated from this segment ({load:.2f}), above the load given for the "
+    "recording",
+    "stated": "the model at the load given for the recording ({load:.2f}): give each segment's load "
+    "(compare --segment-loads) to judge it at its own",
+    "baseline": "the reference at its own load ({load:.2f}): this segment's crank-speed orders tell none",
+    "rated": "the model at rated load ({load:.2f}): no baseline, and no load given",
+}
+
+
 def _note(
     item: Segment, index: int, count: int, load: float, source: str, mean_indicator: float | None
 ) -> str:
     """What a segment's diagnosis says of its span and of the load it was judged at."""
+    judged = _JUDGED_AT[source].format(load=load)
     text = (
         f"segment {index} of {count}: {item.start_s:.2f} to {item.stop_s:.2f} s, {item.cycles} cycles at "
-        f"{item.speed * 30 / math.pi:.1f} rpm; "
-        + (
-            f"the model at the load given for this segment ({load:.2f})"
-            if source == "segment"
-            else f"the reference at the load estimated from this segment ({load:.2f})"
-            if source == "estimated"
-            else f"the reference at the load this segment's speed reads on the calibrated points ({load:.2f})"
-            if source == "speed"
-            else f"the model at the load given for the recording ({load:.2f}): give each segment's "
-            "load (compare --segment-loads) to judge it at its own"
-        )
+        f"{item.speed * 30 / math.pi:.1f} rpm; {judged}"
     )
     if item.load_indicator is not None and mean_indicator:
         text += (

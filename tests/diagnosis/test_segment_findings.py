@@ -6,8 +6,10 @@ Hand-built segment diagnoses: the merge reads only their findings, statuses and 
 
 from __future__ import annotations
 
+import pytest
+
 from monitor.diagnosis.findings import Finding
-from monitor.diagnosis.segments import SegmentDiagnosis, SegmentedDiagnosis
+from monitor.diagnosis.segments import SegmentDiagnosis, SegmentedDiagnosis, _note
 from monitor.report.diagnosis import segmented_document
 from monitor.signal.steady import Segment, Transition
 from tests.diagnosis.hand_built import hand_built
@@ -97,3 +99,26 @@ def test_the_report_gives_the_merged_findings_with_their_segments() -> None:
         "evidence",
         "segments",
     ]
+
+
+@pytest.mark.parametrize(
+    ("source", "said"),
+    [
+        ("segment", "the model at the load given for this segment (0.40)"),
+        ("stated", "the model at the load given for the recording (0.40): give each segment's load"),
+        ("raised", "the model at the load estimated from this segment (0.40), above the load given for the"),
+        ("estimated", "the reference at the load estimated from this segment (0.40)"),
+        ("speed", "the reference at the load this segment's speed reads on the calibrated points (0.40)"),
+        ("baseline", "the reference at its own load (0.40): this segment's crank-speed orders tell none"),
+        ("rated", "the model at rated load (0.40): no baseline, and no load given"),
+    ],
+)
+def test_a_segments_note_says_where_the_load_it_was_judged_at_came_from(source: str, said: str) -> None:
+    """Each source of a segment's load (``load_used_from``, or a load given per segment) in its own words:
+    a segment judged at its own estimate does not read as judged at the recording's stated load."""
+    note = _note(Segment(0, 60, 0.0, 9.6, 78.5, 0.02), 1, 2, 0.4, source, 0.02)
+    assert note.startswith("segment 1 of 2: 0.00 to 9.60 s, 60 cycles at 749.6 rpm; " + said), note
+    assert note.endswith(
+        "this segment's load indicator (the firing harmonic's speed fluctuation) is 1.00 times the "
+        "recording's"
+    )
