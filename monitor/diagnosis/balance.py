@@ -298,10 +298,18 @@ def measured_torque(
     # omega over one cycle from its orders, squared, back to orders (exact for the rigid body)
     highest = float(orders[-1])
     points = 2 ** math.ceil(math.log2(max(64, 8 * highest * cycle_revolutions)))
-    theta = np.arange(points) * (2 * math.pi * cycle_revolutions / points)
+    bins = np.rint(orders * cycle_revolutions).astype(np.int64)
+    if np.any(np.abs(orders * cycle_revolutions - bins) > 1e-9) or np.any(bins < 0):
+        raise ModelError(
+            f"crank-speed orders {orders.tolist()}: expected non-negative multiples of "
+            f"{1 / cycle_revolutions:g} for a {cycle_revolutions}-revolution cycle"
+        )
     fluctuation = speed.amplitude.copy()
     fluctuation[0] = mean
-    omega = np.real(np.exp(1j * np.multiply.outer(theta, orders)) @ fluctuation)
+    # sum_k c_k exp(i k theta) on the cycle's grid theta_j = 2 pi R j / points is one inverse FFT
+    spectrum = np.zeros(points, dtype=np.complex128)
+    spectrum[bins] = fluctuation
+    omega = np.real(np.fft.ifft(spectrum)) * points
     squared = order_coefficients(omega**2, cycle_revolutions=cycle_revolutions, max_order=highest)
     torque = 1j * orders * (np.asarray(inertia) / 2) * squared.coefficients[: orders.size]
     torque[0] = 0.0

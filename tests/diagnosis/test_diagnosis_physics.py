@@ -15,7 +15,8 @@ from scipy.integrate import quad
 from monitor.diagnosis.balance import cylinder_balance, measured_torque
 from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.diagnosis.zones import velocity_rms, zone_of
-from monitor.errors import SignalError
+from monitor.errors import ModelError, SignalError
+from monitor.fourier import order_coefficients
 from monitor.io.recording import Channel
 from monitor.model.crankshaft import EngineModel
 from monitor.model.engine import Engine, load_engine
@@ -400,6 +401,44 @@ def test_measured_torque_standard_error_is_the_linear_response() -> None:
             bound = abs(speed[2 * k]) / mean_speed + 1e-5
             assert abs(change / (1j * k * inertia * mean_speed) - 1) <= bound
             assert error[k] == pytest.approx(k * inertia * mean_speed, rel=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    cycle_revolutions=st.sampled_from([1, 2]),
+    top=st.integers(2, 120),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_measured_torque_squares_the_speed_as_the_term_by_term_sum(
+    cycle_revolutions: int, top: int, seed: int
+) -> None:
+    """``(omega^2)_k`` from one inverse FFT equals the term-by-term synthesis of omega on the same grid,
+    squared and analysed, for any speed spectrum on the orders' grid (a mean and fluctuations of up to
+    a tenth of it).
+
+    Tolerance: both are sums of the same ``points`` products in another order, each term within a few
+    ulps; 1e-10 of the largest torque order bounds the rounding of a few thousand terms."""
+    rng = np.random.default_rng(seed)
+    orders = np.arange(top + 1) / cycle_revolutions
+    amplitude = 0.1 * (rng.standard_normal(orders.size) + 1j * rng.standard_normal(orders.size)) / orders.size
+    amplitude[0] = 1.0
+    inertia = 2.5
+    torque, _ = measured_torque(_speed_spectrum(orders, amplitude), inertia, cycle_revolutions)
+    points = 2 ** math.ceil(math.log2(max(64, 8 * orders[-1] * cycle_revolutions)))
+    theta = np.arange(points) * (2 * math.pi * cycle_revolutions / points)
+    squared = order_coefficients(
+        _synthesize(amplitude, orders, theta) ** 2, cycle_revolutions=cycle_revolutions, max_order=orders[-1]
+    )
+    expected = 1j * orders * (inertia / 2) * squared.coefficients[: orders.size]
+    expected[0] = 0.0
+    assert np.abs(torque - expected).max() <= 1e-10 * np.abs(expected).max()
+
+
+def test_measured_torque_refuses_orders_off_the_cycles_grid() -> None:
+    """Orders that are not multiples of ``1 / cycle_revolutions`` are no cycle's orders: refused."""
+    orders = np.array([0.0, 0.5, 1.0])
+    with pytest.raises(ModelError, match=r"expected non-negative multiples of 1 for a 1-revolution cycle"):
+        measured_torque(_speed_spectrum(orders, np.array([1.0, 0.1, 0.1])), 2.5, 1)
 
 
 # --- 5. cylinder balance with known strengths ---------------------------------------------------
