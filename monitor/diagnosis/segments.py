@@ -244,12 +244,13 @@ _JUDGED_AT = {
     "segment": "the model at the load given for this segment ({load:.2f})",
     "estimated": "the reference at the load estimated from this segment ({load:.2f})",
     "speed": "the reference at the load this segment's speed reads on the calibrated points ({load:.2f})",
-    "raised": "the model at the load estimated from this segment ({load:.2f}), above the load given for the "
-    "recording",
+    "raised": "the model at the load estimated from this segment ({load:.2f}), above the load given",
     "stated": "the model at the load given for the recording ({load:.2f}): give each segment's load "
     "(compare --segment-loads) to judge it at its own",
-    "baseline": "the reference at its own load ({load:.2f}): this segment's crank-speed orders tell none",
-    "rated": "the model at rated load ({load:.2f}): no baseline, and no load given",
+    "baseline": "the reference at its own load ({load:.2f}): this segment's crank-speed orders tell none; "
+    "give each segment's load (compare --segment-loads) to judge it at its own",
+    "rated": "the model at rated load ({load:.2f}), without a baseline or a load given: give each segment's "
+    "load (compare --segment-loads) to judge it at its own",
 }
 
 
@@ -355,7 +356,8 @@ def diagnose_segments(
             cycle_phase=cycle_phase,
             exclude=exclude,
         )
-        source = "segment" if loads else str(part.operating_point.get("load_used_from", "stated"))
+        source = str(part.operating_point.get("load_used_from", "stated"))
+        source = "segment" if loads and source == "stated" else source
         part.notes.insert(0, _note(item, i, len(found.segments), part.load, source, mean_indicator))
         if len(found.segments) == 1:
             part.notes.insert(1, _rest_note(item, needed))

@@ -106,11 +106,14 @@ def test_the_report_gives_the_merged_findings_with_their_segments() -> None:
     [
         ("segment", "the model at the load given for this segment (0.40)"),
         ("stated", "the model at the load given for the recording (0.40): give each segment's load"),
-        ("raised", "the model at the load estimated from this segment (0.40), above the load given for the"),
+        ("raised", "the model at the load estimated from this segment (0.40), above the load given;"),
         ("estimated", "the reference at the load estimated from this segment (0.40)"),
         ("speed", "the reference at the load this segment's speed reads on the calibrated points (0.40)"),
-        ("baseline", "the reference at its own load (0.40): this segment's crank-speed orders tell none"),
-        ("rated", "the model at rated load (0.40): no baseline, and no load given"),
+        (
+            "baseline",
+            "the reference at its own load (0.40): this segment's crank-speed orders tell none; give",
+        ),
+        ("rated", "the model at rated load (0.40), without a baseline or a load given: give each segment's"),
     ],
 )
 def test_a_segments_note_says_where_the_load_it_was_judged_at_came_from(source: str, said: str) -> None:
