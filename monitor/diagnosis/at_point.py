@@ -9,8 +9,8 @@ fault moves (a weak cylinder, and with few cylinders a misfire, reads as a lower
 estimate is reported beside it and a disagreement beyond their joint uncertainty is noted, not
 followed.  An estimate above the stated load by more than :data:`AGREE` of its own standard errors is
 another matter: no fault makes the median cylinder fire more, so the engine fires more at its load
-than the model does (its charge pressure does not fall with the load as the engine file's law has
-it, or the reading is low), and judged at the stated load the model's misfit widens the cylinders'
+than the model does (its charge pressure does not follow the load as the engine file's law has it,
+or the reading is low), and judged at the stated load the model's misfit widens the cylinders'
 errors until a weak one passes (validation seeds 200051 and 200365: cylinders at 65 % and 69 % read
 within 4 standard errors of the others, boost held at part load).  The model and the reference are
 then taken at the estimate, at most :data:`AGREE` of the stated load's standard errors above it
@@ -247,8 +247,8 @@ def _load_notes(
         notes.append(
             f"the cylinders fire more than the model does at the load stated ({stated:.2f}): the model "
             f"and the reference are taken at {used:.2f}, the load estimated (at most {AGREE:g} of the "
-            f"stated load's standard errors above it); the engine's charge pressure may not fall with "
-            f"the load as the engine file's law ('{law}') has it"
+            f"stated load's standard errors above it); the engine's charge pressure may not follow the "
+            f"load as the engine file's law ('{law}') has it, or the load reading is low"
         )
     if source == "estimated":
         notes.append(f"no load stated: the estimated load {used:.2f} is used")
