@@ -353,7 +353,9 @@ def test_against_one_point_without_a_stated_load_the_load_estimated_is_used() ->
     assert [(f.subject, f.severity) for f in diagnosis.findings] == [("cylinder 4", "warning")]
 
 
-def test_an_estimate_above_the_stated_load_raises_the_models_load_and_names_a_weak_cylinder() -> None:
+def test_an_estimate_above_the_stated_load_raises_the_models_load_and_names_a_weak_cylinder(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """Seed 200365 of the validation population: a ten-cylinder two-stroke with its crank-speed sensors
     alone, its boost held at part load (the engine file states no law, so the model's charge pressure
     falls with the load), cylinder 10 at 69 %, told 0.49 (it ran at 0.53), calibrated at 0.86.  At the
@@ -374,6 +376,13 @@ def test_an_estimate_above_the_stated_load_raises_the_models_load_and_names_a_we
         for n in diagnosis.notes
     )
     assert not any("The stated load is used" in n for n in diagnosis.notes)
+    # the same case judged at the stated load (no estimate): the widened errors leave it healthy
+    from monitor.diagnosis import at_point
+
+    monkeypatch.setattr(at_point, "_estimate", lambda *a: None)
+    _, stated = one_point(200365, 30.0)
+    assert stated.operating_point["load_used_from"] == "stated" and stated.findings == []
+    assert stated.balance is not None and stated.balance.chi2_reduced > 2.0
 
 
 @pytest.mark.parametrize(
