@@ -81,6 +81,30 @@ def test_a_ring_stretched_by_a_faster_run_is_no_knock_but_a_knock_on_it_still_is
     assert knocked, knocked_score
 
 
+def test_a_knock_on_a_scattered_floor_is_heard_at_another_speed() -> None:
+    """A short baseline's floor scatters from bin to bin (20 cycles of a power that spreads 100 % per
+    cycle: 22 % a bin). Carried by the speed allowance, the highest of a dozen floor bins would raise a
+    quiet window's reference and hide a knock (the floor read as rings: 1.1 to 1.4 x at 20 % faster);
+    carried only where events ring, the knock is heard in at least 18 of 20 drawn profiles, and a
+    healthy run's ring and floor in none."""
+    rng = np.random.default_rng(20)
+
+    def scattered(profile: HighFrequencyPower) -> HighFrequencyPower:
+        off = 1.0 + rng.standard_normal(profile.mean.size) / math.sqrt(20)
+        return HighFrequencyPower(
+            profile.mean * off, profile.std, 20, 25600.0, profile.band_hz, profile.speed_rpm
+        )
+
+    heard, false = 0, 0
+    for _ in range(20):
+        baseline = scattered(_ringing(1000.0))
+        knocked = scattered(_ringing(1200.0, knock_at_deg=QUIET_DEG + 15.0))
+        healthy = scattered(_ringing(1200.0))
+        heard += _score(knocked, baseline, QUIET_DEG)[1]
+        false += _score(healthy, baseline, QUIET_DEG)[1] + _score(healthy, baseline)[1]
+    assert heard >= 18 and false == 0, (heard, false)
+
+
 def test_at_the_baseline_speed_the_reference_is_the_baseline_itself() -> None:
     """No speed change, no allowance: every bin of the reference is the baseline's."""
     baseline = _ringing(1000.0)
