@@ -178,6 +178,8 @@ def spectra(
     count = workers if workers is not None else min(os.cpu_count() or 1, len(jobs) + 1)
     with ThreadPoolExecutor(max_workers=max(1, count)) as pool:
         crank_job = pool.submit(_crank_spectra, reference, how, list(grids.values()))
+        # the steady-speed check reads the angle map alone: beside the channels, not after them
+        steadiness = pool.submit(_speed_notes, reference, cycle_revolutions, clock)
         channel_jobs = {
             name: pool.submit(_channel_spectrum, *jobs[name], how, shared.told(name)) for name in jobs
         }
@@ -196,7 +198,7 @@ def spectra(
         reference,
         notes=reference.notes
         + tuple(_pressure_peak_notes(recording, reference))
-        + tuple(_speed_notes(reference, cycle_revolutions)),
+        + tuple(steadiness.result()),
     )
     return SpectrumResult(
         reference,
@@ -399,22 +401,24 @@ def _with_systematic(
     return bounded(speed, mean_speed), bounded(lead, None)
 
 
-def _speed_notes(reference: AngleReference, cycle_revolutions: int) -> list[str]:
+def _speed_notes(reference: AngleReference, cycle_revolutions: int, clock: StageClock) -> list[str]:
     """A note when the speed is not at one steady point: the orders are then the mean over the speeds.
 
     The cycles' mean speeds are segmented as the diagnosis segments them (:mod:`monitor.signal.steady`,
     the speed alone): a recording that is not one steady segment from its first cycle to its last (a
-    run-up, a coast-down, a load step) is noted, with its speeds and its steady spans.
+    run-up, a coast-down, a load step) is noted, with its speeds and its steady spans. Timed as the
+    stage "steady-speed check".
     """
-    series = cycle_series(
-        reference.angle_map,
-        cycle_revolutions=cycle_revolutions,
-        firing_harmonic=1,
-        pulses_per_revolution=reference.pulses_per_revolution,
-    )
-    if series.cycles < 4:
-        return []
-    found = steady_segments(replace(series, load=None), min_cycles=min(MIN_CYCLES, series.cycles))
+    with clock.stage("steady-speed check"):
+        series = cycle_series(
+            reference.angle_map,
+            cycle_revolutions=cycle_revolutions,
+            firing_harmonic=1,
+            pulses_per_revolution=reference.pulses_per_revolution,
+        )
+        if series.cycles < 4:
+            return []
+        found = steady_segments(replace(series, load=None), min_cycles=min(MIN_CYCLES, series.cycles))
     if found.at_one_point:
         return []
     rpm = series.speed * 30 / math.pi

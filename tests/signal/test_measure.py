@@ -294,7 +294,13 @@ def test_spectra_report_progress_and_the_time_of_each_stage(rng: np.random.Gener
     assert reports and reports[-1] == pytest.approx(1.0)
     assert all(b >= a for a, b in itertools.pairwise(reports))
     stages = result.stage_seconds
-    for name in ("angle reference: pulses and decoding", "grid times", "reading", "resampling"):
+    for name in (
+        "angle reference: pulses and decoding",
+        "grid times",
+        "reading",
+        "resampling",
+        "steady-speed check",
+    ):
         assert name in stages and stages[name] >= 0.0, name
     assert "order spectra" in stages
 
