@@ -274,13 +274,10 @@ class CylinderBalance:
         known, burning = self.known[keep], self.combustion[keep]
         gap = self.measured[keep] - known - burning
         rigid = self.transfer == "rigid" and math.isfinite(self.mean_speed) and self.mean_speed > 0
-        wheel = self.wheel_error[keep] if rigid and self.wheel_error.size == self.orders.size else 0.0
+        stated = rigid and self.wheel_error.size == self.orders.size
+        wheel = self.wheel_error[keep] if stated else np.zeros(gap.size)
         spreads = np.array(
-            [
-                (INERTIA_SHARE * np.abs(known)) ** 2,
-                (COMBUSTION_SHARE * np.abs(burning)) ** 2,
-                wheel**2 + 0 * gap.real,
-            ]
+            [(INERTIA_SHARE * np.abs(known)) ** 2, (COMBUSTION_SHARE * np.abs(burning)) ** 2, wheel**2]
         )
         known_share, burning_share, wheel_share = spreads / np.maximum(spreads.sum(axis=0), 1e-300)
         safe_known = np.where(np.abs(known) > 0, known, 1.0)
