@@ -78,9 +78,9 @@ CALIBRATED_UNCERTAINTY = 0.05
 # (where healthy cylinders cancel, the baseline's residual is the wheel's, taken by its pitch correction)
 CALIBRATED_FRACTION = 0.1
 SIGNIFICANT = 4.0  # standard errors a baseline's order must stand above nothing to be calibrated [-]
-# the relative uncertainties a calibration shares a firing harmonic's gap by (beside the wheel's pitch
-# errors, known to their rms bound): the inertia torque is exact kinematics with masses known to about
-# 10 %; a gas model's firing harmonics may be off by their own size
+# the relative uncertainties a calibration shares a firing harmonic's gap by: the inertia torque is exact
+# kinematics with masses known to about 10 %; a gas model's firing harmonics may be off by their own size
+# (on the validation population's engines they were off by several times the model's, of either sign)
 INERTIA_SHARE = 0.10
 # the cylinders' mean strength is 1 (the model's combustion at the stated load) to about this [-]: the
 # orders where the cylinders cancel give each cylinder's difference from the others in the model's units,
@@ -97,27 +97,16 @@ class CrankCalibration:
     """The crank-speed model calibrated on a healthy baseline, order by order.
 
     At the orders where the cylinders add up (the firing harmonics) the engine file's model is
-    known only to its masses', inertias' and combustion's accuracy, and the measured speed carries
-    the tooth wheel's pitch errors that its correction leaves to the engine there; the baseline
-    measures the gap ``g_k = y_k - known_k - combustion_k`` between the measured left-hand side and
-    the model's at nominal strengths.
-
-    The gap is shared between what makes it as their uncertainties are, each part's share
-    ``sigma_part^2 / sum sigma^2`` (the least-squares split of one measured sum of uncertain terms):
-    the inertia and fixed torques (``known``, the masses known to :data:`INERTIA_SHARE`), the
-    combustion (a gas model's firing harmonics known to :data:`COMBUSTION_SHARE`) and, for the rigid
-    body, the wheel's pitch errors (their rms bound, the balance's ``wheel_error``).  A later
-    recording's model at those orders is ``inertia_factor x known + factor x combustion``, each part
-    at its own speed and load: a recording slower than the baseline (a propeller slowed by a weak
-    cylinder) keeps the inertia torque's change with the speed squared whichever part was off.  The
-    wheel's share is an offset fixed in crank angle, ``share_w g_k / Omega_b^2`` (the baseline's mean
-    speed ``Omega_b``), taken off a later recording's torque at its own mean speed squared: a pitch
-    error ``E_k`` reads as the torque ``-k^2 J Omega^2 E_k`` whatever the load.  Put on the combustion,
-    a wheel's error grew and shrank with the load: a twelve-cylinder four-stroke at 1487 rpm whose
-    wheel's bound at the sixth order exceeded the combustion's torque there had nearly all of the gap
-    put on its combustion, and away from the baseline's load its healthy cylinders read about twice the
-    model and a motored one half of them (seed 200246 of the validation population).  The shaft line
-    (speed at the wheel through the receptance) shares the gap between the model's two parts alone.
+    known only to its masses', inertias' and combustion's accuracy; the baseline measures the gap
+    ``g_k = y_k - known_k - combustion_k`` between the measured left-hand side and the model's at
+    nominal strengths.  The gap is shared between the model's two parts as their uncertainties
+    are: the inertia and fixed torques (``known``, the masses known to :data:`INERTIA_SHARE`) and
+    the combustion (a gas model's firing harmonics known to :data:`COMBUSTION_SHARE`), each part's
+    share ``sigma_part^2 / (sigma_known^2 + sigma_combustion^2)`` (the least-squares split of one
+    measured sum of two uncertain terms).  A later recording's model at those orders is
+    ``inertia_factor x known + factor x combustion``, each part at its own speed and load: a
+    recording slower than the baseline (a propeller slowed by a weak cylinder) keeps the inertia
+    torque's change with the speed squared whichever part was off.
 
     Attributes
     ----------
@@ -133,11 +122,6 @@ class CrankCalibration:
         The inertia and fixed torques' factor ``1 + share_known g_k / known_k`` [-].
     inertia_factor_error : ndarray
         Its standard error [-].
-    offset : ndarray, complex
-        The wheel's share of the rigid body's gap over the baseline's mean speed squared [N m s^2];
-        empty where the gap is in the factors alone (the shaft line, or a baseline written before).
-    offset_error : ndarray
-        Its standard error (the baseline's block spread) [N m s^2].
     """
 
     transfer: str
@@ -146,8 +130,6 @@ class CrankCalibration:
     factor_error: FloatArray
     inertia_factor: ComplexArray
     inertia_factor_error: FloatArray
-    offset: ComplexArray = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
-    offset_error: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass(frozen=True)
@@ -172,9 +154,9 @@ class CylinderBalance:
     orders : ndarray
         The orders used [-].
     measured, predicted, nominal : ndarray, complex
-        The left-hand side ``y_k`` measured (less the calibration's offset), as fitted, and as the
-        model gives it at nominal strengths (the calibration's factors applied), at those orders
-        (torque [N m] for the rigid body, speed [rad/s] for the shaft line).
+        The left-hand side ``y_k`` measured, as fitted, and as the model gives it at nominal strengths
+        (the calibration's factors applied), at those orders (torque [N m] for the rigid body, speed
+        [rad/s] for the shaft line).
     standard_error : ndarray
         Of ``measured`` [same unit].
     unit : str
@@ -212,8 +194,6 @@ class CylinderBalance:
     together : list of tuple of int
         Groups of cylinders (indices) that fire too nearly together to be told apart, each judged as
         one (:func:`monitor.diagnosis.shares.fire_together`).
-    mean_speed : float
-        The recording's mean crank speed [rad/s].
     """
 
     strength: FloatArray
@@ -244,7 +224,6 @@ class CylinderBalance:
     names: list[str] = field(default_factory=list)
     banks: list[str] = field(default_factory=list)
     together: list[tuple[int, ...]] = field(default_factory=list)
-    mean_speed: float = math.nan
 
     def name(self, c: int) -> str:
         """Cylinder ``c``'s name (index; ``A3`` on a V engine), its number when no names were given."""
@@ -265,34 +244,26 @@ class CylinderBalance:
         """This (healthy) balance's calibration of the model where the cylinders add up.
 
         Orders whose nominal value is below :data:`CALIBRATED_FRACTION` of the largest, or whose
-        measured value is within :data:`SIGNIFICANT` standard errors of nothing, are left out. The gap
-        is shared as :class:`CrankCalibration` says.
+        measured value is within :data:`SIGNIFICANT` standard errors of nothing, are left out.
         """
         size = np.abs(self.nominal)
         keep = (size >= CALIBRATED_FRACTION * float(size.max(initial=0.0))) & (size > 0)
         keep &= np.abs(self.measured) >= SIGNIFICANT * self.standard_error
         known, burning = self.known[keep], self.combustion[keep]
         gap = self.measured[keep] - known - burning
-        rigid = self.transfer == "rigid" and math.isfinite(self.mean_speed) and self.mean_speed > 0
-        stated = rigid and self.wheel_error.size == self.orders.size
-        wheel = self.wheel_error[keep] if stated else np.zeros(gap.size)
-        spreads = np.array(
-            [(INERTIA_SHARE * np.abs(known)) ** 2, (COMBUSTION_SHARE * np.abs(burning)) ** 2, wheel**2]
-        )
-        known_share, burning_share, wheel_share = spreads / np.maximum(spreads.sum(axis=0), 1e-300)
+        spread_known = (INERTIA_SHARE * np.abs(known)) ** 2
+        spread_burning = (COMBUSTION_SHARE * np.abs(burning)) ** 2
+        share = spread_known / np.maximum(spread_known + spread_burning, 1e-300)  # the inertia's
         safe_known = np.where(np.abs(known) > 0, known, 1.0)
         safe_burning = np.where(np.abs(burning) > 0, burning, 1.0)
         se = self.standard_error[keep]
-        speed_squared = self.mean_speed**2 if rigid else 1.0
         return CrankCalibration(
             self.transfer,
             self.orders[keep].copy(),
-            np.asarray(1 + burning_share * gap / safe_burning, dtype=np.complex128),
-            np.asarray(burning_share * se / np.abs(safe_burning), dtype=np.float64),
-            np.asarray(1 + known_share * gap / safe_known, dtype=np.complex128),
-            np.asarray(known_share * se / np.abs(safe_known), dtype=np.float64),
-            np.asarray(wheel_share * gap / speed_squared if rigid else [], dtype=np.complex128),
-            np.asarray(wheel_share * se / speed_squared if rigid else [], dtype=np.float64),
+            np.asarray(1 + (1 - share) * gap / safe_burning, dtype=np.complex128),
+            np.asarray((1 - share) * se / np.abs(safe_burning), dtype=np.float64),
+            np.asarray(1 + share * gap / safe_known, dtype=np.complex128),
+            np.asarray(share * se / np.abs(safe_known), dtype=np.float64),
         )
 
     @property
@@ -381,9 +352,9 @@ def cylinder_balance(
         Two or more cylinders: their mean strength is 1 (the model at the stated load) to this
         standard error, beside the orders (:data:`LEVEL_UNCERTAINTY`; 0: not) [-].
     calibration : CrankCalibration, optional
-        A healthy baseline's calibration (same transfer): at its orders the measured side less its
-        offset at this speed squared, the model's parts times its factors, and the model's uncertainty
-        :data:`CALIBRATED_UNCERTAINTY` beside their own errors.
+        A healthy baseline's calibration of the model (same transfer): at its orders the model's
+        combustion times its factor (the inertia and fixed torques the model's at this speed), and
+        the model's uncertainty :data:`CALIBRATED_UNCERTAINTY` beside the factor's own error.
 
     Returns
     -------
@@ -399,38 +370,39 @@ def cylinder_balance(
         raise ModelError("the model has no gas forces: cylinder strengths cannot be estimated")
     use, orders, known, combustion, gas = _cylinder_orders(speed, engine, parts, highest_order)
     y, se, unit, H, inertia, wheel = _left_hand_side(speed, use, engine, parts, transfer)
-    # the baseline's factors and offset at each order it calibrated (1 and 0 elsewhere), with their errors
-    factor, factor_error, inertia_factor, inertia_factor_error, calibrated, offset, offset_error = _factors(
+    # the baseline's factor at each order it calibrated (1 elsewhere), and its relative error
+    factor, factor_error, inertia_factor, inertia_factor_error, calibrated = _factors(
         calibration, transfer, orders
     )
-    mean_speed = float(np.real(speed.amplitude[0]))
-    y = y - offset * mean_speed**2  # what is fixed in crank angle, at this recording's speed squared
     plain = (H * known).sum(axis=0)  # the inertia and fixed torques, at the recording's own speed
     fixed = inertia_factor * plain
     burning = (H * combustion).sum(axis=0)  # the model's combustion at nominal strengths, uncalibrated
+    rhs = y - fixed
     design = (factor * H * combustion).T  # (n_orders, n_cyl)
-    # the model's own uncertainty: a share of the engine's value at nominal strengths (nil where they cancel)
+    # the model's own uncertainty: a share of the engine's predicted value at nominal strengths, large at
+    # the firing harmonics (every cylinder adds), nil where healthy cylinders (and a gap all share) cancel
     nominal = fixed + factor * burning
-    timing = np.minimum(orders * timing_uncertainty, 1.0)  # the combustion's, where no baseline calibrated
+    # the combustion's timing: on every cylinder's combustion where no baseline calibrated the order
+    timing = np.minimum(orders * timing_uncertainty, 1.0)
     if np.any(np.linalg.norm(np.abs(design), axis=0) == 0):
         raise ModelError("a cylinder's combustion does not reach the orders used: strengths not identifiable")
     together = fire_together(engine.firing_angles, engine.cycle_revolutions, float(orders.max()))
     spread = _Spread(
         se=se,
         model=np.where(calibrated, CALIBRATED_UNCERTAINTY, model_uncertainty) * np.abs(nominal),
-        calibration=np.hypot(factor_error * np.abs(burning), offset_error * mean_speed**2),
+        calibration=factor_error * np.abs(burning),
         inertia=inertia_factor_error * np.abs(plain),
         unlike_share=np.hypot(model_uncertainty, timing),
         timed=np.where(calibrated, 0.0, timing * np.abs((factor * H * combustion).sum(axis=0))),
         # the healthy cylinders' own differences, independent from cylinder to cylinder
         uneven=imbalance * np.sqrt((np.abs(factor * H * combustion) ** 2).sum(axis=0)),
-        wheel=np.where(calibrated, 0.0, wheel),  # a calibrated order's offset or factor holds the wheel's
+        wheel=np.where(calibrated, 0.0, wheel),  # a calibrated order's factor holds the wheel's errors
         factor=factor,
         transfer=H,
         combustion=combustion,
         groups=together,
     )
-    strength, covariance, chi2 = _fit(design, y - fixed, y, spread, level_uncertainty)
+    strength, covariance, chi2 = _fit(design, rhs, y, spread, level_uncertainty)
     shares = relative_shares(strength, covariance, engine.cylinder_banks, together)
     relative, relative_error, contrast_error = shares
     predicted = fixed + factor * (H * strength[:, None] * combustion).sum(axis=0)
@@ -463,7 +435,6 @@ def cylinder_balance(
         inertia_part=inertia_factor * (H * (known - gas)).sum(axis=0),
         gas_part=inertia_factor * (H * gas).sum(axis=0),
         wheel_error=spread.wheel,
-        mean_speed=mean_speed,
     )
 
 
@@ -524,18 +495,13 @@ def _left_hand_side(
 
 def _factors(
     calibration: CrankCalibration | None, transfer: Transfer, orders: FloatArray
-) -> tuple[
-    ComplexArray, FloatArray, ComplexArray, FloatArray, npt.NDArray[np.bool_], ComplexArray, FloatArray
-]:
-    """A baseline's factors at the orders it calibrated (1 elsewhere), their errors, which it did, and its
-    offset over the speed squared and the offset's error there (0 elsewhere) [N m s^2]."""
+) -> tuple[ComplexArray, FloatArray, ComplexArray, FloatArray, npt.NDArray[np.bool_]]:
+    """A baseline's factors at the orders it calibrated (1 elsewhere), their errors, and which it did."""
     factor = np.ones(orders.size, dtype=np.complex128)
     factor_error = np.zeros(orders.size)
     inertia_factor = np.ones(orders.size, dtype=np.complex128)
     inertia_factor_error = np.zeros(orders.size)
     calibrated = np.zeros(orders.size, dtype=bool)
-    offset = np.zeros(orders.size, dtype=np.complex128)
-    offset_error = np.zeros(orders.size)
     if calibration is not None:
         if calibration.transfer != transfer:
             raise ModelError(
@@ -550,12 +516,7 @@ def _factors(
                 inertia_factor[i] = calibration.inertia_factor[match[0]]
                 inertia_factor_error[i] = calibration.inertia_factor_error[match[0]]
                 calibrated[i] = True
-                if calibration.offset.size:
-                    offset[i], offset_error[i] = (
-                        calibration.offset[match[0]],
-                        calibration.offset_error[match[0]],
-                    )
-    return factor, factor_error, inertia_factor, inertia_factor_error, calibrated, offset, offset_error
+    return factor, factor_error, inertia_factor, inertia_factor_error, calibrated
 
 
 @dataclass(frozen=True)

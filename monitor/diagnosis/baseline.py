@@ -195,8 +195,6 @@ class Baseline:
                 "factor_error": self.crank.factor_error.tolist(),
                 "inertia_factor": [[z.real, z.imag] for z in self.crank.inertia_factor.tolist()],
                 "inertia_factor_error": self.crank.inertia_factor_error.tolist(),
-                "offset_per_speed_squared": [[z.real, z.imag] for z in self.crank.offset.tolist()],
-                "offset_error": self.crank.offset_error.tolist(),
             },
             "sensors": {
                 name: {
@@ -338,10 +336,6 @@ class Baseline:
                     np.asarray(model["inertia_factor"], dtype=np.float64).reshape(-1, 2)
                     @ np.array([1.0, 1j]),
                     np.asarray(model["inertia_factor_error"], dtype=np.float64),
-                    # absent from baselines written before the rigid body's gap was an offset
-                    np.asarray(model.get("offset_per_speed_squared", []), dtype=np.float64).reshape(-1, 2)
-                    @ np.array([1.0, 1j]),
-                    np.asarray(model.get("offset_error", []), dtype=np.float64),
                 )
                 if model and "combustion_factor" in model and "inertia_factor" in model
                 else None

@@ -164,14 +164,7 @@ def _root(mismatch: Callable[[float], tuple[float, float, str]]) -> LoadEstimate
 
 
 def _reference_level(balance: CylinderBalance, calibration: CrankCalibration | None) -> float:
-    """The reference strength's own uncertainty: the calibration's offsets' (in the combustion's terms)
-    or factors', else the model's level [-]."""
+    """The reference strength's own uncertainty: the calibration's factors', else the model's level [-]."""
     if calibration is not None and balance.calibrated.any():
-        if calibration.offset.size:  # the rigid body's offset, at the recording's speed squared
-            which = balance.calibrated
-            at = [int(np.argmin(np.abs(calibration.orders - k))) for k in balance.orders[which]]
-            error = calibration.offset_error[at] * balance.mean_speed**2
-            burning = np.maximum(np.abs(balance.combustion[which]), 1e-300)
-            return float(np.sqrt(np.mean((error / burning) ** 2)))
         return float(np.sqrt(np.mean(calibration.factor_error**2))) if calibration.factor_error.size else 0.0
     return float(balance.model_uncertainty)

@@ -385,8 +385,7 @@ def _blend_crank(
     *,
     uncertainty_only: bool,
 ) -> CrankCalibration | None:
-    """The crank-speed model's factors and offsets interpolated where both points calibrated the same
-    orders."""
+    """The crank-speed model's factors interpolated where both points calibrated the same orders."""
     if (
         low is None
         or high is None
@@ -408,14 +407,6 @@ def _blend_crank(
         else _between(low.inertia_factor_error, high.inertia_factor_error, weight),
         np.abs(inertia - nearest.inertia_factor),
     )
-    offset, offset_error = nearest.offset, nearest.offset_error
-    if low.offset.shape == high.offset.shape == nearest.offset.shape and nearest.offset.size:
-        between = _between(low.offset, high.offset, weight)
-        offset = nearest.offset if uncertainty_only else between
-        spread = _between(low.offset_error, high.offset_error, weight)
-        offset_error = np.hypot(
-            nearest.offset_error if uncertainty_only else spread, np.abs(between - nearest.offset)
-        )
     return CrankCalibration(
         nearest.transfer,
         nearest.orders,
@@ -423,8 +414,6 @@ def _blend_crank(
         np.asarray(factor_error, dtype=np.float64),
         np.asarray(nearest.inertia_factor if uncertainty_only else inertia, dtype=np.complex128),
         np.asarray(inertia_error, dtype=np.float64),
-        np.asarray(offset, dtype=np.complex128),
-        np.asarray(offset_error, dtype=np.float64),
     )
 
 

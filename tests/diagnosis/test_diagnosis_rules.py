@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import copy
 import math
 import re
 from dataclasses import replace
@@ -26,7 +25,6 @@ from monitor.diagnosis.analysis import engine_orders
 from monitor.diagnosis.balance import CrankCalibration, cylinder_balance
 from monitor.diagnosis.baseline import Baseline
 from monitor.diagnosis.bearings import FAMILY_FALSE_ALARM, impact_score, span_score, window_bins
-from monitor.diagnosis.findings import MISFIRE_BELOW
 from monitor.diagnosis.rigid_speed import predicted_speed
 from monitor.errors import ModelError
 from monitor.io import read_recording
@@ -34,7 +32,6 @@ from monitor.model.engine import Engine, bundled_engines, load_engine
 from monitor.model.inertia import engine_side_inertia, engine_side_inertia_at
 from monitor.model.predicted import CylinderParts, combine_cylinders, cylinder_parts
 from monitor.signal.impact import HighFrequencyPower
-from monitor.signal.pitch_uncertainty import COVERAGE
 from monitor.signal.spectrum import OrderSpectrum
 from tests.diagnosis.test_diagnosis_physics import _model, _parts
 from validation.simulator import healthy_twin, random_case
@@ -160,65 +157,10 @@ def test_a_baseline_calibrates_a_firing_harmonic_the_engine_file_has_wrong() -> 
         cylinder_balance(healthy, engine, parts, calibration=replace(calibration, transfer="shaft-line"))
 
 
-def test_a_wheels_error_at_the_firing_harmonic_is_calibrated_as_fixed_in_crank_angle() -> None:
-    """The engine as its file says, its tooth wheel off by ``E`` at the firing harmonic, which the pitch
-    correction leaves to the engine: the measured speed carries ``i k Omega E`` there, a torque of
-    ``-k^2 J Omega^2 E``, here 3 times the combustion's at rated load and 750 rpm, its rms bound stated
-    as ``systematic``. Calibrated on a healthy run there, the gap is shared by its parts' variances:
-    the wheel's 9 against the combustion's 1 (and the masses' 0.01), so the offset holds 0.9 of the
-    wheel's torque. At half load and 5 % slower a healthy run reads 1 +- 0.15 and a misfire of cylinder 4
-    0 +- 0.25 of the others (the tenth of the wheel's torque left on the combustion). A wheel that states
-    no error leaves the whole gap on the combustion, which falls with the load: the healthy cylinders
-    read 1.4 or more (1.49) and the misfire above MISFIRE_BELOW (0.42), a weak cylinder."""
-    engine = _engine()
-    n, R = engine.cylinders, engine.cycle_revolutions
-    inertia = engine_side_inertia(engine)
-    firing = n / R
-    rated = _parts(ENGINE)
-    at_firing = np.isclose(rated.orders, firing)
-    burning_only = replace(rated, inertia=0 * rated.inertia, fixed=0 * rated.fixed)
-    burning = abs(combine_cylinders(burning_only, engine, np.ones(n)).engine_torque[at_firing][0])
-    speed0 = 750 * math.pi / 30
-    wheel = 3.0 * burning * np.exp(1j * 0.7)  # the wheel's torque at 750 rpm [N m]
-    error = -wheel / (firing**2 * inertia * speed0**2)  # its angle error at the firing harmonic [rad]
-
-    def measured(parts: CylinderParts, strengths: np.ndarray, speed: float, stated: bool) -> OrderSpectrum:
-        torque = combine_cylinders(parts, engine, strengths).engine_torque
-        amplitude = predicted_speed(torque, parts.orders, inertia, speed, R).astype(np.complex128)
-        amplitude[at_firing] += 1j * firing * speed * error
-        bound = np.where(at_firing & stated, firing * speed * abs(error) * COVERAGE, 0.0)
-        return replace(_speed_spectrum(parts.orders, amplitude, 1e-4), systematic=bound)
-
-    misfire = np.ones(n)
-    misfire[3] = 0.0
-    slower = 0.95 * speed0
-    half = cylinder_parts(_model(ENGINE), crank_speed=slower, load=0.5)
-    read = {}
-    for stated in (True, False):
-        calibration = cylinder_balance(
-            measured(rated, np.ones(n), speed0, stated), engine, rated
-        ).calibration()
-        healthy = cylinder_balance(
-            measured(half, np.ones(n), slower, stated), engine, half, calibration=calibration
-        )
-        missing = cylinder_balance(
-            measured(half, misfire, slower, stated), engine, half, calibration=calibration
-        )
-        read[stated] = (calibration, healthy.strength, missing.relative)
-    calibration, strength, relative = read[True]
-    assert abs(calibration.offset[0] * speed0**2 / wheel - 0.9) < 0.02
-    np.testing.assert_allclose(strength, 1.0, atol=0.15)
-    assert abs(relative[3]) < 0.25 and np.all(np.abs(np.delete(relative, 3) - 1) < 0.05), relative
-    calibration, strength, relative = read[False]
-    assert calibration.offset.size == 1 and calibration.offset[0] == 0
-    assert np.all(strength > 1.4) and relative[3] > MISFIRE_BELOW, (strength, relative)
-
-
 def test_the_calibration_survives_the_baseline_document(tmp_path: Path) -> None:
-    """Written and read back: orders, complex factors and offsets and their errors exactly (JSON keeps
-    doubles); a document written before the offset reads as factors alone, one written before the
-    calibration existed, or with one factor on the whole model (before the gap was shared between the
-    model's parts), as none."""
+    """Written and read back: orders, complex factors and their errors exactly (JSON keeps doubles);
+    a document written before the calibration existed, or with one factor on the whole model (before
+    the gap was shared between the model's parts), reads as none."""
     calibration = CrankCalibration(
         "rigid",
         np.array([3.0, 6.0]),
@@ -226,8 +168,6 @@ def test_the_calibration_survives_the_baseline_document(tmp_path: Path) -> None:
         np.array([0.01, 0.02]),
         np.array([1.01 + 0.02j, 0.98 - 0.01j]),
         np.array([0.001, 0.002]),
-        np.array([0.3 + 0.4j, -0.1 + 0.2j]),
-        np.array([0.003, 0.004]),
     )
     baseline = Baseline("e", 750.0, 1.0, [1.0] * 6, 128, {}, "b.h5", crank=calibration)
     read = Baseline.read(baseline.write(tmp_path / "b.json"))
@@ -237,15 +177,7 @@ def test_the_calibration_survives_the_baseline_document(tmp_path: Path) -> None:
     np.testing.assert_array_equal(read.crank.factor_error, calibration.factor_error)
     np.testing.assert_array_equal(read.crank.inertia_factor, calibration.inertia_factor)
     np.testing.assert_array_equal(read.crank.inertia_factor_error, calibration.inertia_factor_error)
-    np.testing.assert_array_equal(read.crank.offset, calibration.offset)
-    np.testing.assert_array_equal(read.crank.offset_error, calibration.offset_error)
     document = baseline.to_document()
-    # written before the rigid body's gap was an offset: the factors alone, no offset
-    older = copy.deepcopy(document)
-    del older["crank_speed_model"]["offset_per_speed_squared"], older["crank_speed_model"]["offset_error"]
-    before = Baseline.from_document(older).crank
-    assert before is not None and before.offset.size == 0 and before.offset_error.size == 0
-    np.testing.assert_array_equal(before.factor, calibration.factor)
     document["crank_speed_model"]["factor"] = document["crank_speed_model"].pop("combustion_factor")
     del document["crank_speed_model"]["inertia_factor"]
     assert Baseline.from_document(document).crank is None
