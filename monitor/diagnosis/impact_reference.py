@@ -378,10 +378,11 @@ def widened(profile: HighFrequencyPower, angle_deg: float, cycle_revolutions: in
 
     Only the events' bins (:data:`RING_CLASS` and above) are carried: a ring moves with the speed, the
     sensor's floor does not, and its bins' scatter is no ring. The highest of a dozen floor bins stands
-    above their median by that scatter alone; carried, it raised a floor window's reference 1.7 times at
-    a 16 % speed change and hid a knock read 3.1 times the baseline as it is (seed 200468 of the
-    validation population, a worn bearing across a load step). A carried bin keeps its spread; the bins
-    close on themselves over the cycle; a bin is within the angle when its centre is.
+    above their median by that scatter alone; carried, it raised quiet windows' references and hid
+    knocks (tests/diagnosis/test_speed_change_reference.py draws such floors; seed 200468 of the
+    validation population, a worn bearing across a load step 16 % faster than its baseline, was named
+    only once they were no longer carried). A carried bin keeps its spread; the bins close on
+    themselves over the cycle; a bin is within the angle when its centre is.
 
     Parameters
     ----------
